@@ -1,0 +1,88 @@
+"""The body Ω: mesh, material, the two boundary partitions of (2.5)-(2.6), and V^h × W^h (4.1).
+
+Boundaries are named as in the Netgen mesh; a part may list several names joined by
+"|" (Netgen's regex syntax, e.g. ``"top|right"``).
+
+* mechanical: Γ1 ``clamped`` (u = 0), Γ3 ``contact``, Γ2 = the rest (tractions f2);
+* electric:   Γa ``grounded`` (φ prescribed, 0 by default), Γb = the rest (charges qb),
+  with Γ3 ⊂ Γb.
+"""
+import ngsolve as ngs
+
+from .materials import Material
+
+
+def split_names(names):
+    """``"top|right"`` -> ``["top", "right"]``; None or "" -> []."""
+    return [n for n in (names or "").split("|") if n]
+
+
+class Body:
+    """A piezoelectric body and its finite element spaces.
+
+    Parameters
+    ----------
+    mesh : ngsolve.Mesh, 2D (plane strain, quantities per metre of depth) or 3D, in metres.
+    material : Material.
+    clamped : str, boundary names of Γ1 (u = 0), nonempty.
+    grounded : str, boundary names of Γa (φ prescribed), nonempty.
+    contact : str or None, boundary names of Γ3 (the contact side); without a contact
+        law it is traction-free and charge-free.
+    order : int >= 1, polynomial order of u (1 = the paper's P1 space (4.1)).
+    order_phi : int >= 1 or None, order of φ (default: ``order``).
+    """
+
+    def __init__(self, mesh, material, *, clamped, grounded, contact=None, order=1, order_phi=None):
+        if not isinstance(material, Material):
+            raise TypeError(f"material must be an ngcontact.Material, got {type(material).__name__}")
+        order_phi = order if order_phi is None else order_phi
+        for name, p in (("order", order), ("order_phi", order_phi)):
+            if int(p) != p or p < 1:
+                raise ValueError(f"{name} must be an integer >= 1, got {p}")
+        self.mesh = mesh
+        self.dim = mesh.dim
+        self.material = material
+        self.tensors = material.tensors(self.dim)
+        self.order, self.order_phi = int(order), int(order_phi)
+        existing = set(mesh.GetBoundaries())
+        self.boundaries = {}
+        for part, names in (("clamped", clamped), ("grounded", grounded), ("contact", contact)):
+            listed = split_names(names)
+            missing = [n for n in listed if n not in existing]
+            if missing:
+                raise ValueError(f"{part}: boundary {missing} not in the mesh; its boundaries are "
+                                 f"{sorted(existing)}")
+            self.boundaries[part] = listed
+        for part in ("clamped", "grounded"):
+            if not self.boundaries[part]:
+                raise ValueError(f"{part} must name at least one boundary (meas > 0 is needed "
+                                 f"for a unique solution); the mesh has {sorted(existing)}")
+        for part in ("clamped", "grounded"):
+            both = set(self.boundaries[part]) & set(self.boundaries["contact"])
+            if both:
+                raise ValueError(f"contact boundary Γ3 must not overlap {part}: {sorted(both)}")
+        self.V = ngs.VectorH1(mesh, order=self.order, dirichlet=self.region_names("clamped"))
+        self.W = ngs.H1(mesh, order=self.order_phi, dirichlet=self.region_names("grounded"))
+        self.X = self.V * self.W
+
+    def region_names(self, part):
+        """The names of a part joined for ``mesh.Boundaries``."""
+        return "|".join(self.boundaries[part])
+
+    def region(self, part):
+        """The boundary region of a part ("clamped", "grounded" or "contact")."""
+        return self.mesh.Boundaries(self.region_names(part))
+
+    def free_names(self, excluded):
+        """Boundary names not in the listed parts: Γ2 = free_names(("clamped", "contact")),
+        Γb minus Γ3 = free_names(("grounded", "contact"))."""
+        taken = {n for part in excluded for n in self.boundaries[part]}
+        return [n for n in dict.fromkeys(self.mesh.GetBoundaries()) if n not in taken]
+
+    @property
+    def ndof(self):
+        return self.X.ndof
+
+    def __repr__(self):
+        return (f"Body({self.material.name or 'material'}, dim={self.dim}, order=({self.order}, "
+                f"{self.order_phi}), ndof={self.ndof}, {self.boundaries})")

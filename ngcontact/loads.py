@@ -1,0 +1,43 @@
+"""Data of (2.1)-(2.6): body force f0, tractions f2 on Γ2, charge density q0, surface
+charge qb on Γb, and the potential of the electrodes Γa.
+
+Every entry is a number, a tuple of numbers, or an ngsolve CoefficientFunction that may
+depend on the time ``Parameter`` handed to the simulation. Units: f0 in N/m³, f2 in Pa,
+q0 in C/m³, qb in C/m², potentials in V.
+"""
+from dataclasses import dataclass, field
+
+import ngsolve as ngs
+
+from .body import split_names
+
+
+def as_cf(value, dim=None, name="value"):
+    """A number / tuple / CoefficientFunction as a CoefficientFunction of ``dim`` components."""
+    cf = value if isinstance(value, ngs.CoefficientFunction) else ngs.CF(
+        tuple(value) if isinstance(value, (tuple, list)) else value)
+    if dim is not None and cf.dim != dim:
+        raise ValueError(f"{name} must have {dim} components, got {cf.dim}")
+    return cf
+
+
+@dataclass
+class Loads:
+    """Loads of the body; dictionaries are keyed by boundary name (or "a|b")."""
+    f0: object = None
+    f2: dict = field(default_factory=dict)
+    q0: object = None
+    qb: dict = field(default_factory=dict)
+    potential: dict = field(default_factory=dict)
+
+    def check(self, body):
+        """Each boundary key must lie on its part of ∂Ω: f2 on Γ2, qb on Γb \\ Γ3, potential on Γa."""
+        allowed = {"f2": body.free_names(("clamped", "contact")),
+                   "qb": body.free_names(("grounded", "contact")),
+                   "potential": body.boundaries["grounded"]}
+        for entry, names in allowed.items():
+            for key in getattr(self, entry):
+                wrong = [n for n in split_names(key) if n not in names]
+                if wrong:
+                    raise ValueError(f"Loads.{entry}: boundary {wrong} is not allowed; allowed "
+                                     f"names are {names}")

@@ -1,0 +1,103 @@
+"""Semismooth Newton for the monolithic (u, φ) step, with a relative tolerance.
+
+Forces (N) and charges (C) are not comparable, so residuals are measured in the norm
+‖r‖² = ‖r_u‖²/s_u + ‖r_φ‖²/s_φ, where s_u, s_φ are the mean diagonal entries of the two
+blocks of the Jacobian (N/m and C/V): each term is an energy, in J.
+The step has converged when ‖r‖ ≤ rtol ‖r_0‖ (r_0: residual at the start of the step)
+or when ‖r‖ ≤ 1e-13 ‖x‖_s, ‖x‖²_s = s_u‖x_u‖² + s_φ‖x_φ‖² (round-off level).
+
+Unlike ``ngsolve.solvers.Newton`` this raises ``NewtonError`` when it fails.
+"""
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+
+class NewtonError(RuntimeError):
+    """Newton failed: says where (step, time, iteration) and gives the residual history.
+
+    ``history`` holds the steps computed before the failure (set by the simulation).
+    """
+
+    def __init__(self, reason, *, iteration, residuals, step=None, time=None, hint=""):
+        self.reason, self.iteration, self.residuals = reason, iteration, residuals
+        self.step, self.time, self.history = step, time, None
+        where = f"step {step} (t = {time:.6g} s), " if step is not None else ""
+        hist = ", ".join(f"{r:.3e}" for r in residuals)
+        super().__init__(f"Newton {reason} at {where}iteration {iteration}; scaled residual "
+                         f"history [J^1/2]: [{hist}]" + (f". Try: {hint}" if hint else ""))
+
+
+@dataclass
+class NewtonResult:
+    iterations: int
+    residuals: list = field(default_factory=list)
+    residual_vector: object = None
+
+
+class Newton:
+    """Newton on ``form`` (a BilinearForm, nonlinear in the trial function) for ``gfu``.
+
+    Parameters
+    ----------
+    form : ngsolve.BilinearForm, the residual R(x; ·).
+    gfu : GridFunction on the product space V × W (components u, φ).
+    freedofs : BitArray of the unknowns (default: the space's free DOFs).
+    inverse : str, direct solver of ``Mat.Inverse`` ("sparsecholesky" only for a symmetric
+        Jacobian, "umfpack" or "pardiso" otherwise).
+    rtol : relative residual reduction per step.
+    maxit : maximum number of linear solves per step.
+    """
+
+    def __init__(self, form, gfu, *, freedofs=None, inverse="umfpack", rtol=1e-10, maxit=25):
+        if not rtol > 0:
+            raise ValueError(f"rtol must be > 0, got {rtol}")
+        if int(maxit) != maxit or maxit < 1:
+            raise ValueError(f"maxit must be an integer >= 1, got {maxit}")
+        self.form, self.gfu, self.inverse = form, gfu, inverse
+        self.rtol, self.maxit = rtol, int(maxit)
+        space = gfu.space
+        self.freedofs = freedofs or space.FreeDofs()
+        free = np.array(list(self.freedofs), dtype=bool)
+        self.blocks = [np.flatnonzero(free[space.Range(i).start:space.Range(i).stop]) + space.Range(i).start
+                       for i in range(2)]
+        self.scales = None
+        self.r = gfu.vec.CreateVector()
+        self.w = gfu.vec.CreateVector()
+
+    def _norm(self, vec, power):
+        a = vec.FV().NumPy()
+        return float(np.sqrt(sum(s ** power * np.dot(a[b], a[b]) for b, s in zip(self.blocks, self.scales))))
+
+    def _set_scales(self):
+        vals, cols, ptr = self.form.mat.CSR()
+        diag = np.abs(sp.csr_matrix((vals, cols, ptr)).diagonal())
+        self.scales = [float(diag[b].mean()) if len(b) and diag[b].mean() > 0 else 1.0
+                       for b in self.blocks]
+
+    def solve(self, *, step=None, time=None):
+        """Iterate from the current ``gfu`` until converged; raise ``NewtonError`` otherwise."""
+        x, r, w = self.gfu.vec, self.r, self.w
+        residuals = []
+        for it in range(self.maxit + 1):
+            self.form.Apply(x, r)
+            if self.scales is None:
+                self.form.AssembleLinearization(x)
+                self._set_scales()
+            norm = self._norm(r, -1)
+            residuals.append(norm)
+            if not np.isfinite(norm):
+                raise NewtonError("diverged (non-finite residual)", iteration=it, residuals=residuals,
+                                  step=step, time=time, hint="a smaller time step")
+            if norm <= self.rtol * residuals[0] or norm <= 1e-13 * self._norm(x, 1):
+                return NewtonResult(it, residuals, r)
+            if it == self.maxit:
+                break
+            self.form.AssembleLinearization(x)
+            w.data = self.form.mat.Inverse(self.freedofs, inverse=self.inverse) * r
+            x.data -= w
+        raise NewtonError(f"did not converge in {self.maxit} iterations", iteration=self.maxit,
+                          residuals=residuals, step=step, time=time,
+                          hint="a smaller time step, a larger Nitsche parameter gamma0, theta = -1, "
+                               "or a larger maxit")

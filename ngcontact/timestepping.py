@@ -1,0 +1,147 @@
+"""Backward Euler in time for the coupled (u, φ) problem, as in the paper's scheme (4.3)-(4.7).
+
+Step n solves, with δu_n = (u_n − u_{n−1})/k, the mechanical and (negated) electric
+equations at t_n together, by Newton on the monolithic (u, φ) system. φ_0 solves the
+electric equation with u_0 at t = 0.
+"""
+import time as wallclock
+
+import ngsolve as ngs
+import numpy as np
+
+from .forms import body_residual
+from .loads import Loads, as_cf
+from .newton import Newton, NewtonError
+from .results import History, StepRecord
+
+
+class Simulation:
+    """Time stepping of a Body under Loads.
+
+    Parameters
+    ----------
+    body : Body.
+    loads : Loads (CoefficientFunctions may depend on ``time``).
+    time : ngsolve.Parameter used in the loads (created if not given); set to t_n at step n.
+    u0 : initial displacement (number tuple or CoefficientFunction), zero on Γ1; default 0.
+    inverse : direct solver; default: "sparsecholesky" (the step Jacobian is symmetric).
+    rtol, maxit : Newton tolerance (relative) and iteration limit per step.
+    keep_states : keep a copy of (u, φ) of every step in the history.
+    """
+
+    def __init__(self, body, loads=None, *, time=None, u0=None, inverse=None, rtol=1e-10,
+                 maxit=25, keep_states=True):
+        self.body = body
+        self.loads = loads or Loads()
+        self.loads.check(body)
+        self.time = time if time is not None else ngs.Parameter(0.0)
+        self.inv_dt = ngs.Parameter(1.0)
+        self.gfu = ngs.GridFunction(body.X, name="state")
+        self.u_old = ngs.GridFunction(body.V, name="u_old")
+        self.u, self.phi = self.gfu.components
+        self.form = body_residual(body, self.loads, self.u_old, self.inv_dt)
+        self.inverse = inverse or "sparsecholesky"
+        self.newton = Newton(self.form, self.gfu, inverse=self.inverse, rtol=rtol, maxit=maxit)
+        self.keep_states = keep_states
+        self.history = History()
+        self._tests = self._boundary_tests()
+        self._set_initial(u0)
+
+    def _boundary_tests(self):
+        """Test functions equal to e_i on Γ1 (resp. 1 on Γa) and 0 at the other boundary DOFs:
+        R(w) is then the reaction ∫_Γ1 σν·e_i (resp. the flux ∫_Γa D·ν)."""
+        body, tests = self.body, []
+        for i in range(body.dim):
+            w = ngs.GridFunction(body.X)
+            w.components[0].Set(ngs.CF(tuple(float(i == j) for j in range(body.dim))), ngs.BND,
+                                definedon=body.region("clamped"))
+            tests.append(w.vec)
+        w = ngs.GridFunction(body.X)
+        w.components[1].Set(1.0, ngs.BND, definedon=body.region("grounded"))
+        return tests + [w.vec]
+
+    def _set_dirichlet(self):
+        """φ on the electrodes Γa at the current time (0 where no potential is given)."""
+        phi = self.phi
+        for names, value in self.loads.potential.items():
+            phi.Set(as_cf(value, 1, f"potential[{names!r}]"), ngs.BND,
+                    definedon=self.body.mesh.Boundaries(names))
+
+    def _set_initial(self, u0):
+        self.time.Set(0.0)
+        if u0 is not None:
+            self.u.Set(as_cf(u0, self.body.dim, "u0"))
+            on_gamma1 = ngs.Integrate(ngs.InnerProduct(self.u, self.u), self.body.mesh,
+                                      definedon=self.body.region("clamped"))
+            if on_gamma1 > 1e-20 * (1 + ngs.Integrate(ngs.InnerProduct(self.u, self.u), self.body.mesh)):
+                raise ValueError("u0 must vanish on the clamped boundary Γ1 "
+                                 f"({self.body.region_names('clamped')!r})")
+        self.u_old.vec.data = self.u.vec
+        self._set_dirichlet()
+        start = wallclock.perf_counter()
+        phi_only = ngs.BitArray(self.body.X.FreeDofs())
+        phi_only[self.body.X.Range(0)] = False
+        result = Newton(self.form, self.gfu, freedofs=phi_only, inverse=self.inverse,
+                        rtol=self.newton.rtol, maxit=self.newton.maxit).solve(step=0, time=0.0)
+        self._record(0, result, wallclock.perf_counter() - start)
+
+    def _record(self, n, result, wall):
+        r = result.residual_vector
+        values = [ngs.InnerProduct(r, w) for w in self._tests]
+        self.history.append(StepRecord(
+            step=n, time=self.time.Get(), newton_iterations=result.iterations,
+            residuals=result.residuals, wall_s=wall, reaction=np.array(values[:-1]),
+            charge=values[-1], state=self.gfu.vec.FV().NumPy().copy() if self.keep_states else None))
+
+    def step(self, dt):
+        """Advance by one backward Euler step of length dt (s); returns its StepRecord."""
+        if not dt > 0:
+            raise ValueError(f"time step dt must be > 0 s, got {dt}")
+        n = len(self.history)
+        start = wallclock.perf_counter()
+        self.u_old.vec.data = self.u.vec
+        self.time.Set(self.time.Get() + dt)
+        self.inv_dt.Set(1.0 / dt)
+        self._set_dirichlet()
+        result = self.newton.solve(step=n, time=self.time.Get())
+        self._record(n, result, wallclock.perf_counter() - start)
+        return self.history[-1]
+
+    def run(self, dt, T, *, vtk=None, progress=False):
+        """Step from the current time to T with steps dt; returns the History.
+
+        vtk : file name stem for NGSolve's VTKOutput (one file per step), or None.
+        progress : print a line per step.
+        On a Newton failure the NewtonError is raised with ``error.history`` holding the
+        steps computed so far (also kept in ``self.history``).
+        """
+        if not dt > 0:
+            raise ValueError(f"time step dt must be > 0 s, got {dt}")
+        if not T > self.time.Get():
+            raise ValueError(f"final time T must be > the current time {self.time.Get()} s, got {T}")
+        nsteps = int(np.ceil((T - self.time.Get()) / dt - 1e-9))
+        dt = (T - self.time.Get()) / nsteps
+        writer = None
+        if vtk:
+            writer = ngs.VTKOutput(self.body.mesh, coefs=[self.u, self.phi],
+                                   names=["displacement", "potential"], filename=str(vtk),
+                                   subdivision=max(self.body.order, self.body.order_phi) - 1)
+            writer.Do(time=self.time.Get())
+        for i in range(nsteps):
+            try:
+                rec = self.step(dt)
+            except NewtonError as err:
+                err.history = self.history
+                raise
+            if writer:
+                writer.Do(time=rec.time)
+            if progress:
+                print(f"step {rec.step:4d}/{len(self.history) - 1 + nsteps - i - 1:4d}  t = {rec.time:.4g} s  "
+                      f"newton {rec.newton_iterations}  wall {rec.wall_s:.3f} s", flush=True)
+        return self.history
+
+    def state(self, n):
+        """GridFunction of (u, φ) at step n (needs keep_states)."""
+        gf = ngs.GridFunction(self.body.X)
+        gf.vec.FV().NumPy()[:] = self.history[n].state
+        return gf
