@@ -33,14 +33,14 @@ def _mesh(geometry, dim, maxh, refine):
 def plate(L1=0.1, L2=0.02, maxh=None, refine=0, maxh_contact=None):
     """Mesh of the plate [0, L1] × [0, L2] (plane strain); maxh defaults to L2/2,
     ``maxh_contact`` grades the mesh towards the contact side "bottom"."""
-    maxh = maxh or L2 / 2
+    maxh = L2 / 2 if maxh is None else maxh
     _check(L1=L1, L2=L2, maxh=maxh)
     face = Rectangle(L1, L2).Face()
     face.edges.Min(X).name = "left"
     face.edges.Max(X).name = "right"
     face.edges.Min(Y).name = "bottom"
     face.edges.Max(Y).name = "top"
-    if maxh_contact:
+    if maxh_contact is not None:
         _check(maxh_contact=maxh_contact)
         face.edges.Min(Y).maxh = maxh_contact
     return _mesh(face, 2, maxh, refine)
@@ -48,7 +48,7 @@ def plate(L1=0.1, L2=0.02, maxh=None, refine=0, maxh_contact=None):
 
 def block(L1=0.1, L2=0.04, L3=0.02, maxh=None, refine=0):
     """Mesh of the block [0, L1] × [0, L2] × [0, L3]; maxh defaults to L3/2."""
-    maxh = maxh or L3 / 2
+    maxh = L3 / 2 if maxh is None else maxh
     _check(L1=L1, L2=L2, L3=L3, maxh=maxh)
     box = Box(Pnt(0, 0, 0), Pnt(L1, L2, L3))
     for axis, low, high in ((X, "left", "right"), (Y, "front", "back"), (Z, "bottom", "top")):

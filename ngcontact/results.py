@@ -9,8 +9,8 @@ class StepRecord:
     """One time step t_n.
 
     reaction: ∫_Γ1 σν da, the force of the support on the body (N; N/m in 2D).
-    charge: ∫_Γa D·ν da, the flux of D out of the body through the electrodes (C; C/m in
-        2D); the charge the electrodes carry is its negative.
+    charge: {electrode name: ∫ D·ν da}, the flux of D out of the body through each named
+        part of Γa (C; C/m in 2D); the charge an electrode carries is its negative.
     state: copy of the (u, φ) coefficient vector.
     """
     step: int
@@ -19,7 +19,7 @@ class StepRecord:
     residuals: list
     wall_s: float
     reaction: np.ndarray
-    charge: float
+    charge: dict
     state: np.ndarray = field(repr=False, default=None)
 
 
@@ -37,9 +37,9 @@ class History(list):
     def reactions(self):
         return self.column("reaction")
 
-    @property
-    def charges(self):
-        return self.column("charge")
+    def charges(self, name):
+        """Flux of D through the electrode ``name`` at every step."""
+        return np.array([r.charge[name] for r in self])
 
     @property
     def newton_iterations(self):

@@ -48,17 +48,20 @@ class Simulation:
         self._set_initial(u0)
 
     def _boundary_tests(self):
-        """Test functions equal to e_i on Γ1 (resp. 1 on Γa) and 0 at the other boundary DOFs:
-        R(w) is then the reaction ∫_Γ1 σν·e_i (resp. the flux ∫_Γa D·ν)."""
-        body, tests = self.body, []
-        for i in range(body.dim):
+        """Test functions equal to e_i on Γ1 (resp. 1 on one electrode of Γa) and 0 at the
+        other boundary DOFs: R(w) is then the reaction ∫_Γ1 σν·e_i (resp. the flux ∫ D·ν
+        through that electrode; exact when electrodes held at different potentials do not touch)."""
+        body = self.body
+
+        def test(component, value, names):
             w = ngs.GridFunction(body.X)
-            w.components[0].Set(ngs.CF(tuple(float(i == j) for j in range(body.dim))), ngs.BND,
-                                definedon=body.region("clamped"))
-            tests.append(w.vec)
-        w = ngs.GridFunction(body.X)
-        w.components[1].Set(1.0, ngs.BND, definedon=body.region("grounded"))
-        return tests + [w.vec]
+            w.components[component].Set(value, ngs.BND, definedon=body.mesh.Boundaries(names))
+            return w.vec
+
+        reaction = [test(0, ngs.CF(tuple(float(i == j) for j in range(body.dim))),
+                         body.region_names("clamped")) for i in range(body.dim)]
+        charge = {name: test(1, 1.0, name) for name in body.boundaries["grounded"]}
+        return reaction, charge
 
     def _set_dirichlet(self):
         """φ on the electrodes Γa at the current time (0 where no potential is given)."""
@@ -70,12 +73,15 @@ class Simulation:
     def _set_initial(self, u0):
         self.time.Set(0.0)
         if u0 is not None:
-            self.u.Set(as_cf(u0, self.body.dim, "u0"))
-            on_gamma1 = ngs.Integrate(ngs.InnerProduct(self.u, self.u), self.body.mesh,
-                                      definedon=self.body.region("clamped"))
-            if on_gamma1 > 1e-20 * (1 + ngs.Integrate(ngs.InnerProduct(self.u, self.u), self.body.mesh)):
+            u0 = as_cf(u0, self.body.dim, "u0")
+            mesh, square = self.body.mesh, ngs.InnerProduct(u0, u0)
+            on_gamma1 = ngs.Integrate(square * ngs.ds(self.body.region("clamped")), mesh)
+            if on_gamma1 > 1e-20 * (1 + ngs.Integrate(square, mesh)):
                 raise ValueError("u0 must vanish on the clamped boundary Γ1 "
                                  f"({self.body.region_names('clamped')!r})")
+            self.u.Set(u0)
+            clamped = ~np.array(list(self.body.V.FreeDofs()), dtype=bool)
+            self.u.vec.FV().NumPy()[clamped] = 0.0
         self.u_old.vec.data = self.u.vec
         self._set_dirichlet()
         start = wallclock.perf_counter()
@@ -87,11 +93,12 @@ class Simulation:
 
     def _record(self, n, result, wall):
         r = result.residual_vector
-        values = [ngs.InnerProduct(r, w) for w in self._tests]
+        reaction, charge = self._tests
         self.history.append(StepRecord(
             step=n, time=self.time.Get(), newton_iterations=result.iterations,
-            residuals=result.residuals, wall_s=wall, reaction=np.array(values[:-1]),
-            charge=values[-1], state=self.gfu.vec.FV().NumPy().copy() if self.keep_states else None))
+            residuals=result.residuals, wall_s=wall,
+            reaction=np.array([ngs.InnerProduct(r, w) for w in reaction]),
+            charge={name: ngs.InnerProduct(r, w) for name, w in charge.items()}, state=self.gfu.vec.FV().NumPy().copy() if self.keep_states else None))
 
     def step(self, dt):
         """Advance by one backward Euler step of length dt (s); returns its StepRecord."""
