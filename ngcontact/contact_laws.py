@@ -1,0 +1,63 @@
+"""The scalar laws on Γ3 (model.md), as functions of a CoefficientFunction.
+
+Each ``*_law(parameters)`` returns a function r ↦ CoefficientFunction, so a user may pass
+any such function instead (it must be Lipschitz; kinks written with IfPos are linearised
+semismoothly by Newton).
+"""
+import ngsolve as ngs
+
+
+def positive_part(r):
+    """[r]_+ = max(r, 0)."""
+    return ngs.IfPos(r, r, 0)
+
+
+def clip(r, low, high):
+    """min(max(r, low), high)."""
+    return ngs.IfPos(r - high, high, ngs.IfPos(low - r, low, r))
+
+
+def compliance_law(c_nu):
+    """p(r) = c_ν [r]_+ (2.20): the compliant layer pushes back once u_ν > 0; c_ν in Pa/m."""
+    _nonnegative("compliance c_nu", c_nu, "Pa/m")
+    return lambda r: c_nu * positive_part(r)
+
+
+def bond_truncation(L):
+    """R_ν(s) = L for s < -L, -s for -L <= s <= 0, 0 for s > 0 (model.md's reading of (2.8));
+    L > 0 is the bond length in m."""
+    _positive("bond length L", L, "m")
+    return lambda s: clip(-s, 0, L)
+
+
+def potential_truncation(L_phi):
+    """φ_L(s) = max(-L_φ, min(s, L_φ)) (2.7, increasing as model.md fixes it); L_φ in V."""
+    _positive("potential truncation L_phi", L_phi, "V")
+    return lambda s: clip(s, -L_phi, L_phi)
+
+
+def conductance_ramp(k_e, delta):
+    """ψ(r) = k_e for r >= 0, k_e (1 + r/δ) for -δ <= r < 0, 0 for r < -δ (model.md's default):
+    full conductance k_e when the body touches the foundation (r = u_ν - g = 0)."""
+    _nonnegative("conductance k_e", k_e, "")
+    _positive("conductance ramp width delta", delta, "m")
+    return lambda r: k_e * clip(1 + r / delta, 0, 1)
+
+
+def conductance_literal(k_e, delta):
+    """ψ(r) = 0 for r <= 0, k_e r/δ for 0 < r < δ, k_e for r >= δ: the paper's (2.24)
+    read literally. Signorini keeps r = u_ν - g <= 0, so it conducts only through
+    numerical penetration."""
+    _nonnegative("conductance k_e", k_e, "")
+    _positive("conductance ramp width delta", delta, "m")
+    return lambda r: k_e * clip(r / delta, 0, 1)
+
+
+def _positive(name, value, unit):
+    if not value > 0:
+        raise ValueError(f"{name} must be > 0{' ' + unit if unit else ''}, got {value}")
+
+
+def _nonnegative(name, value, unit):
+    if not value >= 0:
+        raise ValueError(f"{name} must be >= 0{' ' + unit if unit else ''}, got {value}")

@@ -1,0 +1,75 @@
+"""The contact side Γ3: the space B^h of (4.1), the L² projection P_B, and sampling.
+
+B^h (piecewise constants on the facets of Γ3) is an order-0 ``FacetFESpace`` on all
+facets, compressed to the facets of Γ3: a space defined only on Γ3 evaluates to zero
+inside ``ds(skeleton=True)`` forms (ngsolve-notes), where the Nitsche terms live.
+P_B of a CoefficientFunction is its facet average, integrated with ``ds(skeleton=True)``
+so that volume gradients (stresses) may appear in it.
+"""
+import ngsolve as ngs
+import numpy as np
+
+
+class ContactSide:
+    """Γ3 of a Body: facets, B^h, P_B, facet normals and points along Γ3."""
+
+    def __init__(self, body, samples_per_facet=None):
+        mesh, names = body.mesh, set(body.boundaries["contact"])
+        if not names:
+            raise ValueError("the body has no contact boundary Γ3: pass contact='...' to Body")
+        self.mesh, self.dim = mesh, body.dim
+        self.ds = ngs.ds(skeleton=True, definedon=body.region("contact"))
+        facets = ngs.FacetFESpace(mesh, order=0)
+        active = ngs.BitArray(facets.ndof)
+        active.Clear()
+        elements = [el for el in mesh.Elements(ngs.BND) if el.mat in names]
+        for el in elements:
+            for d in facets.GetDofNrs(el):
+                active.Set(d)
+        self.B = ngs.Compress(facets, active_dofs=active)
+        self._mu = self.B.TestFunction()
+        self.measure = self._integrate(ngs.CF(1.0))        # |facet| per dof of B^h
+        # per dof of B^h: vertex coordinates of its facet
+        order = {d: i for i, d in enumerate(np.flatnonzero(np.array(list(active))))}
+        points = np.array([v.point for v in mesh.vertices])
+        self.facet_vertices = np.zeros((self.B.ndof, self.dim, self.dim))
+        for el in elements:
+            dof = order[facets.GetDofNrs(el)[0]]
+            self.facet_vertices[dof] = points[[v.nr for v in el.vertices]]
+        self.midpoints = self.facet_vertices.mean(axis=1)
+        n = ngs.specialcf.normal(self.dim)
+        self.normals = np.array([self.project(n[i]) for i in range(self.dim)]).T
+        q = samples_per_facet or 2 * body.order + 1
+        if self.dim == 2:
+            s = np.linspace(0, 1, q)
+            weights = np.stack([1 - s, s], axis=1)
+        else:
+            weights = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [1 / 3] * 3,
+                                [.5, .5, 0], [0, .5, .5], [.5, 0, .5]])
+        self.sample_points = np.einsum("sk,fkd->fsd", weights, self.facet_vertices)
+
+    def _integrate(self, cf):
+        lf = ngs.LinearForm(self.B)
+        lf += cf * self._mu * self.ds
+        lf.Assemble()
+        return lf.vec.FV().NumPy().copy()
+
+    def project(self, cf):
+        """P_B cf: the facet averages of cf on Γ3 (numpy array, one value per facet)."""
+        return self._integrate(cf) / self.measure
+
+    def integrate(self, cf):
+        """∫_Γ3 cf da, with volume gradients allowed in cf."""
+        return float(ngs.Integrate(cf * self.ds, self.mesh))
+
+    def sample(self, cf):
+        """cf at the sample points (facets × points per facet); cf must be continuous
+        (e.g. a displacement), since it is evaluated at volume points."""
+        p = self.sample_points.reshape(-1, self.dim)
+        values = cf(self.mesh(*p.T))
+        return values.reshape(self.sample_points.shape[:2] + (-1,)).squeeze(-1) if cf.dim == 1 else \
+            values.reshape(self.sample_points.shape[:2] + (cf.dim,))
+
+    def normal_displacement(self, u):
+        """u·ν at the sample points, with the (straight) facets' outward normals."""
+        return np.einsum("fsd,fd->fs", self.sample(u), self.normals)
