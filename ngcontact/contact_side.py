@@ -3,8 +3,8 @@
 B^h (piecewise constants on the facets of Γ3) is an order-0 ``FacetFESpace`` on all
 facets, compressed to the facets of Γ3: a space defined only on Γ3 evaluates to zero
 inside ``ds(skeleton=True)`` forms (ngsolve-notes), where the Nitsche terms live.
-P_B of a CoefficientFunction is its facet average, integrated with ``ds(skeleton=True)``
-so that volume gradients (stresses) may appear in it.
+P_B of a CoefficientFunction is its facet average, assembled as a LinearForm over
+``ds(skeleton=True)`` so that volume gradients (stresses) may appear in it.
 """
 import ngsolve as ngs
 import numpy as np
@@ -59,8 +59,10 @@ class ContactSide:
         return self._integrate(cf) / self.measure
 
     def integrate(self, cf):
-        """∫_Γ3 cf da, with volume gradients allowed in cf."""
-        return float(ngs.Integrate(cf * self.ds, self.mesh))
+        """∫_Γ3 cf da, with volume gradients allowed in cf. (Summed from the facet
+        integrals of a LinearForm: ``Integrate`` over ``ds(skeleton=True)`` does not take
+        GridFunction gradients from the volume element.)"""
+        return float(self._integrate(cf).sum())
 
     def sample(self, cf):
         """cf at the sample points (facets × points per facet); cf must be continuous

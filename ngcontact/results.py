@@ -5,6 +5,33 @@ import numpy as np
 
 
 @dataclass
+class ContactRecord:
+    """Γ3 at one step; arrays have one value per facet of Γ3 (``ContactSide.midpoints``).
+
+    pressure: P_B λ_h, λ_h = −[P]_- the Nitsche contact pressure (Pa).
+    raw_pressure: P_B(−σ_ν(u_h)), the pressure from the stress itself (Pa).
+    beta: the bonding field β_n.  potential: P_B φ_h on Γ3 (V).
+    current_density: P_B ψ φ_L (D·ν, C/m²); current: ∫_Γ3 ψ φ_L da (C; C/m in 2D).
+    contact_length: measure of the active set {P <= 0} (m; m² in 3D).
+    max_penetration: max (u_ν − g) at the sample points (m; > 0 means penetration).
+    complementarity: ∫_Γ3 |λ_h (u_ν − g)| da.
+    force: ∫_Γ3 σν da, the force of the foundation on the body (N; N/m in 2D).
+    beta_clipped: facets the explicit β update pushed out of [0, 1] (then clipped).
+    """
+    pressure: np.ndarray
+    raw_pressure: np.ndarray
+    beta: np.ndarray
+    potential: np.ndarray
+    current_density: np.ndarray
+    current: float
+    contact_length: float
+    max_penetration: float
+    complementarity: float
+    force: np.ndarray
+    beta_clipped: int
+
+
+@dataclass
 class StepRecord:
     """One time step t_n.
 
@@ -21,6 +48,7 @@ class StepRecord:
     reaction: np.ndarray
     charge: dict
     state: np.ndarray = field(repr=False, default=None)
+    contact: ContactRecord = None
 
 
 class History(list):
@@ -36,6 +64,10 @@ class History(list):
     @property
     def reactions(self):
         return self.column("reaction")
+
+    def contact_column(self, name):
+        """A field of the ContactRecords at every step, stacked (steps × ...)."""
+        return np.array([getattr(r.contact, name) for r in self])
 
     def charges(self, name):
         """Flux of D through the electrode ``name`` at every step."""

@@ -9,10 +9,14 @@ import time as wallclock
 import ngsolve as ngs
 import numpy as np
 
+from . import electric_contact
+from .adhesion import BondingField
+from .contact_side import ContactSide
 from .forms import body_residual
 from .loads import Loads, as_cf
 from .newton import Newton, NewtonError
-from .results import History, StepRecord
+from .nitsche import NitscheContact
+from .results import ContactRecord, History, StepRecord
 
 
 class Simulation:
@@ -22,15 +26,17 @@ class Simulation:
     ----------
     body : Body.
     loads : Loads (CoefficientFunctions may depend on ``time``).
+    contact : Contact or None; None leaves Γ3 traction-free and charge-free.
     time : ngsolve.Parameter used in the loads (created if not given); set to t_n at step n.
     u0 : initial displacement (number tuple or CoefficientFunction), zero on Γ1; default 0.
-    inverse : direct solver; default: "sparsecholesky" (the step Jacobian is symmetric).
+    inverse : direct solver; default: "sparsecholesky" where the step Jacobian is symmetric
+        (no contact, or ``Contact.symmetric``), "umfpack" otherwise.
     rtol, maxit : Newton tolerance (relative) and iteration limit per step.
     keep_states : keep a copy of (u, φ) of every step in the history.
     """
 
-    def __init__(self, body, loads=None, *, time=None, u0=None, inverse=None, rtol=1e-10,
-                 maxit=25, keep_states=True):
+    def __init__(self, body, loads=None, *, contact=None, time=None, u0=None, inverse=None,
+                 rtol=1e-10, maxit=25, keep_states=True):
         self.body = body
         self.loads = loads or Loads()
         self.loads.check(body)
@@ -40,12 +46,49 @@ class Simulation:
         self.u_old = ngs.GridFunction(body.V, name="u_old")
         self.u, self.phi = self.gfu.components
         self.form = body_residual(body, self.loads, self.u_old, self.inv_dt)
-        self.inverse = inverse or "sparsecholesky"
+        self.contact = contact
+        if contact is not None:
+            self._add_contact(contact)
+        symmetric = contact is None or contact.symmetric
+        self.inverse = inverse or ("sparsecholesky" if symmetric else "umfpack")
         self.newton = Newton(self.form, self.gfu, inverse=self.inverse, rtol=rtol, maxit=maxit)
         self.keep_states = keep_states
         self.history = History()
         self._tests = self._boundary_tests()
         self._set_initial(u0)
+
+    def _add_contact(self, contact):
+        """Γ3: B^h, the bonding field, and the Nitsche and conduction terms of the residual."""
+        body = self.body
+        self.side = side = ContactSide(body)
+        self.gap = as_cf(contact.gap, 1, "Contact.gap")
+        if side.sample(self.gap).min() < 0:
+            raise ValueError(f"Contact.gap must be >= 0 on Γ3, its minimum is {side.sample(self.gap).min():.3g} m")
+        self.phi_gamma = as_cf(contact.foundation_potential, 1, "Contact.foundation_potential")
+        self.beta = BondingField(side, contact)
+        self.nitsche = NitscheContact(body, contact, self.beta.gf, self.inv_dt, self.gap)
+        (u, phi), (v, xi) = body.X.TnT()
+        terms = self.nitsche.residual(u, phi, v, xi, self.u_old)
+        if contact.conducts:
+            terms = terms + electric_contact.residual(contact, u, phi, xi, self.gap, self.phi_gamma)
+        self.form += terms * side.ds
+
+    def _contact_record(self):
+        side, nitsche, u, phi = self.side, self.nitsche, self.u, self.phi
+        n = ngs.specialcf.normal(self.body.dim)
+        lam = nitsche.multiplier(u, phi, self.u_old)
+        opening = u * n - self.gap
+        flux = electric_contact.flux_density(self.contact, u, phi, self.gap, self.phi_gamma)
+        sigma_n = -lam - nitsche.surface_traction(u)          # σ_ν = [P]_- − (p − γ_ν β² R_ν)
+        return ContactRecord(
+            pressure=side.project(lam), raw_pressure=side.project(-nitsche.sigma_n(u, phi, self.u_old)),
+            beta=self.beta.values.copy(), potential=side.project(phi),
+            current_density=side.project(flux), current=side.integrate(flux),
+            contact_length=side.integrate(nitsche.active(u, phi, self.u_old)),
+            max_penetration=float((side.normal_displacement(u) - side.sample(self.gap)).max()),
+            complementarity=side.integrate(ngs.IfPos(lam * opening, lam * opening, -lam * opening)),
+            force=np.array([side.integrate(sigma_n * n[i]) for i in range(self.body.dim)]),
+            beta_clipped=self.beta.clipped)
 
     def _boundary_tests(self):
         """Test functions equal to e_i on Γ1 (resp. 1 on one electrode of Γa) and 0 at the
@@ -82,6 +125,10 @@ class Simulation:
             self.u.Set(u0)
             clamped = ~np.array(list(self.body.V.FreeDofs()), dtype=bool)
             self.u.vec.FV().NumPy()[clamped] = 0.0
+        if self.contact is not None:
+            excess = (self.side.normal_displacement(self.u) - self.side.sample(self.gap)).max()
+            if excess > 1e-12 * (1 + np.abs(self.u.vec.FV().NumPy()).max()):
+                raise ValueError(f"u0 must be admissible, u0_ν <= g on Γ3; it exceeds g by {excess:.3g} m")
         self.u_old.vec.data = self.u.vec
         self._set_dirichlet()
         start = wallclock.perf_counter()
@@ -98,7 +145,9 @@ class Simulation:
             step=n, time=self.time.Get(), newton_iterations=result.iterations,
             residuals=result.residuals, wall_s=wall,
             reaction=np.array([ngs.InnerProduct(r, w) for w in reaction]),
-            charge={name: ngs.InnerProduct(r, w) for name, w in charge.items()}, state=self.gfu.vec.FV().NumPy().copy() if self.keep_states else None))
+            charge={name: ngs.InnerProduct(r, w) for name, w in charge.items()},
+            state=self.gfu.vec.FV().NumPy().copy() if self.keep_states else None,
+            contact=self._contact_record() if self.contact is not None else None))
 
     def step(self, dt):
         """Advance by one backward Euler step of length dt (s); returns its StepRecord."""
@@ -106,6 +155,8 @@ class Simulation:
             raise ValueError(f"time step dt must be > 0 s, got {dt}")
         n = len(self.history)
         start = wallclock.perf_counter()
+        if self.contact is not None:
+            self.beta.update(self.u * ngs.specialcf.normal(self.body.dim), dt)   # (4.5), from u_{n-1}
         self.u_old.vec.data = self.u.vec
         self.time.Set(self.time.Get() + dt)
         self.inv_dt.Set(1.0 / dt)

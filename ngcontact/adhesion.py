@@ -1,0 +1,55 @@
+"""The bonding field β on Γ3 and its update: (2.9) and the paper's explicit scheme (4.5).
+
+β^h lives in B^h (piecewise constant on the facets of Γ3). Step n updates β from the
+previous displacement u_{n-1}, before (u_n, φ_n) are solved:
+
+* "explicit" (4.5):  β_n = β_{n-1} − k P_B[β_{n-1} γ_ν R_ν(u_{n-1,ν})² − ε_a]_+, then
+  clipped to [0, 1]. Its decay factor per step is 1 − k γ_ν R², so it overshoots below 0
+  (and is clipped) or oscillates once k γ_ν L² > 1.
+* "implicit": β_n = β_{n-1} − k [β_n a − b]_+ with a = P_B(γ_ν R_ν(u_{n-1,ν})²), b = P_B ε_a,
+  solved exactly per facet: β_n = (β_{n-1} + k b)/(1 + k a) where β_{n-1} a > b, else
+  β_n = β_{n-1}. The factor 1/(1 + k a) lies in (0, 1] for every k: β stays in [0, 1]
+  and decays monotonically, whatever the step (the discrete analogue of (2.9)).
+"""
+import ngsolve as ngs
+import numpy as np
+
+from .contact_laws import positive_part
+
+
+class BondingField:
+    """β^h ∈ B^h with its initial value P_B β0 and one of the two updates."""
+
+    def __init__(self, side, contact):
+        self.side, self.contact = side, contact
+        self.gf = ngs.GridFunction(side.B, name="beta")
+        beta0 = side.project(ngs.CF(contact.beta0))
+        if beta0.min() < -1e-12 or beta0.max() > 1 + 1e-12:
+            raise ValueError(f"Contact.beta0 must lie in [0, 1] on Γ3; its facet averages range "
+                             f"over [{beta0.min():.3g}, {beta0.max():.3g}]")
+        self.values[:] = np.clip(beta0, 0, 1)
+        self.clipped = 0
+
+    @property
+    def values(self):
+        """The facet values of β (a numpy view)."""
+        return self.gf.vec.FV().NumPy()
+
+    def update(self, u_normal, k):
+        """β_{n-1} -> β_n with u_{n-1,ν} given as a CoefficientFunction, step k in s.
+
+        Sets ``clipped`` to the number of facets the explicit update pushed out of [0, 1]."""
+        c = self.contact
+        R2 = c.R(u_normal) ** 2
+        beta = self.values
+        if c.beta_update == "explicit":
+            rate = self.side.project(positive_part(self.gf * c.adhesion * R2 - c.eps_a))
+            new = beta - k * rate
+            self.clipped = int(np.count_nonzero((new < 0) | (new > 1)))
+            beta[:] = np.clip(new, 0, 1)
+        else:
+            a = self.side.project(c.adhesion * R2)
+            b = c.eps_a
+            decays = beta * a > b
+            beta[:] = np.where(decays, (beta + k * b) / (1 + k * a), beta)
+            self.clipped = 0

@@ -1,0 +1,82 @@
+"""The data of Γ3 (2.7)-(2.10) and of its Nitsche discretisation, with validation."""
+from dataclasses import dataclass
+
+import ngsolve as ngs
+
+from . import contact_laws as laws
+
+
+@dataclass
+class Contact:
+    """Frictionless unilateral contact with a compliant layer, adhesion and a conductive
+    foundation on Γ3. SI units; numbers or CoefficientFunctions where noted.
+
+    Signorini (2.8) with gap:
+        gap : g >= 0 in m, number or CoefficientFunction on Γ3.
+        compliance : c_ν in Pa/m of p(r) = c_ν [r]_+, or a function r ↦ CF (any Lipschitz p
+            vanishing for r <= 0).
+    Adhesion (2.8)-(2.9):
+        adhesion : γ_ν >= 0 in Pa/m; the glue pulls back with γ_ν β² R_ν(u_ν).
+        eps_a : ε_a >= 0, the healing threshold of (2.9) (1/s, with γ_ν R_ν² read as a rate).
+        bond_length : L > 0 in m, the truncation of R_ν.
+        beta0 : β0 in [0, 1], number or CoefficientFunction.
+        beta_update : "explicit" (the paper's (4.5), stable while k γ_ν L² <= 1) or
+            "implicit" (β_n implicit in (2.9) with u_{n-1}: unconditionally stable, see
+            ``adhesion``).
+    Conductive foundation (2.7):
+        conductance : k_e >= 0 of the default ψ (``contact_laws.conductance_ramp``), or a
+            function r ↦ CF for ψ(r), r = u_ν - g (e.g. ``conductance_literal(k_e, δ)``).
+        ramp_width : δ > 0 in m of the default ψ.
+        potential_truncation : L_φ > 0 in V.
+        foundation_potential : φ_Γ in V, number or CoefficientFunction (may use the time
+            Parameter).
+    Nitsche (Chouly-Hild θ-family):
+        theta : 1 (symmetric), 0 (incomplete) or -1 (skew-symmetric).
+        gamma0 : γ0 > 0; γ = γ0 p² (stiffness)/h, see ``nitsche.nitsche_parameter``.
+    """
+    gap: object = 0.0
+    compliance: object = 0.0
+    adhesion: float = 0.0
+    eps_a: float = 0.0
+    bond_length: float = 1e-4
+    beta0: object = 1.0
+    beta_update: str = "explicit"
+    conductance: object = 0.0
+    ramp_width: float = 1e-7
+    potential_truncation: float = 1e4
+    foundation_potential: object = 0.0
+    theta: int = 1
+    gamma0: float = 10.0
+
+    def __post_init__(self):
+        if self.theta not in (1, 0, -1):
+            raise ValueError(f"Contact.theta must be 1, 0 or -1, got {self.theta}")
+        if not self.gamma0 > 0:
+            raise ValueError(f"Contact.gamma0 (Nitsche parameter) must be > 0, got {self.gamma0}")
+        if self.beta_update not in ("explicit", "implicit"):
+            raise ValueError(f"Contact.beta_update must be 'explicit' or 'implicit', got {self.beta_update!r}")
+        for name in ("adhesion", "eps_a"):
+            if not getattr(self, name) >= 0:
+                raise ValueError(f"Contact.{name} must be >= 0, got {getattr(self, name)}")
+        for name in ("gap", "beta0"):
+            value = getattr(self, name)
+            if not isinstance(value, ngs.CoefficientFunction):
+                low, high = (0, float("inf")) if name == "gap" else (0, 1)
+                if not low <= value <= high:
+                    raise ValueError(f"Contact.{name} must lie in [{low}, {high}], got {value}")
+        self.p = self.compliance if callable(self.compliance) else laws.compliance_law(self.compliance)
+        self.R = laws.bond_truncation(self.bond_length)
+        self.phi_L = laws.potential_truncation(self.potential_truncation)
+        self.psi = self.conductance if callable(self.conductance) else \
+            laws.conductance_ramp(self.conductance, self.ramp_width)
+
+    @property
+    def conducts(self):
+        return callable(self.conductance) or self.conductance > 0
+
+    @property
+    def symmetric(self):
+        """True if the Newton Jacobian is symmetric: Chouly-Hild's θ = 1 with no compliant
+        layer, no adhesion and no conduction (those terms are not symmetrised)."""
+        return (self.theta == 1 and not callable(self.compliance) and self.compliance == 0
+                and self.adhesion == 0 and not self.conducts)
