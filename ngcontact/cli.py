@@ -1,11 +1,12 @@
 """Command line interface: ``python -m ngcontact demo``.
 
 The demo runs the reference scene: a 2D PZT-5A plate 0 ≤ x ≤ L1, 0 ≤ y ≤ L2 (plane
-strain, poled along y), clamped on the left (Γ1), with the grounded electrode on top
-(Γa) and the contact side Γ3 at the bottom -- without a contact law yet, so Γ3 is
-traction-free and charge-free. A downward pressure on top is ramped up, held (the
-Kelvin-Voigt body creeps), then removed (it recovers). Units: SI, forces per metre of
-depth.
+strain, poled along y, Kelvin-Voigt viscosity), clamped on the left (Γ1), with the
+grounded electrode on top (Γa) and the contact side Γ3 at the bottom, a gap g above a
+rigid conductive foundation held at φ_Γ, glued (β0 = 1). A pressure on top bends the plate
+onto the foundation: the contact zone grows from the free end. The pressure is then
+reversed into a moderate pull: the contact opens, the glue holds the plate while β decays
+from the free end (debonding), and the plate lifts off. Units: SI, per metre of depth.
 """
 import argparse
 import json
@@ -20,18 +21,22 @@ from matplotlib.figure import Figure
 from geometries import plate
 
 from .body import Body
+from .contact import Contact
 from .loads import Loads
 from .materials import pzt5a
 from .timestepping import Simulation
 
 L1, L2 = 0.1, 0.02
 """Plate length and thickness, m."""
-PRESSURE = 1e6
+PRESSURE = 2e6
 """Peak pressure on top, Pa."""
 RELAXATION_TIME = 2e-3
 """Kelvin-Voigt relaxation time τ of A = τ F, s."""
-LOAD_HISTORY = ((0.0, 0.0), (2e-3, 1.0), (12e-3, 1.0), (13e-3, 0.0), (24e-3, 0.0))
-"""(time in s, fraction of PRESSURE): ramp, hold, release, recovery; interpolated linearly."""
+LOAD_HISTORY = ((0.0, 0.0), (0.1, 1.0), (0.15, 1.0), (0.2, -0.2), (0.5, -0.2))
+"""(time in s, fraction of PRESSURE): push, hold, reverse into a pull, hold the pull."""
+CONTACT = dict(gap=2e-5, adhesion=1e11, eps_a=0.0, bond_length=5e-5, conductance=1e-4,
+               ramp_width=1e-6, potential_truncation=1e3, foundation_potential=10.0)
+"""Γ3 data: g (m), γ_ν (Pa/m), ε_a, L (m), k_e (F/m²), δ (m), L_φ (V), φ_Γ (V)."""
 
 
 def load_factor(t, history=LOAD_HISTORY):
@@ -44,85 +49,111 @@ def load_factor(t, history=LOAD_HISTORY):
     return factor
 
 
-def demo(order=2, out="results", maxh=0.005, steps=48):
-    """Run the reference scene, print a line per step, write summary.json and two charts.
+def demo(order=1, out="results", maxh=0.005, steps=200, theta=1, gamma0=10.0):
+    """Run the reference scene, print a line per step, write summary.json and charts.
 
     Parameters
     ----------
-    order : int, polynomial order of u and φ.
+    order : int, polynomial order of u and φ (1 = the paper's P1 scheme).
     out : str or path, output directory (created).
-    maxh : float, mesh size in m.
-    steps : int, number of backward Euler steps over LOAD_HISTORY.
+    maxh : float, mesh size in m (halved along Γ3).
+    steps : int, number of backward Euler steps over LOAD_HISTORY (k γ_ν L² = 0.5 at 200).
+    theta, gamma0 : Nitsche variant and parameter.
 
     Returns
     -------
-    dict, the contents of ``out/summary.json``: the settings, ``ndof``, ``wall_s`` (time
-    stepping), ``peak_time`` (the end of the hold, whose state is plotted),
-    ``max_potential`` (max |φ| at the vertices over all steps, V), and per time step
-    n = 1..steps: ``times`` (s), ``load`` (pressure, Pa), ``newton_iterations``,
-    ``tip_deflection`` (u_y at (L1, 0), m), ``tip_potential`` (φ at (L1, 0), V) and
-    ``reaction_y`` (∫_Γ1 σν·e_y, N/m).
+    dict, the contents of ``out/summary.json``: settings, ``ndof``, ``time_steps``,
+    ``wall_s`` (time stepping), ``max_penetration`` (m), final ``beta_min``/``beta_max``,
+    and per step n = 1..steps: ``times``, ``load`` (Pa), ``newton_iterations``,
+    ``contact_length`` (m), ``max_pressure`` (Pa), ``current`` (C/m), ``tip_deflection``
+    (u_y at (L1, 0), m), ``reaction_y`` and ``contact_force_y`` (N/m).
     """
     if int(steps) != steps or steps < 1:
         raise ValueError(f"steps must be an integer >= 1, got {steps}")
     out = pathlib.Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    mesh = plate(L1, L2, maxh=maxh)
+    mesh = plate(L1, L2, maxh=maxh, maxh_contact=maxh / 2)
     t = ngs.Parameter(0.0)
     pressure = PRESSURE * load_factor(t)
     body = Body(mesh, pzt5a(relaxation_time=RELAXATION_TIME), clamped="left", grounded="top",
                 contact="bottom", order=order)
-    sim = Simulation(body, Loads(f2={"top": (0, -pressure)}), time=t)
+    sim = Simulation(body, Loads(f2={"top": (0, -pressure)}), time=t,
+                     contact=Contact(**CONTACT, theta=theta, gamma0=gamma0))
     tip = mesh(L1, 0.0)
-    vertices = np.array([v.point for v in mesh.vertices])
-    at_vertices = mesh(vertices[:, 0], vertices[:, 1])
-
-    def observe(rec):
-        row = dict(times=rec.time, load=pressure(tip), newton_iterations=int(rec.newton_iterations),
-                   tip_deflection=sim.u(tip)[1], tip_potential=sim.phi(tip),
-                   reaction_y=float(rec.reaction[1]),
-                   max_potential=np.abs(sim.phi(at_vertices)).max())
-        print(f"{rec.step:5d} {rec.time * 1e3:9.3f} {row['newton_iterations']:6d} "
-              f"{row['tip_deflection']:+14.6e} {row['tip_potential']:+12.4e} "
-              f"{row['reaction_y']:+12.5e}", flush=True)
-        return row
-
-    print(f"{body}\n{'step':>5} {'t [ms]':>9} {'newton':>6} {'tip u_y [m]':>14} "
-          f"{'tip phi [V]':>12} {'R_y [N/m]':>12}")
+    print(f"{body}, solver {sim.inverse}\n{'step':>5} {'t [s]':>7} {'newton':>6} "
+          f"{'contact [mm]':>12} {'p_max [MPa]':>11} {'beta_min':>8} {'current [C/m]':>13}")
+    rows = []
     start = wallclock.perf_counter()
     with ngs.TaskManager():
-        rows = [observe(sim.history[0])]
         for _ in range(steps):
-            rows.append(observe(sim.step(LOAD_HISTORY[-1][0] / steps)))
+            rec = sim.step(LOAD_HISTORY[-1][0] / steps)
+            c = rec.contact
+            rows.append(dict(times=rec.time, load=pressure(tip), newton_iterations=int(rec.newton_iterations),
+                             contact_length=c.contact_length, max_pressure=max(c.pressure.max(), 0.0),
+                             current=c.current, tip_deflection=sim.u(tip)[1],
+                             reaction_y=float(rec.reaction[1]), contact_force_y=float(c.force[1]),
+                             max_penetration=c.max_penetration))
+            print(f"{rec.step:5d} {rec.time:7.4f} {rec.newton_iterations:6d} {1e3 * c.contact_length:12.3f} "
+                  f"{1e-6 * rows[-1]['max_pressure']:11.3f} {c.beta.min():8.4f} {c.current:+13.4e}",
+                  flush=True)
     wall = wallclock.perf_counter() - start
     columns = {key: [row[key] for row in rows] for key in rows[0]}
-    max_potential = max(columns.pop("max_potential"))
-    load = np.array(columns["load"])
-    peak = int(np.flatnonzero(np.isclose(load, load.max(), rtol=1e-9))[-1])
-    _plot_history(out / "tip_deflection.png", columns)
-    _plot_potential(out / "potential_at_peak.png", mesh, sim.state(peak), columns["times"][peak])
+    max_penetration = max(columns.pop("max_penetration"))
+    history = sim.history
+    peak = 1 + int(np.argmax(columns["contact_length"]))
+    _plot_overview(out / "history.png", columns, history)
+    _plot_gamma3(out / "beta.png", out / "pressure.png", sim, history)
+    _plot_potential(out / "potential_at_peak.png", mesh, sim.state(peak), history[peak].time)
     summary = dict(order=order, maxh=maxh, ndof=body.ndof, L1=L1, L2=L2, pressure=PRESSURE,
-                   relaxation_time=RELAXATION_TIME, time_steps=steps, wall_s=wall,
-                   peak_time=columns["times"][peak], max_potential=max_potential,
-                   **{key: values[1:] for key, values in columns.items()})
+                   relaxation_time=RELAXATION_TIME, contact=CONTACT, theta=theta, gamma0=gamma0,
+                   time_steps=steps, wall_s=wall, max_penetration=max_penetration,
+                   beta_min=float(history[-1].contact.beta.min()),
+                   beta_max=float(history[-1].contact.beta.max()), **columns)
     (out / "summary.json").write_text(json.dumps(summary, indent=1))
-    print(f"{steps} steps, ndof {body.ndof}, wall {wall:.2f} s; results in {out}")
+    print(f"{steps} steps, ndof {body.ndof}, {sum(columns['newton_iterations'])} Newton iterations, "
+          f"wall {wall:.2f} s; results in {out}")
     return summary
 
 
-def _plot_history(path, columns):
-    """Tip deflection over time, with the applied pressure on a twin axis."""
+def _plot_overview(path, columns, history):
+    """Load, contact length, min β and tip deflection over time."""
+    fig = Figure(figsize=(8, 6), layout="constrained")
+    axes = fig.subplots(3, 1, sharex=True)
+    time = np.array(columns["times"])
+    axes[0].plot(time, 1e-6 * np.array(columns["load"]), color="C3")
+    axes[0].set_ylabel("pressure on top [MPa]")
+    axes[1].plot(time, 1e3 * np.array(columns["contact_length"]), color="C0", label="contact length [mm]")
+    axes[1].plot(time, 1e6 * np.array(columns["tip_deflection"]), color="C2", label="tip u_y [µm]")
+    axes[1].legend()
+    axes[2].plot(time, history.contact_column("beta")[1:].min(axis=1), color="C1", label="min β")
+    axes[2].plot(time, history.contact_column("beta")[1:].mean(axis=1), "--", color="C1", label="mean β")
+    axes[2].set(xlabel="time t [s]", ylabel="bonding field β", ylim=(-0.05, 1.05))
+    axes[2].legend()
+    axes[0].set_title("push: contact zone grows; pull: contact opens, glue debonds, plate lifts off")
+    fig.savefig(path, dpi=120)
+
+
+def _plot_gamma3(beta_path, pressure_path, sim, history):
+    """β along Γ3 over time (x-t map), and the contact pressure along Γ3 at several times."""
+    order = np.argsort(sim.side.midpoints[:, 0])
+    x = 1e3 * sim.side.midpoints[order, 0]
+    times = history.times
+    beta = history.contact_column("beta")[:, order]
     fig = Figure(figsize=(7, 4), layout="constrained")
     ax = fig.add_subplot()
-    ms = 1e3 * np.array(columns["times"])
-    ax.plot(ms, 1e3 * np.array(columns["tip_deflection"]), "o-", color="C0", ms=3)
-    ax.set(xlabel="time t [ms]", ylabel="tip deflection $u_y(L_1, 0)$ [mm]",
-           title=f"PZT-5A plate, Kelvin-Voigt τ = {RELAXATION_TIME * 1e3:g} ms: creep and recovery")
-    ax.yaxis.label.set_color("C0")
-    twin = ax.twinx()
-    twin.plot(ms, 1e-6 * np.array(columns["load"]), "--", color="C3")
-    twin.set_ylabel("pressure on top [MPa]", color="C3")
-    fig.savefig(path, dpi=120)
+    shown = ax.pcolormesh(x, times, beta, shading="nearest", cmap="magma", vmin=0, vmax=1)
+    fig.colorbar(shown, ax=ax, label="bonding field β")
+    ax.set(xlabel="x along Γ3 [mm]", ylabel="time t [s]", title="β on Γ3: debonding from the free end")
+    fig.savefig(beta_path, dpi=120)
+    fig = Figure(figsize=(7, 4), layout="constrained")
+    ax = fig.add_subplot()
+    pressure = history.contact_column("pressure")[:, order]
+    for n in np.linspace(1, len(history) - 1, 9).astype(int):
+        ax.step(x, 1e-6 * pressure[n], where="mid", label=f"t = {times[n]:.3f} s")
+    ax.set(xlabel="x along Γ3 [mm]", ylabel="normal pressure −σ_ν [MPa]",
+           title="contact pressure along Γ3 (negative: glue in tension)")
+    ax.legend(fontsize=7, ncol=3)
+    fig.savefig(pressure_path, dpi=120)
 
 
 def _plot_potential(path, mesh, state, time):
@@ -141,7 +172,7 @@ def _plot_potential(path, mesh, state, time):
                          phi[:, 0], shading="gouraud", cmap="viridis")
     fig.colorbar(shown, ax=ax, shrink=0.8, label="potential φ [V]")
     ax.set(aspect="equal", xlabel="x [m]", ylabel="y [m]",
-           title=f"t = {time * 1e3:.3g} ms, end of the hold: displacement × {scale:.3g}, "
+           title=f"t = {time:.3g} s, largest contact zone: displacement × {scale:.3g}, "
                  "dashed: undeformed")
     fig.savefig(path, dpi=120)
 
@@ -151,14 +182,18 @@ def main(argv=None):
     parser = argparse.ArgumentParser(prog="ngcontact", description="ngcontact: a piezoelectric "
                                      "Kelvin-Voigt body on NGSolve")
     commands = parser.add_subparsers(dest="command", required=True)
-    run = commands.add_parser("demo", help="the PZT-5A plate: ramp, hold (creep), release")
-    run.add_argument("--order", metavar="P", type=int, default=2,
-                     help="polynomial order of u and φ (default 2)")
+    run = commands.add_parser("demo", help="the PZT-5A plate pressed onto a glued conductive "
+                              "foundation, then pulled off")
+    run.add_argument("--order", metavar="P", type=int, default=1,
+                     help="polynomial order of u and φ (default 1, the paper's P1)")
     run.add_argument("--out", metavar="DIR", default="results",
                      help="output directory (default results)")
     run.add_argument("--maxh", metavar="H", type=float, default=0.005,
                      help="mesh size in m (default 0.005)")
-    run.add_argument("--steps", metavar="N", type=int, default=48,
-                     help="number of time steps (default 48)")
+    run.add_argument("--steps", metavar="N", type=int, default=200,
+                     help="number of time steps (default 200)")
+    run.add_argument("--theta", type=int, default=1, choices=(1, 0, -1), help="Nitsche variant")
+    run.add_argument("--gamma0", type=float, default=10.0, help="Nitsche parameter γ0 (default 10)")
     args = parser.parse_args(argv)
-    demo(order=args.order, out=args.out, maxh=args.maxh, steps=args.steps)
+    demo(order=args.order, out=args.out, maxh=args.maxh, steps=args.steps, theta=args.theta,
+         gamma0=args.gamma0)

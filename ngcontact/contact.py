@@ -64,6 +64,10 @@ class Contact:
                 low, high = (0, float("inf")) if name == "gap" else (0, 1)
                 if not low <= value <= high:
                     raise ValueError(f"Contact.{name} must lie in [{low}, {high}], got {value}")
+        for name in ("compliance", "conductance"):
+            if isinstance(getattr(self, name), ngs.CoefficientFunction):
+                raise TypeError(f"Contact.{name} must be a number >= 0 or a function r ↦ "
+                                "CoefficientFunction (the law itself), not a CoefficientFunction")
         self.p = self.compliance if callable(self.compliance) else laws.compliance_law(self.compliance)
         self.R = laws.bond_truncation(self.bond_length)
         self.phi_L = laws.potential_truncation(self.potential_truncation)

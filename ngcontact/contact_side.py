@@ -19,6 +19,9 @@ class ContactSide:
             raise ValueError("the body has no contact boundary Γ3: pass contact='...' to Body")
         self.mesh, self.dim = mesh, body.dim
         self.ds = ngs.ds(skeleton=True, definedon=body.region("contact"))
+        # P_B and the recorded integrals: exact for polynomials of degree 2p + 2 on a facet
+        self._ds_exact = ngs.ds(skeleton=True, definedon=body.region("contact"),
+                                bonus_intorder=2 * body.order + 2)
         facets = ngs.FacetFESpace(mesh, order=0)
         active = ngs.BitArray(facets.ndof)
         active.Clear()
@@ -48,11 +51,19 @@ class ContactSide:
                                 [.5, .5, 0], [0, .5, .5], [.5, 0, .5]])
         self.sample_points = np.einsum("sk,fkd->fsd", weights, self.facet_vertices)
 
-    def _integrate(self, cf):
+    def facet_integrals(self, cf):
+        """A function returning (∫_facet cf da for each facet of Γ3) when called: the
+        LinearForm is built once and reassembled at each call (cf may hold GridFunctions)."""
         lf = ngs.LinearForm(self.B)
-        lf += cf * self._mu * self.ds
-        lf.Assemble()
-        return lf.vec.FV().NumPy().copy()
+        lf += cf.Compile() * self._mu * self._ds_exact
+
+        def assemble():
+            lf.Assemble()
+            return lf.vec.FV().NumPy().copy()
+        return assemble
+
+    def _integrate(self, cf):
+        return self.facet_integrals(cf)()
 
     def project(self, cf):
         """P_B cf: the facet averages of cf on Γ3 (numpy array, one value per facet)."""

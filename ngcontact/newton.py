@@ -50,7 +50,7 @@ class Newton:
     maxit : maximum number of linear solves per step.
     """
 
-    def __init__(self, form, gfu, *, freedofs=None, inverse="umfpack", rtol=1e-10, maxit=25):
+    def __init__(self, form, gfu, *, freedofs=None, inverse="umfpack", rtol=1e-10, maxit=50):
         if not rtol > 0:
             raise ValueError(f"rtol must be > 0, got {rtol}")
         if int(maxit) != maxit or maxit < 1:

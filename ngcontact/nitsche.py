@@ -67,12 +67,13 @@ class NitscheContact:
     def residual(self, u, phi, v, xi, u_old):
         """The Γ3 integrand of the residual (to be integrated with ds(skeleton=True))."""
         theta, gamma = self.contact.theta, self.gamma
-        P = self.P(u, phi, u_old)
+        traction = self.surface_traction(u)
+        effective = self.sigma_n(u, phi, u_old) + traction
+        P = effective - gamma * (u * self.n - self.gap)
         negative_part = ngs.IfPos(P, 0, P)
-        test = self.sigma_n(v, xi, None)
-        terms = self.surface_traction(u) * (v * self.n) + negative_part * (-(v * self.n))
+        terms = (traction - negative_part) * (v * self.n)
         if theta != 0:
-            terms = terms + theta / gamma * (negative_part - self.effective_stress(u, phi, u_old)) * test
+            terms = terms + theta / gamma * (negative_part - effective) * self.sigma_n(v, xi, None)
         return terms
 
     def multiplier(self, u, phi, u_old):

@@ -6,25 +6,33 @@ import numpy as np
 
 @dataclass
 class ContactRecord:
-    """Γ3 at one step; arrays have one value per facet of Γ3 (``ContactSide.midpoints``).
+    """Γ3 at one step; arrays have one value per facet of Γ3 (``ContactSide.midpoints``),
+    the facet averages P_B of the quantity.
 
-    pressure: P_B λ_h, λ_h = −[P]_- the Nitsche contact pressure (Pa).
-    raw_pressure: P_B(−σ_ν(u_h)), the pressure from the stress itself (Pa).
-    beta: the bonding field β_n.  potential: P_B φ_h on Γ3 (V).
-    current_density: P_B ψ φ_L (D·ν, C/m²); current: ∫_Γ3 ψ φ_L da (C; C/m in 2D).
-    contact_length: measure of the active set {P <= 0} (m; m² in 3D).
+    pressure: −σ_ν = λ_h + p(u_ν) − γ_ν β² R_ν(u_ν), the normal pressure of the foundation
+        on the body (Pa; negative where the glue pulls).
+    multiplier: λ_h = −[P]_-, the Nitsche contact pressure of the rigid foundation (Pa).
+    raw_pressure: −σ_ν(u_h), the pressure computed from the stress itself (Pa).
+    beta: the bonding field β_n.  potential: φ_h on Γ3 (V).
+    current_density: ψ φ_L (= D·ν, C/m²); current: ∫_Γ3 ψ φ_L da (C; C/m in 2D).
+    contact_set: the fraction of each facet in the contact zone {pressure > 0} (0 to 1).
+    contact_length: measure of the contact zone (m; m² in 3D).
+    active_length: measure of the Signorini active set {P <= 0}, where u_ν reaches g.
     max_penetration: max (u_ν − g) at the sample points (m; > 0 means penetration).
     complementarity: ∫_Γ3 |λ_h (u_ν − g)| da.
     force: ∫_Γ3 σν da, the force of the foundation on the body (N; N/m in 2D).
     beta_clipped: facets the explicit β update pushed out of [0, 1] (then clipped).
     """
     pressure: np.ndarray
+    multiplier: np.ndarray
     raw_pressure: np.ndarray
     beta: np.ndarray
     potential: np.ndarray
     current_density: np.ndarray
+    contact_set: np.ndarray
     current: float
     contact_length: float
+    active_length: float
     max_penetration: float
     complementarity: float
     force: np.ndarray

@@ -5,55 +5,67 @@ import numpy as np
 import pytest
 from matplotlib.image import imread
 
-from ngcontact.cli import main
+from ngcontact.cli import CONTACT, L1, main
 
 
 @pytest.fixture(scope="module")
 def demo(tmp_path_factory):
-    """Run ``demo`` on a coarse P1 mesh, one step per ms; return (summary, output directory)."""
+    """Run ``demo`` on a coarse P1 mesh (k γ_ν L² = 0.625 < 1); return (summary, directory)."""
     out = tmp_path_factory.mktemp("demo")
-    main(["demo", "--out", str(out), "--order", "1", "--maxh", "0.01", "--steps", "24"])
+    main(["demo", "--out", str(out), "--maxh", "0.01", "--steps", "200"])
     return json.loads((out / "summary.json").read_text()), out
 
 
-def full_load(summary):
-    """Indices of the steps at full pressure: the hold, from right after the ramp to its end."""
-    return np.flatnonzero(np.isclose(summary["load"], summary["pressure"], rtol=1e-9))
-
-
-def test_global_force_balance(demo):
+def test_force_balance_every_step(demo):
+    """Support reaction + foundation force balance the pressure on top: R_y + F_y = p L1."""
     s, _ = demo
-    total = s["pressure"] * s["L1"]                      # N/m, downward on "top"
-    end_of_hold = full_load(s)[-1]
-    assert s["reaction_y"][end_of_hold] == pytest.approx(total, rel=1e-8)
-    # quasi-static: the support carries the load at every step, viscous or not
-    assert np.allclose(s["reaction_y"], np.array(s["load"]) * s["L1"], rtol=0, atol=1e-8 * total)
+    applied = np.array(s["load"]) * L1
+    balance = np.array(s["reaction_y"]) + np.array(s["contact_force_y"]) - applied
+    assert np.abs(balance).max() < 1e-6 * s["pressure"] * L1
 
 
-def test_linear_without_contact(demo):
+def test_contact_zone_grows_then_opens(demo):
+    """Under the push the zone grows from the free end and the tip rests on the foundation
+    (u_y = -g); after the pull it is open and the debonded plate has lifted off."""
     s, _ = demo
-    assert s["time_steps"] == len(s["times"]) == len(s["newton_iterations"]) == 24
-    assert s["newton_iterations"] == [1] * 24
+    length, load = np.array(s["contact_length"]), np.array(s["load"])
+    push = np.flatnonzero(np.array(s["times"]) <= 0.1)
+    assert np.all(np.diff(length[push]) >= -1e-12)
+    assert length.max() > 0.2 * L1 and length[-1] == 0
+    at_peak = int(np.argmax(length))
+    assert s["tip_deflection"][at_peak] == pytest.approx(-CONTACT["gap"], rel=1e-3)
+    assert s["tip_deflection"][-1] > 2 * CONTACT["gap"]
+    assert s["max_penetration"] < 3e-2 * CONTACT["gap"]     # observed 1.3 % on this coarse mesh
+    assert np.all(np.array(s["max_pressure"])[length == 0] == 0)
+    assert load[-1] < 0
 
 
-def test_creep_and_recovery(demo):
+def test_glue_debonds_from_the_free_end(demo):
     s, _ = demo
-    tip = np.array(s["tip_deflection"])
-    after_ramp, end_of_hold = full_load(s)[[0, -1]]
-    assert end_of_hold - after_ramp == 10                # a 10 ms hold
-    assert tip[after_ramp] < 0                           # pushed down
-    assert abs(tip[end_of_hold]) > 1.5 * abs(tip[after_ramp])  # creep: τ = 2 ms = the ramp time
-    assert abs(tip[-1]) < 0.02 * abs(tip[end_of_hold])   # recovery after 11 ms unloaded
-    assert s["max_potential"] > 0
+    assert s["beta_min"] < 0.01 and s["beta_max"] > 0.95
 
 
-@pytest.mark.parametrize("name", ["tip_deflection.png", "potential_at_peak.png"])
-def test_charts(demo, name):
+def test_current_flows_only_near_contact(demo):
+    """The foundation (φ_Γ = 10 V) conducts while touching: current at the largest zone,
+    none once the plate has lifted off."""
+    s, _ = demo
+    current = np.array(s["current"])
+    assert abs(current[int(np.argmax(s["contact_length"]))]) > 0
+    assert abs(current[-1]) < 1e-12 * np.abs(current).max()
+
+
+def test_newton_converges_in_few_iterations(demo):
+    s, _ = demo
+    its = np.array(s["newton_iterations"])
+    assert its.max() <= 12 and its.mean() < 3       # observed: 10 at first contact, mean 2.2
+
+
+@pytest.mark.parametrize("name", ["history.png", "beta.png", "pressure.png", "potential_at_peak.png"])
+def test_charts_are_nontrivial_pngs(demo, name):
     _, out = demo
     path = out / name
-    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert path.stat().st_size > 10_000
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 10_000
     image = imread(path)
-    assert image.shape[0] >= 200 and image.shape[1] >= 400
-    assert np.ptp(image[..., :3]) > 0.5                  # not a single flat colour
-    assert len(np.unique(image[..., :3].reshape(-1, 3), axis=0)) > 50
+    assert image.shape[0] >= 300 and image.shape[1] >= 400
+    colours = np.unique(np.round(image[..., :3] * 255).astype(int).reshape(-1, 3), axis=0)
+    assert len(colours) > 50

@@ -1,0 +1,178 @@
+"""Contact on Γ3 by Nitsche's method: equilibrium, refinement, θ and γ0, adhesion, conduction."""
+import numpy as np
+import ngsolve as ngs
+import pytest
+
+import ngcontact as ngc
+from conftest import C33, E33, EPS33
+from ngcontact.contact import Contact
+from ngcontact.contact_laws import conductance_literal
+from geometries import plate
+
+GAP, P = 2e-5, 2e6
+
+
+def pressed_plate(contact, order=1, refine=0, maxh=0.01, material=None, pressure=P, **kw):
+    """The reference plate pressed onto the foundation, the pressure ramped over t in [0, 1]:
+    contact near the free end."""
+    t = ngs.Parameter(0)
+    body = ngc.Body(plate(maxh=maxh, refine=refine), material or ngc.pzt5a(), clamped="left",
+                    grounded="top", contact="bottom", order=order)
+    return ngc.Simulation(body, ngc.Loads(f2={"top": (0, -pressure * t)}), contact=contact, time=t, **kw)
+
+
+@pytest.mark.parametrize("theta", [1, 0, -1])
+@pytest.mark.parametrize("order", [1, 2])
+def test_force_balance(theta, order):
+    """Foundation force + support reaction = applied load (to 1e-6), partial contact."""
+    sim = pressed_plate(Contact(gap=GAP, theta=theta), order=order)
+    h = sim.run(dt=1, T=1)
+    c = h[-1].contact
+    assert 0.1 * 0.1 < c.contact_length < 0.9 * 0.1
+    assert np.dot(c.contact_set, sim.side.measure) == pytest.approx(c.contact_length, rel=1e-12)
+    assert np.all(c.pressure[c.contact_set == 0] <= 0) and np.all(c.pressure[c.contact_set == 1] > 0)
+    total = h[-1].reaction + c.force + np.array([0, -P * 0.1])
+    assert np.abs(total).max() < 1e-6 * P * 0.1
+    assert c.force[1] > 0.3 * P * 0.1
+
+
+def test_penetration_and_complementarity_shrink_under_refinement():
+    pen, comp = [], []
+    for refine in range(3):
+        c = pressed_plate(Contact(gap=GAP), refine=refine).run(dt=1, T=1)[-1].contact
+        pen.append(c.max_penetration)
+        comp.append(c.complementarity)
+    assert pen[0] > 0 and pen[2] < 0.5 * pen[0] and np.all(np.diff(pen) < 0)
+    assert comp[2] < 0.5 * comp[0] and np.all(np.diff(comp) < 0)
+    assert max(pen) < 1e-2 * GAP
+
+
+def test_theta_minus_one_converges_for_every_gamma0():
+    """Skew-symmetric Nitsche converges for every γ0 > 0 tried; θ = 1, 0 for γ0 large enough.
+    All converged solutions agree on the contact force."""
+    forces = {}
+    for gamma0 in (1e-3, 1e-2, 0.1, 1.0, 10.0, 100.0):
+        h = pressed_plate(Contact(gap=GAP, theta=-1, gamma0=gamma0)).run(dt=1, T=1)
+        forces[(-1, gamma0)] = h[-1].contact.force[1]
+        assert h[-1].newton_iterations <= 25
+    for theta in (1, 0):
+        for gamma0 in (10.0, 100.0):
+            h = pressed_plate(Contact(gap=GAP, theta=theta, gamma0=gamma0)).run(dt=1, T=1)
+            forces[(theta, gamma0)] = h[-1].contact.force[1]
+    reference = forces[(1, 100.0)]
+    for key in [(1, 10.0), (0, 10.0), (0, 100.0), (-1, 10.0), (-1, 100.0)]:
+        assert forces[key] == pytest.approx(reference, rel=2e-2), key
+
+
+def test_reduces_to_chouly_hild():
+    """p = 0, γ_ν = 0, A = 0, E = 0: the residual is Chouly & Hild's, term by term."""
+    m = ngc.Material.isotropic(2e11, 0.3, permittivity=1e-9)
+    for theta in (1, 0, -1):
+        sim = pressed_plate(Contact(gap=GAP, theta=theta, gamma0=3.0), order=2, material=m)
+        body, X = sim.body, sim.body.X
+        (u, phi), (v, xi) = X.TnT()
+        n, dim = ngs.specialcf.normal(2), 2
+        from ngcontact.forms import matrix_cf, normal_stress, strain
+        F = matrix_cf(body.tensors.F)
+        sn = lambda w: normal_stress(F * strain(w, dim), n, dim)
+        gamma = 3.0 * 4 * np.linalg.eigvalsh(body.tensors.F).max() / ngs.specialcf.mesh_size
+        Pu = sn(u) - gamma * (u * n - GAP)
+        ch = ngs.BilinearForm(X)
+        ch += (ngs.InnerProduct(F * strain(u, dim), strain(v, dim)) + 1e-9 * ngs.grad(phi) * ngs.grad(xi)
+               * -1) * ngs.dx
+        ch += (-theta / gamma * sn(u) * sn(v) + 1 / gamma * ngs.IfPos(Pu, 0, Pu) * (theta * sn(v) - gamma * v * n)) \
+            * ngs.ds(skeleton=True, definedon=body.region("contact"))
+        ch += ngs.CF((0, P)) * sim.time * v * ngs.ds("top")
+        x = sim.gfu.vec.CreateVector()
+        rng = np.random.default_rng(1)
+        x.FV().NumPy()[:] = rng.normal(size=len(x)) * 3e-5
+        sim.time.Set(0.7)
+        r1, r2 = x.CreateVector(), x.CreateVector()
+        sim.form.Apply(x, r1)
+        ch.Apply(x, r2)
+        assert np.allclose(r1.FV().NumPy(), r2.FV().NumPy(), rtol=1e-10, atol=1e-10 * np.abs(r2.FV().NumPy()).max())
+
+
+@pytest.mark.parametrize("force, bonded", [(2e7, True), (1e9, False)])
+def test_adhesion_pulls_back(uniaxial, force, bonded):
+    """Column clamped on top, lifted by a body force f: the glue holds the bottom with
+    σ_ν = γ_ν β² |u_ν| while |u_ν| <= L (and γ_ν β² L beyond). Open circuit at the bottom,
+    so the stiffness is c_D = c33 + e33²/ε33; P2 holds the quadratic exact solution."""
+    W, H, gamma_nu, L = 0.01, 0.03, 1e12, 1e-6
+    body = ngc.Body(plate(L1=W, L2=H, maxh=0.01), uniaxial(), clamped="top", grounded="top",
+                    contact="bottom", order=2)
+    sim = ngc.Simulation(body, ngc.Loads(f0=(0, force)), contact=Contact(
+        gap=1e-3, adhesion=gamma_nu, eps_a=1e9, bond_length=L, theta=1))
+    h = sim.run(dt=1, T=1)
+    cD = C33 + E33**2 / EPS33
+    if bonded:
+        sigma0 = gamma_nu * force * H**2 / (2 * (cD + gamma_nu * H))
+        assert sigma0 / gamma_nu < L
+    else:
+        sigma0 = gamma_nu * L
+    lift = sim.u(body.mesh(W / 2, 0))[1]
+    assert lift == pytest.approx((force * H**2 / 2 - sigma0 * H) / cD, rel=1e-8)
+    if bonded:
+        assert lift == pytest.approx(sigma0 / gamma_nu, rel=1e-8)
+    assert np.allclose(h[-1].contact.pressure, -sigma0, rtol=1e-8)
+    assert np.all(h[-1].contact.beta == 1)
+
+
+def conducting_plate(psi, gamma0=10.0):
+    contact = Contact(gap=GAP, conductance=psi, ramp_width=1e-6, potential_truncation=50.0,
+                      foundation_potential=20.0, gamma0=gamma0)
+    return pressed_plate(contact, order=2, maxh=0.005)
+
+
+def test_current_flows_through_the_contact_zone_only():
+    """φ_Γ = 20 V: D·ν = ψ φ_L on Γ3 is nonzero only where u_ν - g > -δ; the total current
+    leaves through the grounded electrode (charge conservation, to 1e-8)."""
+    sim = conducting_plate(1e-6)
+    h = sim.run(dt=0.25, T=1)
+    c = h[-1].contact
+    opening = sim.side.normal_displacement(sim.u) - sim.side.sample(sim.gap)
+    far = opening.max(axis=1) < -1e-6
+    touching = opening.min(axis=1) > -1e-8
+    assert far.sum() > 5 and touching.sum() > 3
+    assert np.all(c.current_density[far] == 0)
+    assert np.all(np.abs(c.current_density[touching]) > 0.1 * np.abs(c.current_density).max())
+    assert c.current == pytest.approx(-h[-1].charge["top"], rel=1e-8)
+    # φ on Γ3 > φ_Γ here? then current leaves the body (D·ν > 0), and vice versa
+    assert np.all(np.sign(c.current_density[touching]) == np.sign(c.potential[touching] - 20.0))
+
+
+def test_literal_conductance_conducts_only_through_penetration():
+    """ψ = 0 for u_ν − g <= 0 read literally: the current comes from the numerical
+    penetration alone, tiny against the ramp's, and it shrinks as γ0 grows."""
+    ramp = conducting_plate(1e-6).run(dt=0.25, T=1)[-1].contact.current
+    literal = [conducting_plate(conductance_literal(1e-6, 1e-6), gamma0=g).run(dt=0.25, T=1)[-1].contact
+               for g in (10.0, 1000.0)]
+    assert abs(literal[0].current) < 1e-2 * abs(ramp)
+    assert abs(literal[1].current) < 0.1 * abs(literal[0].current)
+    assert literal[1].max_penetration < literal[0].max_penetration
+
+
+def test_contact_input_rejected():
+    mesh = plate(maxh=0.01)
+    body = ngc.Body(mesh, ngc.pzt5a(), clamped="left", grounded="top")
+    with pytest.raises(ValueError, match="no contact boundary"):
+        ngc.Simulation(body, contact=Contact())
+    body = ngc.Body(mesh, ngc.pzt5a(), clamped="left", grounded="top", contact="bottom")
+    with pytest.raises(ValueError, match="Contact.gap must be >= 0"):
+        ngc.Simulation(body, contact=Contact(gap=ngs.x - 0.05))
+    with pytest.raises(ValueError, match="u0 must be admissible"):
+        ngc.Simulation(body, contact=Contact(gap=1e-6), u0=(0, -3e-5 * ngs.x))
+    with pytest.raises(ValueError, match="beta0 must lie in"):
+        ngc.Simulation(body, contact=Contact(beta0=ngs.x * 20))
+
+
+def test_non_convergence_names_the_step_and_keeps_earlier_steps():
+    """maxit = 2 is too few when the plate first touches the foundation."""
+    t = ngs.Parameter(0)
+    body = ngc.Body(plate(maxh=0.01), ngc.pzt5a(), clamped="left", grounded="top", contact="bottom")
+    sim = ngc.Simulation(body, ngc.Loads(f2={"top": (0, -P * t)}), contact=Contact(gap=GAP), time=t, maxit=2)
+    with pytest.raises(ngc.NewtonError, match=r"did not converge in 2 iterations .*at step \d+") as err:
+        sim.run(dt=0.05, T=1)
+    steps = err.value.history
+    assert len(steps) == err.value.step and err.value.step > 1
+    assert steps[-1].contact.contact_length == 0 and len(err.value.residuals) == 3
