@@ -86,3 +86,13 @@ def test_force_balance(uniaxial):
     h = sim.run(dt=1e-3, T=2e-3)
     applied = np.array([3e5 * W + 1e4 * W * H, -P * W + 2e4 * W * H])
     assert np.allclose(h.reactions[-1], -applied, rtol=1e-9)
+
+
+def test_vtk_output_per_step(uniaxial, tmp_path):
+    """run(vtk=...) writes one VTU file per step (initial state included) with both fields."""
+    sim = column(uniaxial(), "bottom|top", ngc.Loads(f2={"top": (0, -P)}))
+    sim.run(dt=0.5, T=1, vtk=tmp_path / "column")
+    files = sorted(tmp_path.glob("column*.vtu"))
+    assert len(files) == 3
+    text = files[-1].read_text(errors="ignore")
+    assert 'Name="displacement"' in text and 'Name="potential"' in text
