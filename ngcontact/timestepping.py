@@ -66,6 +66,7 @@ class Simulation:
             raise ValueError(f"Contact.gap must be >= 0 on Γ3, its minimum is {side.sample(self.gap).min():.3g} m")
         self.phi_gamma = as_cf(contact.foundation_potential, 1, "Contact.foundation_potential")
         self.beta = BondingField(side, contact)
+        self._u_normal = self.u * ngs.specialcf.normal(body.dim)
         self.nitsche = NitscheContact(body, contact, self.beta.gf, self.inv_dt, self.gap)
         (u, phi), (v, xi) = body.X.TnT()
         terms = self.nitsche.residual(u, phi, v, xi, self.u_old)
@@ -185,7 +186,7 @@ class Simulation:
         n = len(self.history)
         start = wallclock.perf_counter()
         if self.contact is not None:
-            self.beta.update(self.u * ngs.specialcf.normal(self.body.dim), dt)   # (4.5), from u_{n-1}
+            self.beta.update(self._u_normal, dt)          # (4.5), from u_{n-1}
         self.u_old.vec.data = self.u.vec
         self.time.Set(self.time.Get() + dt)
         self.inv_dt.Set(1.0 / dt)
