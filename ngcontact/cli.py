@@ -1,13 +1,4 @@
-"""Command line interface: ``python -m ngcontact demo``.
-
-The demo runs the reference scene: a 2D PZT-5A plate 0 ≤ x ≤ L1, 0 ≤ y ≤ L2 (plane
-strain, poled along y, Kelvin-Voigt viscosity), clamped on the left (Γ1), with the
-grounded electrode on top (Γa) and the contact side Γ3 at the bottom, a gap g above a
-rigid conductive foundation held at φ_Γ, glued (β0 = 1). A pressure on top bends the plate
-onto the foundation: the contact zone grows from the free end. The pressure is then
-reversed into a moderate pull: the contact opens, the glue holds the plate while β decays
-from the free end (debonding), and the plate lifts off. Units: SI, per metre of depth.
-"""
+"""Command line interface: ``python -m ngcontact demo | convergence``."""
 import argparse
 import json
 import pathlib
@@ -18,39 +9,13 @@ import numpy as np
 from matplotlib import tri
 from matplotlib.figure import Figure
 
-from geometries import plate
-
-from .body import Body
-from .contact import Contact
-from .loads import Loads
-from .materials import pzt5a
+from . import scene
+from .scene import CONTACT, L1, L2, LOAD_HISTORY, PRESSURE, RELAXATION_TIME
 from .timestepping import Simulation
-
-L1, L2 = 0.1, 0.02
-"""Plate length and thickness, m."""
-PRESSURE = 2e6
-"""Peak pressure on top, Pa."""
-RELAXATION_TIME = 2e-3
-"""Kelvin-Voigt relaxation time τ of A = τ F, s."""
-LOAD_HISTORY = ((0.0, 0.0), (0.1, 1.0), (0.15, 1.0), (0.2, -0.2), (0.5, -0.2))
-"""(time in s, fraction of PRESSURE): push, hold, reverse into a pull, hold the pull."""
-CONTACT = dict(gap=2e-5, adhesion=1e11, eps_a=0.0, bond_length=5e-5, conductance=1e-4,
-               ramp_width=1e-6, potential_truncation=1e3, foundation_potential=10.0)
-"""Γ3 data: g (m), γ_ν (Pa/m), ε_a, L (m), k_e (F/m²), δ (m), L_φ (V), φ_Γ (V)."""
-
-
-def load_factor(t, history=LOAD_HISTORY):
-    """The piecewise linear ``history`` as a CoefficientFunction of the Parameter ``t``."""
-    factor = ngs.CF(history[0][1])
-    for (a, fa), (b, fb) in zip(history[:-1], history[1:]):
-        if fb != fa:
-            ramp = ngs.IfPos(t - b, 1, ngs.IfPos(t - a, (t - a) / (b - a), 0))
-            factor = factor + (fb - fa) * ramp
-    return factor
 
 
 def demo(order=1, out="results", maxh=0.005, steps=200, theta=1, gamma0=10.0):
-    """Run the reference scene, print a line per step, write summary.json and charts.
+    """Run the reference scene (``scene``), print a line per step, write summary.json and charts.
 
     Parameters
     ----------
@@ -72,13 +37,11 @@ def demo(order=1, out="results", maxh=0.005, steps=200, theta=1, gamma0=10.0):
         raise ValueError(f"steps must be an integer >= 1, got {steps}")
     out = pathlib.Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    mesh = plate(L1, L2, maxh=maxh, maxh_contact=maxh / 2)
     t = ngs.Parameter(0.0)
-    pressure = PRESSURE * load_factor(t)
-    body = Body(mesh, pzt5a(relaxation_time=RELAXATION_TIME), clamped="left", grounded="top",
-                contact="bottom", order=order)
-    sim = Simulation(body, Loads(f2={"top": (0, -pressure)}), time=t,
-                     contact=Contact(**CONTACT, theta=theta, gamma0=gamma0))
+    pressure = scene.pressure(t)
+    body = scene.body(order, maxh)
+    mesh = body.mesh
+    sim = Simulation(body, scene.loads(t), time=t, contact=scene.contact(theta, gamma0))
     tip = mesh(L1, 0.0)
     print(f"{body}, solver {sim.inverse}\n{'step':>5} {'t [s]':>7} {'newton':>6} "
           f"{'contact [mm]':>12} {'p_max [MPa]':>11} {'beta_min':>8} {'current [C/m]':>13}")
@@ -194,6 +157,42 @@ def main(argv=None):
                      help="number of time steps (default 200)")
     run.add_argument("--theta", type=int, default=1, choices=(1, 0, -1), help="Nitsche variant")
     run.add_argument("--gamma0", type=float, default=10.0, help="Nitsche parameter γ0 (default 10)")
+    conv = commands.add_parser("convergence", help="order-convergence study against (4.12): "
+                               "errors.csv and charts")
+    conv.add_argument("--orders", metavar="P", type=int, nargs="+", default=[1, 2],
+                      help="polynomial orders (default 1 2)")
+    conv.add_argument("--levels", metavar="N", type=int, default=3,
+                      help="number of nested meshes, h halving (default 3)")
+    conv.add_argument("--case", choices=("viscous", "adhesive", "reference"), default="viscous",
+                      help="manufactured solution (viscous: time-dependent contact with "
+                           "conduction; adhesive: compliant layer and glue) or the reference "
+                           "scene against a fine solution (default viscous)")
+    conv.add_argument("--smoothness", metavar="K", type=int, default=4,
+                      help="manufactured cases: u ~ (x - x_c)_+^K at the contact-set ends (default 4)")
+    conv.add_argument("--dt-halvings", metavar="J", type=int, default=0,
+                      help="time-step variant: halve k J times on the finest mesh, first order given")
+    conv.add_argument("--out", metavar="DIR", default="convergence", help="output directory")
     args = parser.parse_args(argv)
-    demo(order=args.order, out=args.out, maxh=args.maxh, steps=args.steps, theta=args.theta,
-         gamma0=args.gamma0)
+    if args.command == "demo":
+        demo(order=args.order, out=args.out, maxh=args.maxh, steps=args.steps, theta=args.theta,
+             gamma0=args.gamma0)
+    else:
+        convergence(args.orders, args.levels, args.case, args.smoothness, args.dt_halvings, args.out)
+
+
+def convergence(orders, levels, case, smoothness, dt_halvings, out):
+    """The ``convergence`` command: run the study, write errors.csv and the charts."""
+    from . import convergence as study
+    out = pathlib.Path(out)
+    if dt_halvings:
+        runs = study.time_study(orders[0], levels - 1, dt_halvings, smoothness=smoothness)
+        paths = study.save(runs, out, f"time steps, P{orders[0]}, level {levels - 1}", by="k")
+        print(f"fitted rate in k: {study.fitted_rate(runs, orders[0], by='k'):.2f}")
+    else:
+        runs = (study.reference_study(orders, levels) if case == "reference" else
+                study.manufactured_study(orders, levels, case, smoothness=smoothness))
+        paths = study.save(runs, out, f"{case}: error (4.12) and its parts")
+        for order in orders:
+            rates = {p: study.fitted_rate(runs, order, p) for p in ("u", "phi", "total")}
+            print(f"P{order}: fitted rates " + ", ".join(f"{p} {r:.2f}" for p, r in rates.items()))
+    print(f"wrote {out / 'errors.csv'} and " + ", ".join(p.name for p in paths))

@@ -1,8 +1,9 @@
-"""Manufactured solutions of the strong form (2.1)-(2.6) of model.md.
+"""Manufactured solutions of the strong form (2.1)-(2.11) of model.md.
 
 Given smooth u(x, t), φ(x, t) as sympy expressions in x, y (, z) and t, the data
 f0 = −div σ, q0 = −div D, f2 = σν on Γ2 and qb = D·ν on Γb make them the exact solution,
-with σ = A ε(u̇) + F ε(u) + Eᵀ∇φ and D = E ε(u) − C∇φ.
+with σ = A ε(u̇) + F ε(u) + Eᵀ∇φ and D = E ε(u) − C∇φ. ``ContactManufactured`` also
+satisfies the contact, adhesion and conduction laws on Γ3 with a known contact set.
 """
 import math
 
@@ -14,6 +15,20 @@ from .loads import Loads
 from .materials import VOIGT
 
 x, y, z, t = sp.symbols("x y z t")
+
+
+class Step(sp.Function):
+    """The unit step; its derivative is taken as 0 (it only multiplies powers of Pos)."""
+
+    def fdiff(self, argindex=1):
+        return sp.S.Zero
+
+
+class Pos(sp.Function):
+    """The positive part [s]_+, with derivative Step(s)."""
+
+    def fdiff(self, argindex=1):
+        return Step(self.args[0])
 
 
 def _voigt_strain(u, X, dim):
@@ -46,7 +61,8 @@ class Manufactured:
     def cf(expr, time):
         """A sympy expression (or matrix) as an ngsolve CoefficientFunction at ``time``."""
         names = {"x": ngs.x, "y": ngs.y, "z": ngs.z, "t": time, "sin": ngs.sin, "cos": ngs.cos,
-                 "exp": ngs.exp, "pi": math.pi, "sqrt": ngs.sqrt}
+                 "exp": ngs.exp, "pi": math.pi, "sqrt": ngs.sqrt,
+                 "Pos": lambda a: ngs.IfPos(a, a, 0), "Step": lambda a: ngs.IfPos(a, 1, 0)}
         if isinstance(expr, sp.MatrixBase):
             values = tuple(Manufactured.cf(e, time) for e in expr)
             return ngs.CF(values, dims=expr.shape) if expr.shape[1] > 1 else ngs.CF(values)
@@ -71,3 +87,90 @@ class Manufactured:
         order = 2 * max(sim.body.order, sim.body.order_phi) + 4
         return (math.sqrt(ngs.Integrate(ngs.InnerProduct(de, de), mesh, order=order)),
                 math.sqrt(ngs.Integrate(ngs.InnerProduct(dp, dp), mesh, order=order)))
+
+
+class ContactManufactured(Manufactured):
+    """An exact solution of the full problem on the plate [0, L1] × [0, L2] with Γ1 = left
+    (clamped), Γa = top (grounded) and Γ3 = bottom, whose contact set on Γ3 is [0, x_c].
+
+    Construction: u = s_u(t) Û, φ = s_φ(t) Φ̂ with s_φ = s_u + τ ṡ_u, so that for A = τ F
+    the stress separates, σ = s_φ(t) σ̂ with σ̂ = F ε(Û) + Eᵀ∇Φ̂. On y = 0 the trace Û_y = T(x)
+    is chosen, and the normal derivatives ∂_y Û are solved from σ̂_xy = 0 (frictionless) and
+    σ̂_yy = ŝ(x), the wanted normal stress. Û = (x² T_x, T) + y N(x) + y² x W, Φ̂ vanishes on
+    the top and has ∇Φ̂ = 0 at x = 0, so that u = 0 on Γ1. The data g, φ_Γ and β0 then make
+    the laws hold (k is the smoothness exponent of the contact-set ends, x_c their place):
+
+    * ``case="viscous"``: s_u = 1 + t (``time_profile="linear"``, backward Euler exact in
+      time) or 1 + sin(2t)/2 (``"nonlinear"``); T = (x − x_c)_+^k: separation for x > x_c,
+      g = 0, ŝ = −x²(x_c − x)_+^k (compression on the contact set, σ̃_ν = 0 off it).
+    * ``case="adhesive"``: static (s_u = s_φ = 1); on [0, x_c] the body presses into the
+      compliant layer, u_ν = g = η x²(x_c − x)_+^k with σ̃_ν = σ_ν + c_ν u_ν < 0; on (x_c, L1]
+      it is separated and held by the glue, σ_ν = γ_ν β0² R_ν(u_ν); β0(x) = 0.6 + 0.3 sin(4x)
+      stays constant (ε_a > γ_ν β R_ν²).
+
+    Conduction everywhere on Γ3 (ramp width δ larger than any separation, L_φ large):
+    φ_Γ = φ − D·ν / ψ(u_ν − g).
+
+    Regularity: N(x) contains T'(x), so u ∈ H^{k − 1/2 − ε}(Ω) and the energy error of order
+    p converges as h^min(p, k − 3/2); k = 3 mimics the H^{5/2 − ε} of real contact solutions.
+    """
+
+    def __init__(self, tensors, case="viscous", time_profile="linear", L1=1.0, L2=0.5,
+                 x_c=0.5, k=4, tau=0.3):
+        if case not in ("viscous", "adhesive"):
+            raise ValueError(f"case must be 'viscous' or 'adhesive', got {case!r}")
+        if int(k) != k or k < 3:
+            raise ValueError(f"smoothness k must be an integer >= 3 (f0 needs the third derivative "
+                             f"of (x - x_c)_+^k), got {k}")
+        if time_profile not in ("linear", "nonlinear"):
+            raise ValueError(f"time_profile must be 'linear' or 'nonlinear', got {time_profile!r}")
+        if not np.allclose(tensors.A, tau * tensors.F):
+            raise ValueError("ContactManufactured needs the viscosity A = tau F")
+        self.case, self.L1, self.L2, self.x_c, self.k = case, L1, L2, x_c, k
+        self.conductance, self.ramp_width, self.gamma_nu, self.c_nu, eta = 1.0, 10.0, 2.0, 3.0, 0.5
+        F, E = sp.Matrix(tensors.F), sp.Matrix(tensors.E)
+        inside, outside = Pos(x_c - x) ** k, Pos(x - x_c) ** k
+        if case == "viscous":
+            s_u = 1 + t if time_profile == "linear" else 1 + sp.sin(2 * t) / 2
+            trace_y, self.gap_expr = outside, sp.S.Zero
+            s_hat = -x**2 * inside
+            self.beta0_expr, self.eps_a = sp.S.One, 0.0
+        else:
+            s_u = sp.S.One
+            trace_y = outside - eta * x**2 * inside
+            self.gap_expr = eta * x**2 * inside
+            self.beta0_expr = 0.6 + 0.3 * sp.sin(4 * x)
+            s_hat = self.gamma_nu * self.beta0_expr**2 * outside - (self.c_nu * eta + 1) * x**2 * inside
+            self.eps_a = 10.0
+        s_phi = s_u + tau * sp.diff(s_u, t)
+        Phi = x**2 * (L2 - y) * (1 + x * y) / 2
+        trace_x = x**2 * sp.sin(x) / 4
+        a, b = sp.symbols("a b")                     # ∂_y Û_x, ∂_y Û_y on y = 0
+        eps0 = sp.Matrix([sp.diff(trace_x, x), b, a + sp.diff(trace_y, x)])
+        grad0 = sp.Matrix([sp.diff(Phi, x), sp.diff(Phi, y)]).subs(y, 0)
+        sig0 = F * eps0 + E.T * grad0
+        sol = sp.solve([sig0[2], sig0[1] - s_hat], [a, b], dict=True)[0]
+        W = sp.Matrix([sp.cos(y) / 5, sp.sin(x + y) / 10])
+        U = sp.Matrix([trace_x, trace_y]) + y * sp.Matrix([sol[a], sol[b]]) + y**2 * x * W
+        super().__init__(tensors, s_u * U, s_phi * Phi, dim=2)
+        self.u_normal_expr = -self.u[1].subs(y, 0)   # ν = (0, −1) on Γ3
+
+    def contact(self, time, theta=1, gamma0=10.0, beta_update="explicit"):
+        """The Contact data (g, laws, φ_Γ, β0) that make this solution exact."""
+        from .contact import Contact
+        dn = (-self.D[1]).subs(y, 0)                                   # D·ν on Γ3
+        r = self.u_normal_expr - self.gap_expr
+        psi = self.conductance * (1 + r / self.ramp_width)
+        phi_gamma = self.phi.subs(y, 0) - dn / psi
+        return Contact(gap=self.cf(self.gap_expr, time),
+                       compliance=self.c_nu if self.case == "adhesive" else 0.0,
+                       adhesion=self.gamma_nu if self.case == "adhesive" else 0.0,
+                       eps_a=self.eps_a, bond_length=10.0, beta0=self.cf(self.beta0_expr, time),
+                       beta_update=beta_update, conductance=self.conductance,
+                       ramp_width=self.ramp_width, potential_truncation=1e6,
+                       foundation_potential=self.cf(phi_gamma, time), theta=theta, gamma0=gamma0)
+
+    def beta_error(self, sim):
+        """‖β − β_h‖_L²(Γ3): β = β0 (constant in time, ε_a large)."""
+        beta = self.cf(self.beta0_expr, sim.time)
+        return math.sqrt(sim.side.facet_integrals((beta - sim.beta.gf) ** 2)().sum())

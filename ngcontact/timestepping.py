@@ -152,13 +152,13 @@ class Simulation:
             if on_gamma1 > 1e-20 * (1 + ngs.Integrate(square, mesh)):
                 raise ValueError("u0 must vanish on the clamped boundary Γ1 "
                                  f"({self.body.region_names('clamped')!r})")
+            if self.contact is not None:
+                excess = (self.side.normal_displacement(u0) - self.side.sample(self.gap)).max()
+                if excess > 1e-12 * (1 + np.abs(self.side.sample(u0)).max()):
+                    raise ValueError(f"u0 must be admissible, u0_ν <= g on Γ3; it exceeds g by {excess:.3g} m")
             self.u.Set(u0)
             clamped = ~np.array(list(self.body.V.FreeDofs()), dtype=bool)
             self.u.vec.FV().NumPy()[clamped] = 0.0
-        if self.contact is not None:
-            excess = (self.side.normal_displacement(self.u) - self.side.sample(self.gap)).max()
-            if excess > 1e-12 * (1 + np.abs(self.u.vec.FV().NumPy()).max()):
-                raise ValueError(f"u0 must be admissible, u0_ν <= g on Γ3; it exceeds g by {excess:.3g} m")
         self.u_old.vec.data = self.u.vec
         self._set_dirichlet()
         start = wallclock.perf_counter()

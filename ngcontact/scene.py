@@ -1,0 +1,61 @@
+"""The reference scene: a PZT-5A plate pressed onto a glued, conductive rigid foundation,
+then pulled off (used by the demo and the reference convergence study).
+
+The plate 0 ≤ x ≤ L1, 0 ≤ y ≤ L2 (plane strain, poled along y, Kelvin-Voigt viscosity) is
+clamped on the left (Γ1), has its grounded electrode on top (Γa) and the contact side Γ3 at
+the bottom, a gap g above the foundation held at φ_Γ, glued (β0 = 1). A pressure on top
+bends it onto the foundation: the contact zone grows from the free end. The pressure is then
+reversed into a moderate pull: the contact opens, the glue holds the plate while β decays
+from the free end, and the plate lifts off. Units: SI, per metre of depth.
+"""
+import ngsolve as ngs
+
+from geometries import plate
+
+from .body import Body
+from .contact import Contact
+from .loads import Loads
+from .materials import pzt5a
+
+L1, L2 = 0.1, 0.02
+"""Plate length and thickness, m."""
+PRESSURE = 2e6
+"""Peak pressure on top, Pa."""
+RELAXATION_TIME = 2e-3
+"""Kelvin-Voigt relaxation time τ of A = τ F, s."""
+LOAD_HISTORY = ((0.0, 0.0), (0.1, 1.0), (0.15, 1.0), (0.2, -0.2), (0.5, -0.2))
+"""(time in s, fraction of PRESSURE): push, hold, reverse into a pull, hold the pull."""
+CONTACT = dict(gap=2e-5, adhesion=1e11, eps_a=0.0, bond_length=5e-5, conductance=1e-4,
+               ramp_width=1e-6, potential_truncation=1e3, foundation_potential=10.0)
+"""Γ3 data: g (m), γ_ν (Pa/m), ε_a, L (m), k_e (F/m²), δ (m), L_φ (V), φ_Γ (V)."""
+
+
+def load_factor(t, history=LOAD_HISTORY):
+    """The piecewise linear ``history`` as a CoefficientFunction of the Parameter ``t``."""
+    factor = ngs.CF(history[0][1])
+    for (a, fa), (b, fb) in zip(history[:-1], history[1:]):
+        if fb != fa:
+            ramp = ngs.IfPos(t - b, 1, ngs.IfPos(t - a, (t - a) / (b - a), 0))
+            factor = factor + (fb - fa) * ramp
+    return factor
+
+
+def pressure(t):
+    """The pressure on top (Pa) as a CoefficientFunction of the time Parameter."""
+    return PRESSURE * load_factor(t)
+
+
+def body(order=1, maxh=0.005, refine=0):
+    """The plate with its boundary parts; the mesh is halved along Γ3 and refined ``refine``
+    times by ``mesh.Refine()``."""
+    mesh = plate(L1, L2, maxh=maxh, maxh_contact=maxh / 2, refine=refine)
+    return Body(mesh, pzt5a(relaxation_time=RELAXATION_TIME), clamped="left", grounded="top",
+                contact="bottom", order=order)
+
+
+def loads(t):
+    return Loads(f2={"top": (0, -pressure(t))})
+
+
+def contact(theta=1, gamma0=10.0):
+    return Contact(**CONTACT, theta=theta, gamma0=gamma0)
