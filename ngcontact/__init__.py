@@ -7,6 +7,7 @@ from .materials import Material, academic, batio3, pzt5a
 from .newton import NewtonError
 from .results import History, StepRecord
 from .timestepping import Simulation
+from .webgui import save_html
 
 __all__ = ["Body", "Contact", "Loads", "Material", "Simulation", "History", "StepRecord", "NewtonError",
-           "academic", "pzt5a", "batio3"]
+           "academic", "pzt5a", "batio3", "save_html"]

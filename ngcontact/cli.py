@@ -22,7 +22,7 @@ def demo(order=1, out="results", maxh=0.005, steps=200, theta=1, gamma0=10.0):
     order : int, polynomial order of u and φ (1 = the paper's P1 scheme).
     out : str or path, output directory (created).
     maxh : float, mesh size in m (halved along Γ3).
-    steps : int, number of backward Euler steps over LOAD_HISTORY (k γ_ν L² = 0.5 at 200).
+    steps : int, number of backward Euler steps over LOAD_HISTORY (k γ_ν L² = 0.625 at 200).
     theta, gamma0 : Nitsche variant and parameter.
 
     Returns
