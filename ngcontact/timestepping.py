@@ -54,6 +54,7 @@ class Simulation:
         self.newton = Newton(self.form, self.gfu, inverse=self.inverse, rtol=rtol, maxit=maxit)
         self.keep_states = keep_states
         self.history = History()
+        self.cutbacks = []
         self._tests = self._boundary_tests()
         self._set_initial(u0)
 
@@ -195,20 +196,26 @@ class Simulation:
         self._record(n, result, wallclock.perf_counter() - start)
         return self.history[-1]
 
-    def run(self, dt, T, *, vtk=None, progress=False):
+    def run(self, dt, T, *, vtk=None, progress=False, max_cutbacks=6):
         """Step from the current time to T with steps dt; returns the History.
 
         vtk : file name stem for NGSolve's VTKOutput (one file per step), or None.
         progress : print a line per step.
-        On a Newton failure the NewtonError is raised with ``error.history`` holding the
-        steps computed so far (also kept in ``self.history``).
+        max_cutbacks : a step whose Newton iteration fails is retried as two half steps,
+            down to dt / 2^max_cutbacks; the next nominal step uses dt again (recovery).
+            Each cut-back is listed in ``self.cutbacks``.
+        If even the smallest step fails, the NewtonError is raised with the attempts in its
+        message and ``error.history`` holding every step computed so far (also kept in
+        ``self.history``); the state is that of the last computed step.
         """
         if not dt > 0:
             raise ValueError(f"time step dt must be > 0 s, got {dt}")
         if not T > self.time.Get():
             raise ValueError(f"final time T must be > the current time {self.time.Get()} s, got {T}")
-        nsteps = int(np.ceil((T - self.time.Get()) / dt - 1e-9))
-        dt = (T - self.time.Get()) / nsteps
+        if int(max_cutbacks) != max_cutbacks or max_cutbacks < 0:
+            raise ValueError(f"max_cutbacks must be an integer >= 0, got {max_cutbacks}")
+        start = self.time.Get()
+        nsteps = int(np.ceil((T - start) / dt - 1e-9))
         writer = None
         if vtk:
             writer = ngs.VTKOutput(self.body.mesh, coefs=[self.u, self.phi],
@@ -216,17 +223,52 @@ class Simulation:
                                    subdivision=max(self.body.order, self.body.order_phi) - 1)
             writer.Do(time=self.time.Get())
         for i in range(nsteps):
+            target = start + (T - start) * (i + 1) / nsteps
             try:
-                rec = self.step(dt)
+                records = self._advance(target, max_cutbacks)
             except NewtonError as err:
                 err.history = self.history
                 raise
-            if writer:
-                writer.Do(time=rec.time)
-            if progress:
-                print(f"step {rec.step:4d}/{len(self.history) - 1 + nsteps - i - 1:4d}  t = {rec.time:.4g} s  "
-                      f"newton {rec.newton_iterations}  wall {rec.wall_s:.3f} s", flush=True)
+            for rec in records:
+                if writer:
+                    writer.Do(time=rec.time)
+                if progress:
+                    print(f"step {rec.step:4d}  t = {rec.time:.4g} s ({i + 1}/{nsteps})  newton "
+                          f"{rec.newton_iterations}  wall {rec.wall_s:.3f} s", flush=True)
         return self.history
+
+    def _advance(self, target, cutbacks_left):
+        """Reach time ``target`` in one step, or in halves after a failure; returns the records."""
+        saved = self._snapshot()
+        dt = target - self.time.Get()
+        try:
+            return [self.step(dt)]
+        except NewtonError as err:
+            self._restore(saved)
+            self.cutbacks.append(dict(step=len(self.history), time=target, dt=dt,
+                                      iterations=err.iteration, residuals=err.residuals))
+            if cutbacks_left == 0:
+                tried = ", ".join(f"{c['dt']:.3g}" for c in self.cutbacks if c["step"] == len(self.history))
+                err.args = (f"{err.args[0]}. Time steps tried for step {len(self.history)} (t -> "
+                            f"{target:.6g} s): k = {tried} s; the state is that of step "
+                            f"{len(self.history) - 1}",)
+                raise
+            middle = self.time.Get() + dt / 2
+            return self._advance(middle, cutbacks_left - 1) + self._advance(target, cutbacks_left - 1)
+
+    def _snapshot(self):
+        beta = self.beta.values.copy() if self.contact is not None else None
+        return (self.gfu.vec.FV().NumPy().copy(), self.u_old.vec.FV().NumPy().copy(), beta,
+                self.time.Get(), self.inv_dt.Get())
+
+    def _restore(self, saved):
+        state, u_old, beta, time, inv_dt = saved
+        self.gfu.vec.FV().NumPy()[:] = state
+        self.u_old.vec.FV().NumPy()[:] = u_old
+        if beta is not None:
+            self.beta.values[:] = beta
+        self.time.Set(time)
+        self.inv_dt.Set(inv_dt)
 
     def state(self, n):
         """GridFunction of (u, φ) at step n (needs keep_states)."""
