@@ -30,9 +30,13 @@ class Contact:
         potential_truncation : L_φ > 0 in V.
         foundation_potential : φ_Γ in V, number or CoefficientFunction (may use the time
             Parameter).
-    Nitsche (Chouly-Hild θ-family):
-        theta : 1 (symmetric), 0 (incomplete) or -1 (skew-symmetric).
+    Enforcement of the Signorini condition:
+        method : "nitsche" (Chouly-Hild θ-family, the default), "penalty" (a stiff
+            normal compliance, see ``penalty``) or "active_set" (the paper's nodal
+            constraint u_ν <= g at the nodes of Γ3, P1 only, with nodal multipliers).
+        theta : 1 (symmetric), 0 (incomplete) or -1 (skew-symmetric); Nitsche only.
         gamma0 : γ0 > 0; γ = γ0 p² (stiffness)/h, see ``nitsche.nitsche_parameter``.
+        penalty : > 0, the penalty factor: ε = penalty p² (stiffness)/h; penalty only.
     """
     gap: object = 0.0
     compliance: object = 0.0
@@ -47,8 +51,15 @@ class Contact:
     foundation_potential: object = 0.0
     theta: int = 1
     gamma0: float = 10.0
+    method: str = "nitsche"
+    penalty: float = 1e3
 
     def __post_init__(self):
+        if self.method not in ("nitsche", "penalty", "active_set"):
+            raise ValueError(f"Contact.method must be 'nitsche', 'penalty' or 'active_set', "
+                             f"got {self.method!r}")
+        if not self.penalty > 0:
+            raise ValueError(f"Contact.penalty must be > 0, got {self.penalty}")
         if self.theta not in (1, 0, -1):
             raise ValueError(f"Contact.theta must be 1, 0 or -1, got {self.theta}")
         if not self.gamma0 > 0:
@@ -80,7 +91,8 @@ class Contact:
 
     @property
     def symmetric(self):
-        """True if the Newton Jacobian is symmetric: Chouly-Hild's θ = 1 with no compliant
-        layer, no adhesion and no conduction (those terms are not symmetrised)."""
-        return (self.theta == 1 and not callable(self.compliance) and self.compliance == 0
-                and self.adhesion == 0 and not self.conducts)
+        """True if the Newton Jacobian is symmetric: Chouly-Hild's θ = 1 (or the penalty
+        method) with no compliant layer, no adhesion and no conduction (those terms are not
+        symmetrised)."""
+        return ((self.theta == 1 or self.method != "nitsche") and not callable(self.compliance)
+                and self.compliance == 0 and self.adhesion == 0 and not self.conducts)

@@ -10,12 +10,14 @@ import ngsolve as ngs
 import numpy as np
 
 from . import electric_contact
+from .active_set import ActiveSetNewton, NodalContact
 from .adhesion import BondingField
 from .contact_side import ContactSide
 from .forms import body_residual
 from .loads import Loads, as_cf
 from .newton import Newton, NewtonError
 from .nitsche import NitscheContact
+from .penalty import PenaltyContact
 from .results import ContactRecord, History, StepRecord
 
 
@@ -51,7 +53,11 @@ class Simulation:
             self._add_contact(contact)
         symmetric = contact is None or contact.symmetric
         self.inverse = inverse or ("sparsecholesky" if symmetric else "umfpack")
-        self.newton = Newton(self.form, self.gfu, inverse=self.inverse, rtol=rtol, maxit=maxit)
+        if contact is not None and contact.method == "active_set":
+            self.newton = ActiveSetNewton(self.form, self.gfu, self.side, self.gap,
+                                          self.enforcement.pressure, rtol=rtol, maxit=maxit)
+        else:
+            self.newton = Newton(self.form, self.gfu, inverse=self.inverse, rtol=rtol, maxit=maxit)
         self.keep_states = keep_states
         self.history = History()
         self.cutbacks = []
@@ -68,9 +74,10 @@ class Simulation:
         self.phi_gamma = as_cf(contact.foundation_potential, 1, "Contact.foundation_potential")
         self.beta = BondingField(side, contact)
         self._u_normal = self.u * ngs.specialcf.normal(body.dim)
-        self.nitsche = NitscheContact(body, contact, self.beta.gf, self.inv_dt, self.gap)
+        enforcement = dict(nitsche=NitscheContact, penalty=PenaltyContact, active_set=NodalContact)
+        self.enforcement = enforcement[contact.method](body, contact, self.beta.gf, self.inv_dt, self.gap)
         (u, phi), (v, xi) = body.X.TnT()
-        terms = self.nitsche.residual(u, phi, v, xi, self.u_old)
+        terms = self.enforcement.residual(u, phi, v, xi, self.u_old)
         if contact.conducts:
             terms = terms + electric_contact.residual(contact, u, phi, xi, self.gap, self.phi_gamma)
         self.form += terms.Compile() * side.ds
@@ -90,7 +97,7 @@ class Simulation:
 
     def _contact_observables(self):
         """Facet integrals over Γ3 of the recorded quantities, built once."""
-        side, nitsche, u, phi, u_old = self.side, self.nitsche, self.u, self.phi, self.u_old
+        side, nitsche, u, phi, u_old = self.side, self.enforcement, self.u, self.phi, self.u_old
         n = ngs.specialcf.normal(self.body.dim)
         lam = nitsche.multiplier(u, phi, u_old)
         pressure = lam + nitsche.surface_traction(u)          # −σ_ν = λ_h + p − γ_ν β² R_ν
@@ -108,6 +115,8 @@ class Simulation:
         integrals = {name: assemble() for name, assemble in self._observables.items()}
         r = self.gfu.vec.CreateVector()
         self._contact_form.Apply(self.gfu.vec, r)
+        if isinstance(self.newton, ActiveSetNewton):
+            r.data += self.newton.constraint_vector          # Bᵀλ: the nodal contact forces
         force_and_current = [-ngs.InnerProduct(r, w) for w in self._rigid_modes]
         averages = {name: integrals[name] / side.measure for name in
                     ("pressure", "multiplier", "raw_pressure", "potential", "current_density")}

@@ -176,3 +176,47 @@ def test_non_convergence_names_the_step_and_keeps_earlier_steps():
     steps = err.value.history
     assert len(steps) == err.value.step and err.value.step > 1
     assert steps[-1].contact.contact_length == 0 and len(err.value.residuals) == 3
+
+
+def test_penalty_method_penetrates_like_one_over_epsilon():
+    """Penalty (stiff normal compliance): balanced, symmetric (sparse Cholesky), penetration
+    ∝ 1/penalty, and the contact force tends to Nitsche's as the penalty grows."""
+    nitsche = pressed_plate(Contact(gap=GAP, theta=-1, gamma0=100.0)).run(dt=1, T=1)[-1].contact.force[1]
+    penetration, force = [], []
+    for factor in (10.0, 100.0, 1000.0):
+        sim = pressed_plate(Contact(gap=GAP, method="penalty", penalty=factor))
+        assert sim.inverse == "sparsecholesky"
+        h = sim.run(dt=1, T=1)
+        c = h[-1].contact
+        assert np.abs(h[-1].reaction + c.force - [0, P * 0.1]).max() < 1e-6 * P * 0.1
+        penetration.append(c.max_penetration)
+        force.append(c.force[1])
+    ratios = np.array(penetration[:-1]) / penetration[1:]
+    assert np.all(ratios > 7) and np.all(ratios < 13), ratios
+    assert abs(force[-1] - nitsche) < 0.1 * abs(force[0] - nitsche) + 1e-3 * abs(nitsche)
+
+
+def test_nodal_active_set_is_the_papers_p1_constraint():
+    """method="active_set": u_ν <= g exactly at the nodes of Γ3 (no penetration), balanced,
+    and the same contact force as Nitsche and the penalty method (to 1e-3)."""
+    nitsche = pressed_plate(Contact(gap=GAP, theta=-1, gamma0=100.0), refine=1).run(dt=1, T=1)[-1].contact
+    sim = pressed_plate(Contact(gap=GAP, method="active_set"), refine=1)
+    h = sim.run(dt=1, T=1)
+    c = h[-1].contact
+    assert c.max_penetration <= 1e-15 and nitsche.max_penetration > 1e-10
+    assert np.abs(h[-1].reaction + c.force - [0, P * 0.1]).max() < 1e-9 * P * 0.1
+    assert c.force[1] == pytest.approx(nitsche.force[1], rel=1e-3)
+    lam = sim.newton.lam
+    assert np.all(lam >= 0) and np.count_nonzero(lam) >= 3
+    gap = sim.newton.B @ sim.gfu.vec.FV().NumPy() - sim.newton.g
+    assert np.abs(lam * gap).max() < 1e-12 * P * 0.1 * GAP            # complementarity, nodal
+
+
+def test_active_set_needs_p1():
+    body = ngc.Body(plate(maxh=0.01), ngc.pzt5a(), clamped="left", grounded="top", contact="bottom", order=2)
+    with pytest.raises(ValueError, match="'active_set' is the paper's P1 scheme: it needs Body order 1"):
+        ngc.Simulation(body, contact=Contact(method="active_set"))
+    with pytest.raises(ValueError, match="Contact.method must be"):
+        Contact(method="lagrange")
+    with pytest.raises(ValueError, match="Contact.penalty must be > 0"):
+        Contact(method="penalty", penalty=0)
