@@ -48,9 +48,8 @@ class ActiveSetNewton(Newton):
         nv = mesh.nv
         free = np.array(list(self.freedofs), dtype=bool)
         nodes = {}
-        for vertices, normal, length in zip(side.facet_vertices, side.normals, side.measure):
-            for point in vertices:
-                nr = int(np.argmin(np.linalg.norm(self._points(mesh) - point, axis=1)))
+        for numbers, normal, length in zip(side.facet_vertex_numbers, side.normals, side.measure):
+            for nr in numbers:
                 n, w = nodes.get(nr, (np.zeros(dim), 0.0))
                 nodes[nr] = (n + normal * length, w + length / dim)
         self.nodes = [nr for nr in sorted(nodes) if all(free[c * nv + nr] for c in range(dim))]
@@ -59,16 +58,12 @@ class ActiveSetNewton(Newton):
         rows = np.repeat(np.arange(len(self.nodes)), dim)
         cols = np.array([c * nv + nr for nr in self.nodes for c in range(dim)])
         self.B = sp.csr_matrix((normals.ravel(), (rows, cols)), shape=(len(self.nodes), len(gfu.vec)))
-        points = self._points(mesh)[self.nodes]
+        points = np.array([mesh.vertices[nr].point for nr in self.nodes])
         self.g = np.array([gap(mesh(*p)) for p in points]).ravel()
         self.lam = np.zeros(len(self.nodes))
         self.pressure = pressure
         self.constraint_vector = gfu.vec.CreateVector()
         self.free = np.flatnonzero(free)
-
-    @staticmethod
-    def _points(mesh):
-        return np.array([v.point for v in mesh.vertices])
 
     def solve(self, *, step=None, time=None):
         x, r = self.gfu.vec, self.r

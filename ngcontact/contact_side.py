@@ -32,13 +32,13 @@ class ContactSide:
         self.B = ngs.Compress(facets, active_dofs=active)
         self._mu = self.B.TestFunction()
         self.measure = self._integrate(ngs.CF(1.0))        # |facet| per dof of B^h
-        # per dof of B^h: vertex coordinates of its facet
+        # per dof of B^h: vertex numbers and coordinates of its facet
         order = {d: i for i, d in enumerate(np.flatnonzero(np.array(list(active))))}
         points = np.array([v.point for v in mesh.vertices])
-        self.facet_vertices = np.zeros((self.B.ndof, self.dim, self.dim))
+        self.facet_vertex_numbers = np.zeros((self.B.ndof, self.dim), dtype=int)
         for el in elements:
-            dof = order[facets.GetDofNrs(el)[0]]
-            self.facet_vertices[dof] = points[[v.nr for v in el.vertices]]
+            self.facet_vertex_numbers[order[facets.GetDofNrs(el)[0]]] = [v.nr for v in el.vertices]
+        self.facet_vertices = points[self.facet_vertex_numbers]
         self.midpoints = self.facet_vertices.mean(axis=1)
         n = ngs.specialcf.normal(self.dim)
         self.normals = np.array([self.project(n[i]) for i in range(self.dim)]).T
