@@ -1,4 +1,4 @@
-"""Command line interface: ``python -m ngcontact demo | convergence``."""
+"""Command line interface: ``python -m ngcontact demo | convergence | stability``."""
 import argparse
 import json
 import pathlib
@@ -172,10 +172,17 @@ def main(argv=None):
     conv.add_argument("--dt-halvings", metavar="J", type=int, default=0,
                       help="time-step variant: halve k J times on the finest mesh, first order given")
     conv.add_argument("--out", metavar="DIR", default="convergence", help="output directory")
+    stab = commands.add_parser("stability", help="stability maps (Nitsche γ0 × θ, penalty, β time "
+                               "step, ν → 1/2, strong coupling, debonding, load cycles): "
+                               "<study>.csv and charts")
+    stab.add_argument("--out", metavar="DIR", default="stability", help="output directory")
+    stab.add_argument("--quick", action="store_true", help="fewer runs per study (about a third)")
     args = parser.parse_args(argv)
     if args.command == "demo":
         demo(order=args.order, out=args.out, maxh=args.maxh, steps=args.steps, theta=args.theta,
              gamma0=args.gamma0)
+    elif args.command == "stability":
+        stability(args.out, args.quick)
     else:
         convergence(args.orders, args.levels, args.case, args.smoothness, args.dt_halvings, args.out)
 
@@ -196,3 +203,22 @@ def convergence(orders, levels, case, smoothness, dt_halvings, out):
             rates = {p: study.fitted_rate(runs, order, p) for p in ("u", "phi", "total")}
             print(f"P{order}: fitted rates " + ", ".join(f"{p} {r:.2f}" for p, r in rates.items()))
     print(f"wrote {out / 'errors.csv'} and " + ", ".join(p.name for p in paths))
+
+
+def stability(out, quick=False):
+    """The ``stability`` command: run every study of ``ngcontact.stability``, write
+    <study>.csv and the charts to ``out`` and print a short table per study."""
+    from . import stability as study
+    out = pathlib.Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    start = wallclock.perf_counter()
+    for name, run in study.STUDIES.items():
+        if name == "penalty_sweep" and not study.penalty_available():
+            print("\npenalty_sweep: skipped, Contact has no method='penalty'")
+            continue
+        print(f"\n{name}", flush=True)
+        began = wallclock.perf_counter()
+        rows = run(out, quick=quick)
+        study.write_csv(rows, out / f"{name}.csv")
+        print(f"{study.summary(name, rows)}\n({wallclock.perf_counter() - began:.1f} s)", flush=True)
+    print(f"\nwall {wallclock.perf_counter() - start:.1f} s; results in {out}")
