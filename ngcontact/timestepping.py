@@ -86,6 +86,7 @@ class Simulation:
         # the residual's own Γ3 terms and quadrature, so that the balances hold to round-off
         self._contact_form = ngs.BilinearForm(body.X, symmetric=False)
         self._contact_form += terms.Compile() * side.ds
+        self._contact_residual = self.gfu.vec.CreateVector()
         self._rigid_modes = []
         for i in range(body.dim + 1):
             w = ngs.GridFunction(body.X)
@@ -113,7 +114,7 @@ class Simulation:
     def _contact_record(self):
         side = self.side
         integrals = {name: assemble() for name, assemble in self._observables.items()}
-        r = self.gfu.vec.CreateVector()
+        r = self._contact_residual
         self._contact_form.Apply(self.gfu.vec, r)
         if isinstance(self.newton, ActiveSetNewton):
             r.data += self.newton.constraint_vector          # Bᵀλ: the nodal contact forces

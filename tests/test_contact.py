@@ -7,6 +7,7 @@ import ngcontact as ngc
 from conftest import C33, E33, EPS33
 from ngcontact.contact import Contact
 from ngcontact.contact_laws import conductance_literal
+from ngcontact.forms import matrix_cf, normal_stress, strain
 from geometries import plate
 
 GAP, P = 2e-5, 2e6
@@ -72,14 +73,13 @@ def test_reduces_to_chouly_hild():
         body, X = sim.body, sim.body.X
         (u, phi), (v, xi) = X.TnT()
         n, dim = ngs.specialcf.normal(2), 2
-        from ngcontact.forms import matrix_cf, normal_stress, strain
         F = matrix_cf(body.tensors.F)
         sn = lambda w: normal_stress(F * strain(w, dim), n, dim)
         gamma = 3.0 * 4 * np.linalg.eigvalsh(body.tensors.F).max() / ngs.specialcf.mesh_size
         Pu = sn(u) - gamma * (u * n - GAP)
         ch = ngs.BilinearForm(X)
-        ch += (ngs.InnerProduct(F * strain(u, dim), strain(v, dim)) + 1e-9 * ngs.grad(phi) * ngs.grad(xi)
-               * -1) * ngs.dx
+        ch += (ngs.InnerProduct(F * strain(u, dim), strain(v, dim))
+               - 1e-9 * ngs.grad(phi) * ngs.grad(xi)) * ngs.dx          # −c(φ, ξ), electric negated
         ch += (-theta / gamma * sn(u) * sn(v) + 1 / gamma * ngs.IfPos(Pu, 0, Pu) * (theta * sn(v) - gamma * v * n)) \
             * ngs.ds(skeleton=True, definedon=body.region("contact"))
         ch += ngs.CF((0, P)) * sim.time * v * ngs.ds("top")

@@ -6,7 +6,9 @@ import numpy as np
 import ngsolve as ngs
 import pytest
 
+import ngcontact as ngc
 from ngcontact import convergence as study
+from ngcontact.contact_side import ContactSide
 from ngcontact.cli import main
 from geometries import plate
 
@@ -53,8 +55,6 @@ def test_nested_transfer_is_exact():
     gf.Set(gc)
     xs = np.random.default_rng(0).random((200, 2)) * [0.1, 0.02]
     assert np.abs(gc(coarse(xs[:, 0], xs[:, 1])) - gf(fine(xs[:, 0], xs[:, 1]))).max() < 1e-12
-    import ngcontact as ngc
-    from ngcontact.contact_side import ContactSide
     sides = [ContactSide(ngc.Body(m, ngc.pzt5a(), clamped="left", grounded="top", contact="bottom"))
              for m in (coarse, fine)]
     values = sides[0].midpoints[:, 0] ** 2
