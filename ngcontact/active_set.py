@@ -13,7 +13,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .newton import Newton, NewtonError, NewtonResult
+from .newton import Newton, NewtonError, NewtonResult, Timings
 from .nitsche import NitscheContact
 
 
@@ -68,9 +68,10 @@ class ActiveSetNewton(Newton):
     def solve(self, *, step=None, time=None):
         x, r = self.gfu.vec, self.r
         xa = x.FV().NumPy()
-        residuals, active = [], None
+        residuals, active, clock = [], None, Timings()
         for it in range(self.maxit + 1):
-            self.form.Apply(x, r)
+            with clock("residual"):
+                self.form.Apply(x, r)
             if self.scales is None:
                 self.form.AssembleLinearization(x)
                 self._set_scales()
@@ -87,18 +88,20 @@ class ActiveSetNewton(Newton):
             if active is not None and np.array_equal(active, new_active) and (
                     norm <= self.rtol * residuals[0] or norm <= 1e-13 * self._norm(x, 1)):
                 self._publish()
-                return NewtonResult(it, residuals, r)
+                return NewtonResult(it, residuals, r, clock)
             if it == self.maxit:
                 break
             active = new_active
-            self.form.AssembleLinearization(x)
+            with clock("assembly"):
+                self.form.AssembleLinearization(x)
             vals, cols, ptr = self.form.mat.CSR()
             J = sp.csr_matrix((vals, cols, ptr))[self.free][:, self.free]
             BA = self.B[active][:, self.free]
             K = sp.bmat([[J, BA.T], [BA, None]], format="csc")
             rhs = np.concatenate([-(r.FV().NumPy() - self.constraint_vector.FV().NumPy())[self.free],
                                   -gap[active]])
-            sol = spla.spsolve(K, rhs)
+            with clock("factorization"):                      # factorisation and solve
+                sol = spla.spsolve(K, rhs)
             xa[self.free] += sol[:len(self.free)]
             self.lam[:] = 0.0
             self.lam[active] = sol[len(self.free):]

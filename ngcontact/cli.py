@@ -1,4 +1,4 @@
-"""Command line interface: ``python -m ngcontact demo | convergence | stability``."""
+"""Command line interface: ``python -m ngcontact demo | convergence | stability | bench``."""
 import argparse
 import json
 import pathlib
@@ -177,8 +177,33 @@ def main(argv=None):
                                "<study>.csv and charts")
     stab.add_argument("--out", metavar="DIR", default="stability", help="output directory")
     stab.add_argument("--quick", action="store_true", help="fewer runs per study (about a third)")
+    bench = commands.add_parser("bench", help="time per step of the reference scene against one "
+                                "linear solve, orders x sizes: bench.csv and a chart")
+    bench.add_argument("--out", metavar="DIR", default="bench", help="output directory")
+    bench.add_argument("--dim", type=int, choices=(2, 3), default=2, help="2D plate or 3D block")
+    bench.add_argument("--orders", metavar="P", type=int, nargs="+", default=[1, 2, 3, 4])
+    bench.add_argument("--max-ndof", metavar="N", type=float, default=1e6,
+                       help="largest problem size (default 1e6)")
+    bench.add_argument("--steps", metavar="N", type=int, default=10,
+                       help="time steps per case (default 10: first contact and its spreading)")
+    bench.add_argument("--dt", metavar="K", type=float, default=2.5e-3, help="time step, s")
+    bench.add_argument("--inverse", choices=("umfpack", "pardiso", "sparsecholesky"),
+                       help="direct solver (default: sparsecholesky if symmetric, else umfpack)")
+    bench.add_argument("--realcompile", choices=("auto", "yes", "no"), default="auto",
+                       help="compile the Γ3 integrand to machine code (auto: ndof >= 50 000)")
+    bench.add_argument("--predictor", action="store_true",
+                       help="start Newton from the linear extrapolation (default: from x_n)")
+    bench.add_argument("--no-threads", action="store_true", help="run without TaskManager")
+    bench.add_argument("--bare", action="store_true",
+                       help="no glue, insulating foundation: symmetric Jacobian (θ = 1)")
     args = parser.parse_args(argv)
-    if args.command == "demo":
+    if args.command == "bench":
+        from . import bench as study
+        study.run(args.out, orders=args.orders, dim=args.dim, max_ndof=args.max_ndof, steps=args.steps,
+                  dt=args.dt, inverse=args.inverse, predictor=args.predictor,
+                  realcompile=dict(auto=None, yes=True, no=False)[args.realcompile],
+                  threads=not args.no_threads, bare=args.bare)
+    elif args.command == "demo":
         demo(order=args.order, out=args.out, maxh=args.maxh, steps=args.steps, theta=args.theta,
              gamma0=args.gamma0)
     elif args.command == "stability":

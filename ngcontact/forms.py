@@ -10,11 +10,11 @@ the residual of one backward Euler step n is
 
 R((u, φ); (v, ξ)) = ∫ σ : ε(v) + ∫ D · ∇ξ − ∫ f0 · v − ∫_Γ2 f2 · v − ∫ q0 ξ − ∫_Γb qb ξ
 
-with σ = A ε((u − u_{n−1})/k) + F ε(u) + Eᵀ∇φ and D = E ε(u) − C∇φ (model.md).
+with σ = A ε((u − u_{n−1})/k) + F ε(u) + Eᵀ∇φ and D = E ε(u) − C∇φ (model.md); it is
+assembled in parts by ``system.StepSystem``.
 """
 import ngsolve as ngs
 
-from .loads import as_cf
 
 
 def matrix_cf(M):
@@ -53,25 +53,3 @@ def normal_stress(sigma_voigt, n, dim):
         S = ngs.CF((s[0], s[5], s[4], s[5], s[1], s[3], s[4], s[3], s[2]), dims=(3, 3))
     return n * (S * n)
 
-
-def body_residual(body, loads, u_old, inv_dt):
-    """The bulk and load part of the step residual R, as a (nonlinear-ready) BilinearForm.
-
-    ``u_old`` is the GridFunction of u_{n−1}; ``inv_dt`` a Parameter holding 1/k.
-    Contact terms on Γ3 are added to the same form by the contact module.
-    """
-    dim, mesh = body.dim, body.mesh
-    (u, phi), (v, xi) = body.X.TnT()
-    sigma = stress(body.tensors, u, phi, dim, inv_dt * (strain(u, dim) - strain(u_old, dim)))
-    D = electric_displacement(body.tensors, u, phi, dim)
-    R = ngs.BilinearForm(body.X, symmetric=False)
-    R += (ngs.InnerProduct(sigma, strain(v, dim)) + ngs.InnerProduct(D, ngs.grad(xi))) * ngs.dx
-    if loads.f0 is not None:
-        R += -as_cf(loads.f0, dim, "f0") * v * ngs.dx
-    if loads.q0 is not None:
-        R += -as_cf(loads.q0, 1, "q0") * xi * ngs.dx
-    for names, f2 in loads.f2.items():
-        R += -as_cf(f2, dim, f"f2[{names!r}]") * v * ngs.ds(mesh.Boundaries(names))
-    for names, qb in loads.qb.items():
-        R += -as_cf(qb, 1, f"qb[{names!r}]") * xi * ngs.ds(mesh.Boundaries(names))
-    return R

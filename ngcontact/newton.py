@@ -6,8 +6,12 @@ blocks of the Jacobian (N/m and C/V): each term is an energy, in J.
 The step has converged when ‖r‖ ≤ rtol ‖r_0‖ (r_0: residual at the start of the step)
 or when ‖r‖ ≤ 1e-13 ‖x‖_s, ‖x‖²_s = s_u‖x_u‖² + s_φ‖x_φ‖² (round-off level).
 
-Unlike ``ngsolve.solvers.Newton`` this raises ``NewtonError`` when it fails.
+Unlike ``ngsolve.solvers.Newton`` this raises ``NewtonError`` when it fails. Each solve
+reports its wall time split into residual evaluation, assembly of the Jacobian,
+factorisation and solve (``NewtonResult.timings``, s).
 """
+import time as wallclock
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -34,6 +38,22 @@ class NewtonResult:
     iterations: int
     residuals: list = field(default_factory=list)
     residual_vector: object = None
+    timings: dict = field(default_factory=dict)
+
+
+class Timings(dict):
+    """Wall time (s) per phase: ``with timings("assembly"): ...`` adds to timings["assembly"]."""
+
+    PHASES = ("residual", "assembly", "factorization", "solve")
+
+    def __init__(self):
+        super().__init__((phase, 0.0) for phase in self.PHASES)
+
+    @contextmanager
+    def __call__(self, phase):
+        start = wallclock.perf_counter()
+        yield
+        self[phase] += wallclock.perf_counter() - start
 
 
 class Newton:
@@ -79,9 +99,10 @@ class Newton:
     def solve(self, *, step=None, time=None):
         """Iterate from the current ``gfu`` until converged; raise ``NewtonError`` otherwise."""
         x, r, w = self.gfu.vec, self.r, self.w
-        residuals = []
+        residuals, clock = [], Timings()
         for it in range(self.maxit + 1):
-            self.form.Apply(x, r)
+            with clock("residual"):
+                self.form.Apply(x, r)
             if self.scales is None:
                 self.form.AssembleLinearization(x)
                 self._set_scales()
@@ -91,11 +112,15 @@ class Newton:
                 raise NewtonError("diverged (non-finite residual)", iteration=it, residuals=residuals,
                                   step=step, time=time, hint="a smaller time step")
             if norm <= self.rtol * residuals[0] or norm <= 1e-13 * self._norm(x, 1):
-                return NewtonResult(it, residuals, r)
+                return NewtonResult(it, residuals, r, clock)
             if it == self.maxit:
                 break
-            self.form.AssembleLinearization(x)
-            w.data = self.form.mat.Inverse(self.freedofs, inverse=self.inverse) * r
+            with clock("assembly"):
+                self.form.AssembleLinearization(x)
+            with clock("factorization"):
+                inverse = self.form.mat.Inverse(self.freedofs, inverse=self.inverse)
+            with clock("solve"):
+                w.data = inverse * r
             x.data -= w
         raise NewtonError(f"did not converge in {self.maxit} iterations", iteration=self.maxit,
                           residuals=residuals, step=step, time=time,

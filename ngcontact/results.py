@@ -47,6 +47,8 @@ class StepRecord:
     charge: {electrode name: ∫ D·ν da}, the flux of D out of the body through each named
         part of Γa (C; C/m in 2D); the charge an electrode carries is its negative.
     state: copy of the (u, φ) coefficient vector.
+    wall_s: wall time of the step (s), records included; ``timings`` splits it into the
+        Newton phases "residual", "assembly", "factorization", "solve" and "other" (s).
     """
     step: int
     time: float
@@ -57,6 +59,7 @@ class StepRecord:
     charge: dict
     state: np.ndarray = field(repr=False, default=None)
     contact: ContactRecord = None
+    timings: dict = field(default_factory=dict)
 
 
 class History(list):

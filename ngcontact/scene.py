@@ -10,7 +10,7 @@ from the free end, and the plate lifts off. Units: SI, per metre of depth.
 """
 import ngsolve as ngs
 
-from geometries import plate
+from geometries import block, plate
 
 from .body import Body
 from .contact import Contact
@@ -19,6 +19,8 @@ from .materials import pzt5a
 
 L1, L2 = 0.1, 0.02
 """Plate length and thickness, m."""
+WIDTH = 0.04
+"""Width of the 3D block variant (y), m; its thickness L2 is along z."""
 PRESSURE = 2e6
 """Peak pressure on top, Pa."""
 RELAXATION_TIME = 2e-3
@@ -45,17 +47,28 @@ def pressure(t):
     return PRESSURE * load_factor(t)
 
 
-def body(order=1, maxh=0.005, refine=0):
+def body(order=1, maxh=0.005, refine=0, dim=2):
     """The plate with its boundary parts; the mesh is halved along Γ3 and refined ``refine``
-    times by ``mesh.Refine()``."""
-    mesh = plate(L1, L2, maxh=maxh, maxh_contact=maxh / 2, refine=refine)
-    return Body(mesh, pzt5a(relaxation_time=RELAXATION_TIME), clamped="left", grounded="top",
-                contact="bottom", order=order)
+    times by ``mesh.Refine()``. ``dim=3``: the block L1 × WIDTH × L2 (mesh size ``maxh``,
+    poled along z) with the same boundary names."""
+    material = pzt5a(relaxation_time=RELAXATION_TIME)
+    if dim == 3:
+        mesh = block(L1, WIDTH, L2, maxh=maxh, refine=refine)
+    elif dim == 2:
+        mesh = plate(L1, L2, maxh=maxh, maxh_contact=maxh / 2, refine=refine)
+    else:
+        raise ValueError(f"dim must be 2 or 3, got {dim}")
+    return Body(mesh, material, clamped="left", grounded="top", contact="bottom", order=order)
 
 
-def loads(t):
-    return Loads(f2={"top": (0, -pressure(t))})
+def loads(t, dim=2):
+    """The pressure on top (2D: N/m² per metre of depth; 3D: N/m²)."""
+    return Loads(f2={"top": (0,) * (dim - 1) + (-pressure(t),)})
 
 
-def contact(theta=1, gamma0=10.0):
-    return Contact(**CONTACT, theta=theta, gamma0=gamma0)
+def contact(theta=1, gamma0=10.0, bare=False):
+    """The Γ3 data ``CONTACT``; ``bare=True``: no glue and an insulating foundation
+    (γ_ν = k_e = 0, Signorini contact across the gap), so that with θ = 1 the step Jacobian
+    is symmetric."""
+    data = dict(CONTACT, adhesion=0.0, conductance=0.0) if bare else dict(CONTACT)
+    return Contact(**data, theta=theta, gamma0=gamma0)

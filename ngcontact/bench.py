@@ -1,0 +1,160 @@
+"""Speed benchmark: time per step of the reference scene against the cost of one linear solve.
+
+The floor for one backward Euler step is (Newton iterations) × (one assembly of the
+Jacobian + one factorisation + one solve). For each order and nested refinement level
+``case`` runs the first ``steps`` steps of the reference scene (``scene``; the plate
+pressed onto the foundation: contact forms and spreads, the hardest part for Newton),
+splits the wall time per step into the Newton phases and the rest, and measures one
+linearised solve at the final state in the same run:
+
+  overhead = (time per step) / (mean Newton iterations × one linearised solve).
+
+``python -m ngcontact bench --out DIR`` writes bench.csv, bench.json and time_per_step.png.
+Times are wall-clock seconds on the machine that runs it; nothing here asserts a time.
+"""
+import csv
+import json
+import pathlib
+import time as wallclock
+from contextlib import nullcontext
+
+import ngsolve as ngs
+import numpy as np
+from matplotlib.figure import Figure
+
+from . import scene
+from .timestepping import Simulation
+
+COLUMNS = ("dim", "order", "level", "ndof", "steps", "newton_mean", "newton_max", "step_s",
+           "assembly_s", "factorization_s", "solve_s", "residual_s", "other_s", "one_solve_s",
+           "overhead", "setup_s", "inverse")
+"""Columns of bench.csv; times in s, per step except one_solve_s and setup_s."""
+MAXH = {2: 0.005, 3: 0.01}
+"""Coarsest mesh size per dimension, m (level ℓ: ℓ times ``mesh.Refine()``)."""
+
+
+def case(order, level, *, dim=2, steps=10, dt=2.5e-3, inverse=None, realcompile=None,
+         predictor=False, threads=True, bare=False):
+    """One benchmark row (a dict with ``COLUMNS``) for the reference scene at P``order`` on
+    refinement ``level``, ``steps`` steps of ``dt`` s. ``inverse``, ``realcompile`` and
+    ``predictor`` go to Simulation; ``threads``: run under TaskManager; ``bare=True``: no glue,
+    no conduction (symmetric Jacobian with θ = 1: sparse Cholesky by default)."""
+    start = wallclock.perf_counter()
+    with ngs.TaskManager() if threads else nullcontext():
+        t = ngs.Parameter(0.0)
+        body = scene.body(order, MAXH[dim], refine=level, dim=dim)
+        sim = Simulation(body, scene.loads(t, dim), time=t, contact=scene.contact(bare=bare), inverse=inverse,
+                         keep_states=False, realcompile=realcompile, predictor=predictor)
+        setup = wallclock.perf_counter() - start
+        sim.run(dt, steps * dt)
+        records = sim.history[1:]
+        one_solve = one_linear_solve(sim)
+    iterations = np.array([r.newton_iterations for r in records])
+    mean = {phase: float(np.mean([r.timings[phase] for r in records])) for phase in records[0].timings}
+    step_s = float(np.mean([r.wall_s for r in records]))
+    return dict(dim=dim, order=order, level=level, ndof=body.ndof, steps=len(records),
+                newton_mean=float(iterations.mean()), newton_max=int(iterations.max()), step_s=step_s,
+                **{f"{phase}_s": mean[phase] for phase in ("assembly", "factorization", "solve",
+                                                           "residual", "other")},
+                one_solve_s=one_solve, overhead=step_s / (iterations.mean() * one_solve),
+                setup_s=setup, inverse=sim.inverse)
+
+
+def one_linear_solve(sim, repeat=2):
+    """Wall time (s) of one assembly of the Jacobian, one factorisation and one solve at the
+    current state, as Newton does them (the fastest of ``repeat``)."""
+    newton, x = sim.newton, sim.gfu.vec
+    w = x.CreateVector()
+    times = []
+    for _ in range(repeat):
+        start = wallclock.perf_counter()
+        sim.form.AssembleLinearization(x)
+        inverse = sim.form.mat.Inverse(newton.freedofs, inverse=sim.inverse)
+        w.data = inverse * x
+        times.append(wallclock.perf_counter() - start)
+    return min(times)
+
+
+def growth_exponent(ndof, seconds, min_ndof=1e4):
+    """Least-squares slope of log(seconds) against log(ndof) over the sizes >= min_ndof
+    (nan with fewer than two such sizes)."""
+    ndof, seconds = np.asarray(ndof, float), np.asarray(seconds, float)
+    keep = ndof >= min_ndof
+    if keep.sum() < 2:
+        return float("nan")
+    return float(np.polyfit(np.log(ndof[keep]), np.log(seconds[keep]), 1)[0])
+
+
+def levels(order, dim, max_ndof):
+    """The refinement levels whose ndof stays <= max_ndof (from the coarse ndof, ×2^dim per level)."""
+    coarse = scene.body(order, MAXH[dim], dim=dim).ndof
+    found = [0]
+    while coarse * 2 ** (dim * (found[-1] + 1)) <= max_ndof * 1.05:
+        found.append(found[-1] + 1)
+    return found
+
+
+def run(out, *, orders=(1, 2, 3, 4), dim=2, max_ndof=1e6, steps=10, dt=2.5e-3, **options):
+    """All cases up to ``max_ndof``: prints the table as it goes, writes bench.csv,
+    bench.json (rows and fitted exponents per order) and time_per_step.png into ``out``."""
+    out = pathlib.Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    rows = []
+    print(_header(), flush=True)
+    for order in orders:
+        for level in levels(order, dim, max_ndof):
+            rows.append(case(order, level, dim=dim, steps=steps, dt=dt, **options))
+            print(_line(rows[-1]), flush=True)
+            _write(out, rows, dim, steps, dt)
+    exponents = _write(out, rows, dim, steps, dt)
+    print("time per step ~ ndof^a (fit over ndof >= 1e4): "
+          + ", ".join(f"P{p}: a = {a:.2f}" for p, a in exponents.items()))
+    return rows, exponents
+
+
+def _write(out, rows, dim, steps, dt):
+    exponents = {order: growth_exponent([r["ndof"] for r in rows if r["order"] == order],
+                                        [r["step_s"] for r in rows if r["order"] == order])
+                 for order in dict.fromkeys(r["order"] for r in rows)}
+    with open(out / "bench.csv", "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=COLUMNS)
+        writer.writeheader()
+        writer.writerows(rows)
+    (out / "bench.json").write_text(json.dumps(dict(dim=dim, steps=steps, dt=dt, rows=rows,
+                                                    exponents=exponents), indent=1))
+    _plot(out / "time_per_step.png", rows, exponents, dim)
+    return exponents
+
+
+def _header():
+    return (f"{'dim':>3} {'p':>2} {'lvl':>3} {'ndof':>9} {'newton':>11} {'step [s]':>9} {'assembly':>9} "
+            f"{'factor':>9} {'solve':>8} {'residual':>9} {'other':>8} {'1 solve':>8} {'ratio':>6}")
+
+
+def _line(r):
+    return (f"{r['dim']:3d} {r['order']:2d} {r['level']:3d} {r['ndof']:9d} {r['newton_mean']:6.2f} "
+            f"({r['newton_max']:2d}) {r['step_s']:9.4f} {r['assembly_s']:9.4f} {r['factorization_s']:9.4f} "
+            f"{r['solve_s']:8.4f} {r['residual_s']:9.4f} {r['other_s']:8.4f} {r['one_solve_s']:8.4f} "
+            f"{r['overhead']:6.2f}")
+
+
+def _plot(path, rows, exponents, dim):
+    fig = Figure(figsize=(11, 4.2), layout="constrained")
+    ax, bx = fig.subplots(1, 2)
+    for order, a in exponents.items():
+        sel = [r for r in rows if r["order"] == order]
+        ndof = np.array([r["ndof"] for r in sel])
+        ax.loglog(ndof, [r["step_s"] for r in sel], "o-", label=f"P{order} (slope {a:.2f})")
+        bx.semilogx(ndof, [r["overhead"] for r in sel], "o-", label=f"P{order}")
+    if rows:
+        n = np.array([min(r["ndof"] for r in rows), max(r["ndof"] for r in rows)], float)
+        t0 = min(r["step_s"] for r in rows)
+        ax.loglog(n, t0 * (n / n[0]) ** 1.3, "k--", lw=0.8, label="ndof^1.3")
+        ax.loglog(n, t0 * (n / n[0]), "k:", lw=0.8, label="ndof^1")
+    ax.set(xlabel="ndof", ylabel="wall time per step [s]", title=f"{dim}D reference scene: time per step")
+    bx.axhline(1.3, color="k", ls="--", lw=0.8, label="target 1.3")
+    bx.set(xlabel="ndof", ylabel="time per step / (Newton its × one solve)", title="overhead ratio")
+    for axis in (ax, bx):
+        axis.grid(True, which="both", alpha=0.3)
+        axis.legend(fontsize=8)
+    fig.savefig(path, dpi=120)

@@ -1,0 +1,150 @@
+"""The fast paths give the same numbers as the plain forms; the benchmark's arithmetic.
+
+No test here asserts a time: speed is measured by ``python -m ngcontact bench``.
+"""
+import csv
+
+import numpy as np
+import ngsolve as ngs
+import pytest
+import scipy.sparse as sp
+
+import ngcontact as ngc
+from ngcontact import bench, cli, scene
+from ngcontact.forms import electric_displacement, strain, stress
+from ngcontact.loads import as_cf
+from ngcontact.system import StepSystem
+from geometries import block, plate
+
+
+def monolithic_residual(body, loads, u_old, inv_dt):
+    """The whole step residual as one nonlinear-ready BilinearForm (the reference)."""
+    dim = body.dim
+    (u, phi), (v, xi) = body.X.TnT()
+    sigma = stress(body.tensors, u, phi, dim, inv_dt * (strain(u, dim) - strain(u_old, dim)))
+    R = ngs.BilinearForm(body.X, symmetric=False)
+    R += (ngs.InnerProduct(sigma, strain(v, dim))
+          + ngs.InnerProduct(electric_displacement(body.tensors, u, phi, dim), ngs.grad(xi))) * ngs.dx
+    R += -as_cf(loads.f0, dim, 'f0') * v * ngs.dx - as_cf(loads.q0, 1, 'q0') * xi * ngs.dx
+    for names, f2 in loads.f2.items():
+        R += -as_cf(f2, dim, 'f2') * v * ngs.ds(names)
+    for names, qb in loads.qb.items():
+        R += -as_cf(qb, 1, 'qb') * xi * ngs.ds(names)
+    return R
+
+
+@pytest.mark.parametrize("mesh", [plate(maxh=0.01), block(maxh=0.02)], ids=["2D", "3D"])
+def test_step_system_equals_the_monolithic_form(mesh):
+    """R(x) and R'(x) of StepSystem (K_el, K_A assembled once, f per step) equal the plain
+    form's at a random state, u_{n−1}, t and k, and again after t and k change."""
+    dim = mesh.dim
+    body = ngc.Body(mesh, ngc.pzt5a(relaxation_time=2e-3), clamped="left", grounded="top",
+                    contact="bottom", order=2)
+    t, inv_dt = ngs.Parameter(0.3), ngs.Parameter(400.0)
+    x, y = ngs.CoefficientFunction(ngs.x), ngs.CoefficientFunction(ngs.y)
+    loads = ngc.Loads(f0=tuple([1e6 * t * x] + [2e5 * y] * (dim - 1)), q0=3e-3 * t * y,
+                      f2={"top": tuple([0] * (dim - 1) + [-2e6 * t])}, qb={"right": 1e-4 * t})
+    rng = np.random.default_rng(3)
+    u_old = ngs.GridFunction(body.V)
+    u_old.vec.FV().NumPy()[:] = rng.normal(size=body.V.ndof) * 1e-5
+    system = StepSystem(body, loads, u_old, inv_dt, t)
+    reference = monolithic_residual(body, loads, u_old, inv_dt)
+    state = ngs.GridFunction(body.X).vec
+    state.FV().NumPy()[:] = rng.normal(size=body.ndof) * np.r_[np.full(body.V.ndof, 1e-5),
+                                                               np.full(body.W.ndof, 50.0)]
+    r1, r2 = state.CreateVector(), state.CreateVector()
+    for time, rate in ((0.3, 400.0), (0.7, 100.0)):
+        t.Set(time)
+        inv_dt.Set(rate)
+        system.Apply(state, r1)
+        reference.Apply(state, r2)
+        a, b = r1.FV().NumPy(), r2.FV().NumPy()
+        assert np.abs(a - b).max() < 1e-10 * np.abs(b).max()
+        system.AssembleLinearization(state)
+        reference.AssembleLinearization(state)
+        J1, J2 = (sp.csr_matrix(m.CSR()) for m in (system.mat, reference.mat))
+        assert abs(J1 - J2).max() < 1e-10 * abs(J2).max()
+
+
+def run_reference(steps=6, **kw):
+    t = ngs.Parameter(0.0)
+    sim = ngc.Simulation(scene.body(1), scene.loads(t), time=t, contact=scene.contact(), **kw)
+    sim.run(2.5e-3, steps * 2.5e-3)
+    return sim
+
+
+def test_predictor_changes_the_start_not_the_solution():
+    """With the linear predictor Newton reaches the same states (to its tolerance) in the
+    reference scene's first steps, first contact included, and no more iterations."""
+    plain, predicted = run_reference(predictor=False), run_reference(predictor=True)
+    for a, b in zip(plain.history[1:], predicted.history[1:]):
+        assert np.abs(a.state - b.state).max() < 1e-7 * np.abs(a.state).max()
+        assert b.contact.force[1] == pytest.approx(a.contact.force[1], rel=1e-8, abs=1e-6)
+    assert predicted.history.newton_iterations.sum() <= plain.history.newton_iterations.sum()
+
+
+def test_step_timings_split_the_wall_time():
+    """Each step's Newton phases and 'other' are >= 0 and add up to its wall time."""
+    sim = run_reference(steps=3)
+    for rec in sim.history:
+        assert set(rec.timings) == {"residual", "assembly", "factorization", "solve", "other"}
+        assert min(rec.timings.values()) >= 0
+        assert sum(rec.timings.values()) == pytest.approx(rec.wall_s, rel=1e-12)
+        if rec.step > 0:
+            assert rec.timings["factorization"] > 0
+
+
+def test_realcompiled_contact_terms_agree():
+    """The Γ3 integrand compiled to machine code gives the same steps to round-off."""
+    a, b = run_reference(steps=4), run_reference(steps=4, realcompile=True)
+    assert b.realcompile and not a.realcompile
+    for ra, rb in zip(a.history, b.history):
+        assert np.abs(ra.state - rb.state).max() <= 1e-9 * np.abs(ra.state).max()
+        assert ra.newton_iterations == rb.newton_iterations
+
+
+def test_bare_scene_uses_cholesky_and_matches_umfpack():
+    """θ = 1 without glue and conduction: symmetric Jacobian, sparse Cholesky by default, the same steps
+    as UMFPACK to the Newton tolerance."""
+    steps = []
+    for inverse in (None, "umfpack"):
+        t = ngs.Parameter(0.0)
+        sim = ngc.Simulation(scene.body(1), scene.loads(t), time=t, contact=scene.contact(bare=True),
+                             inverse=inverse)
+        sim.run(2.5e-3, 0.03)
+        steps.append(sim)
+    assert steps[0].inverse == "sparsecholesky" and steps[0].history[-1].contact.contact_length > 0
+    for a, b in zip(steps[0].history, steps[1].history):
+        assert np.abs(a.state - b.state).max() <= 1e-8 * np.abs(b.state).max()
+
+
+def test_growth_exponent_recovers_a_power_law():
+    ndof = np.array([1e3, 4e3, 1.6e4, 6.4e4, 2.56e5])
+    seconds = 3e-6 * ndof ** 1.27
+    seconds[0] *= 10                                   # below min_ndof: ignored
+    assert bench.growth_exponent(ndof, seconds) == pytest.approx(1.27, abs=1e-12)
+    assert np.isnan(bench.growth_exponent(ndof[:3], seconds[:3]))
+
+
+@pytest.mark.parametrize("dim, order, max_ndof", [(2, 1, 3000), (2, 2, 1e4), (3, 1, 5000)])
+def test_levels_stay_below_the_size_limit(dim, order, max_ndof):
+    """The chosen refinement levels have ndof <= max_ndof (5 % slack); one more would not."""
+    found = bench.levels(order, dim, max_ndof)
+    sizes = [scene.body(order, bench.MAXH[dim], refine=level, dim=dim).ndof for level in found]
+    assert max(sizes) <= 1.05 * max_ndof and sizes == sorted(sizes)
+    assert scene.body(order, bench.MAXH[dim], refine=found[-1] + 1, dim=dim).ndof > max_ndof
+
+
+def test_bench_command_writes_its_table(tmp_path, capsys):
+    cli.main(["bench", "--out", str(tmp_path), "--orders", "1", "--max-ndof", "2500",
+                  "--steps", "2", "--no-threads"])
+    rows = list(csv.DictReader(open(tmp_path / "bench.csv")))
+    assert [int(r["level"]) for r in rows] == [0, 1]
+    for r in rows:
+        assert int(r["ndof"]) == scene.body(1, refine=int(r["level"])).ndof
+        parts = sum(float(r[f"{p}_s"]) for p in ("assembly", "factorization", "solve", "residual", "other"))
+        assert parts == pytest.approx(float(r["step_s"]), rel=1e-9)
+        assert float(r["overhead"]) == pytest.approx(
+            float(r["step_s"]) / (float(r["newton_mean"]) * float(r["one_solve_s"])), rel=1e-9)
+    assert (tmp_path / "time_per_step.png").stat().st_size > 10_000
+    assert "time per step ~ ndof^a" in capsys.readouterr().out
