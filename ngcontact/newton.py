@@ -68,9 +68,12 @@ class Newton:
         Jacobian, "umfpack" or "pardiso" otherwise).
     rtol : relative residual reduction per step.
     maxit : maximum number of linear solves per step.
+    condense : solve with the statically condensed Jacobian (``form`` must be a condensing
+        ``StepSystem``); default ``form.condense`` when it exists.
     """
 
-    def __init__(self, form, gfu, *, freedofs=None, inverse="umfpack", rtol=1e-10, maxit=50):
+    def __init__(self, form, gfu, *, freedofs=None, inverse="umfpack", rtol=1e-10, maxit=50,
+                 condense=None):
         if not rtol > 0:
             raise ValueError(f"rtol must be > 0, got {rtol}")
         if int(maxit) != maxit or maxit < 1:
@@ -85,6 +88,10 @@ class Newton:
         self.scales = None
         self.r = gfu.vec.CreateVector()
         self.w = gfu.vec.CreateVector()
+        self.condense = getattr(form, "condense", False) if condense is None else condense
+        if self.condense:
+            self.coupling = self.freedofs & space.FreeDofs(coupling=True)
+            self.r_condensed = gfu.vec.CreateVector()
 
     def _norm(self, vec, power):
         a = vec.FV().NumPy()
@@ -115,14 +122,30 @@ class Newton:
                 return NewtonResult(it, residuals, r, clock)
             if it == self.maxit:
                 break
-            with clock("assembly"):
-                self.form.AssembleLinearization(x)
-            with clock("factorization"):
-                inverse = self.form.mat.Inverse(self.freedofs, inverse=self.inverse)
-            with clock("solve"):
-                w.data = inverse * r
+            if self.condense:
+                self._condensed_update(x, clock)
+            else:
+                with clock("assembly"):
+                    self.form.AssembleLinearization(x)
+                with clock("factorization"):
+                    inverse = self.form.mat.Inverse(self.freedofs, inverse=self.inverse)
+                with clock("solve"):
+                    w.data = inverse * r
             x.data -= w
         raise NewtonError(f"did not converge in {self.maxit} iterations", iteration=self.maxit,
                           residuals=residuals, step=step, time=time,
                           hint="a smaller time step, a larger Nitsche parameter gamma0, theta = -1, "
                                "or a larger maxit")
+
+    def _condensed_update(self, x, clock):
+        """w = R'(x)⁻¹ r through the Schur complement on the coupling DOFs."""
+        r, w, rc, K = self.r, self.w, self.r_condensed, self.form.K_condensed
+        with clock("assembly"):
+            self.form.AssembleLinearization(x, condensed=True)
+        with clock("factorization"):
+            inverse = self.form.condensed_mat.Inverse(self.coupling, inverse=self.inverse)
+        with clock("solve"):
+            rc.data = r + K.harmonic_extension_trans * r
+            w.data = inverse * rc
+            w.data += K.harmonic_extension * w
+            w.data += K.inner_solve * r

@@ -18,7 +18,7 @@ from .newton import Newton, NewtonError
 from .nitsche import NitscheContact
 from .penalty import PenaltyContact
 from .results import ContactRecord, History, StepRecord
-from .system import StepSystem
+from .system import StepSystem, has_interior_dofs
 
 
 class Simulation:
@@ -39,12 +39,14 @@ class Simulation:
         instead of x_n (the default warm start). It saves 4-8 % of the iterations of the
         reference run at k = 2.5 ms, but on coarse steps the extrapolated state penetrates deep
         and Newton may fail where the warm start converges (docs/speed.md).
+    condense : static condensation of the element-interior DOFs (those of the elements at Γ3
+        are kept); default: when the space has such DOFs (order >= 3 in 2D, >= 4 in 3D).
     realcompile : compile the Γ3 integrand to machine code (needs a C++ compiler, takes
         seconds once, assembles the Γ3 terms about 4× faster); default: when ndof >= 50 000.
     """
 
     def __init__(self, body, loads=None, *, contact=None, time=None, u0=None, inverse=None,
-                 rtol=1e-10, maxit=50, keep_states=True, predictor=False, realcompile=None):
+                 rtol=1e-10, maxit=50, keep_states=True, predictor=False, condense=None, realcompile=None):
         self.body = body
         self.loads = loads or Loads()
         self.loads.check(body)
@@ -54,7 +56,12 @@ class Simulation:
         self.u_old = ngs.GridFunction(body.V, name="u_old")
         self.u, self.phi = self.gfu.components
         self.realcompile = body.ndof >= 50_000 if realcompile is None else bool(realcompile)
-        self.form = StepSystem(body, self.loads, self.u_old, self.inv_dt, self.time)
+        kept = body.region("contact") if contact is not None else None
+        self.condense = has_interior_dofs(body.X) if condense is None else bool(condense)
+        if contact is not None and contact.method == "active_set":
+            self.condense = False
+        self.form = StepSystem(body, self.loads, self.u_old, self.inv_dt, self.time,
+                               condense=self.condense, kept=kept)
         self.contact = contact
         if contact is not None:
             self._add_contact(contact)
@@ -182,7 +189,7 @@ class Simulation:
         start = wallclock.perf_counter()
         phi_only = ngs.BitArray(self.body.X.FreeDofs())
         phi_only[self.body.X.Range(0)] = False
-        result = Newton(self.form, self.gfu, freedofs=phi_only, inverse=self.inverse,
+        result = Newton(self.form, self.gfu, freedofs=phi_only, inverse=self.inverse, condense=False,
                         rtol=self.newton.rtol, maxit=self.newton.maxit).solve(step=0, time=0.0)
         self._record(0, result, start)
 

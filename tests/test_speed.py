@@ -148,3 +148,23 @@ def test_bench_command_writes_its_table(tmp_path, capsys):
             float(r["step_s"]) / (float(r["newton_mean"]) * float(r["one_solve_s"])), rel=1e-9)
     assert (tmp_path / "time_per_step.png").stat().st_size > 10_000
     assert "time per step ~ ndof^a" in capsys.readouterr().out
+
+
+def test_static_condensation_gives_the_same_steps():
+    """P3: the interior DOFs condensed (those at Γ3 kept) give the same states as the full
+    system to round-off, with the same Newton iterations; P2 in 2D has none to condense."""
+    runs = []
+    for condense in (False, None):
+        t = ngs.Parameter(0.0)
+        sim = ngc.Simulation(scene.body(3, 0.01), scene.loads(t), time=t, contact=scene.contact(),
+                             condense=condense)
+        sim.run(2.5e-3, 0.015)
+        runs.append(sim)
+    full, condensed = runs
+    assert condensed.condense and not full.condense
+    assert condensed.history[-1].contact.contact_length > 0
+    assert list(condensed.history.newton_iterations) == list(full.history.newton_iterations)
+    for a, b in zip(full.history[1:], condensed.history[1:]):
+        assert np.abs(a.state - b.state).max() <= 1e-10 * np.abs(a.state).max()
+    t = ngs.Parameter(0.0)
+    assert not ngc.Simulation(scene.body(2, 0.01), scene.loads(t), time=t, contact=scene.contact()).condense
