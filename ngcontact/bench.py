@@ -23,28 +23,30 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from . import scene
+from .newton import Timings
 from .timestepping import Simulation
 
 COLUMNS = ("dim", "order", "level", "ndof", "steps", "newton_mean", "newton_max", "step_s",
            "assembly_s", "factorization_s", "solve_s", "residual_s", "other_s", "one_solve_s",
-           "overhead", "setup_s", "inverse")
+           "overhead", "setup_s", "inverse", "condense", "realcompile")
 """Columns of bench.csv; times in s, per step except one_solve_s and setup_s."""
 MAXH = {2: 0.005, 3: 0.01}
 """Coarsest mesh size per dimension, m (level ℓ: ℓ times ``mesh.Refine()``)."""
 
 
 def case(order, level, *, dim=2, steps=10, dt=2.5e-3, inverse=None, realcompile=None,
-         predictor=False, threads=True, bare=False):
+         predictor=False, condense=None, threads=True, bare=False):
     """One benchmark row (a dict with ``COLUMNS``) for the reference scene at P``order`` on
-    refinement ``level``, ``steps`` steps of ``dt`` s. ``inverse``, ``realcompile`` and
-    ``predictor`` go to Simulation; ``threads``: run under TaskManager; ``bare=True``: no glue,
+    refinement ``level``, ``steps`` steps of ``dt`` s. ``inverse``, ``realcompile``,
+    ``predictor`` and ``condense`` go to Simulation; ``threads``: run under TaskManager; ``bare=True``: no glue,
     no conduction (symmetric Jacobian with θ = 1: sparse Cholesky by default)."""
     start = wallclock.perf_counter()
     with ngs.TaskManager() if threads else nullcontext():
         t = ngs.Parameter(0.0)
         body = scene.body(order, MAXH[dim], refine=level, dim=dim)
         sim = Simulation(body, scene.loads(t, dim), time=t, contact=scene.contact(bare=bare), inverse=inverse,
-                         keep_states=False, realcompile=realcompile, predictor=predictor)
+                         keep_states=False, realcompile=realcompile, predictor=predictor,
+                         condense=condense)
         setup = wallclock.perf_counter() - start
         sim.run(dt, steps * dt)
         records = sim.history[1:]
@@ -57,21 +59,19 @@ def case(order, level, *, dim=2, steps=10, dt=2.5e-3, inverse=None, realcompile=
                 **{f"{phase}_s": mean[phase] for phase in ("assembly", "factorization", "solve",
                                                            "residual", "other")},
                 one_solve_s=one_solve, overhead=step_s / (iterations.mean() * one_solve),
-                setup_s=setup, inverse=sim.inverse)
+                setup_s=setup, inverse=sim.inverse, condense=sim.condense, realcompile=sim.realcompile)
 
 
 def one_linear_solve(sim, repeat=2):
-    """Wall time (s) of one assembly of the Jacobian, one factorisation and one solve at the
-    current state, as Newton does them (the fastest of ``repeat``)."""
+    """Wall time (s) of one Newton correction at the current state: assembly of the Jacobian,
+    factorisation and solve, done by the simulation's own Newton (the fastest of ``repeat``)."""
     newton, x = sim.newton, sim.gfu.vec
-    w = x.CreateVector()
+    sim.form.Apply(x, newton.r)
     times = []
     for _ in range(repeat):
-        start = wallclock.perf_counter()
-        sim.form.AssembleLinearization(x)
-        inverse = sim.form.mat.Inverse(newton.freedofs, inverse=sim.inverse)
-        w.data = inverse * x
-        times.append(wallclock.perf_counter() - start)
+        clock = Timings()
+        newton.linear_solve(x, clock)
+        times.append(sum(clock.values()))
     return min(times)
 
 
@@ -112,8 +112,20 @@ def run(out, *, orders=(1, 2, 3, 4), dim=2, max_ndof=1e6, steps=10, dt=2.5e-3, *
     return rows, exponents
 
 
+def merge(directories, out):
+    """Join the bench.json rows of several runs (e.g. one per order) into one bench.csv,
+    bench.json and time_per_step.png in ``out``; returns the fitted exponents per order."""
+    runs = [json.loads((pathlib.Path(d) / "bench.json").read_text()) for d in directories]
+    if len({(r["dim"], r["steps"], r["dt"]) for r in runs}) != 1:
+        raise ValueError("merge: the runs differ in dim, steps or dt")
+    out = pathlib.Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    rows = [row for r in runs for row in r["rows"]]
+    return _write(out, rows, runs[0]["dim"], runs[0]["steps"], runs[0]["dt"])
+
+
 def _write(out, rows, dim, steps, dt):
-    exponents = {order: growth_exponent([r["ndof"] for r in rows if r["order"] == order],
+    exponents = {int(order): growth_exponent([r["ndof"] for r in rows if r["order"] == order],
                                         [r["step_s"] for r in rows if r["order"] == order])
                  for order in dict.fromkeys(r["order"] for r in rows)}
     with open(out / "bench.csv", "w", newline="") as f:

@@ -190,14 +190,20 @@ def main(argv=None):
     bench.add_argument("--inverse", choices=("umfpack", "pardiso", "sparsecholesky"),
                        help="direct solver (default: sparsecholesky if symmetric, else umfpack)")
     bench.add_argument("--realcompile", choices=("auto", "yes", "no"), default="auto",
-                       help="compile the Γ3 integrand to machine code (auto: ndof >= 50 000)")
+                       help="compile the Γ3 integrand to machine code (auto: ndof >= 50 000 in 2D, 2 000 in 3D)")
     bench.add_argument("--predictor", action="store_true",
                        help="start Newton from the linear extrapolation (default: from x_n)")
     bench.add_argument("--no-threads", action="store_true", help="run without TaskManager")
     bench.add_argument("--bare", action="store_true",
                        help="no glue, insulating foundation: symmetric Jacobian (θ = 1)")
+    bench.add_argument("--merge", metavar="DIR", nargs="+",
+                       help="join the tables of earlier runs into --out instead of running")
     args = parser.parse_args(argv)
-    if args.command == "bench":
+    if args.command == "bench" and args.merge:
+        from . import bench as study
+        exponents = study.merge(args.merge, args.out)
+        print("time per step ~ ndof^a: " + ", ".join(f"P{p}: a = {a:.2f}" for p, a in exponents.items()))
+    elif args.command == "bench":
         from . import bench as study
         study.run(args.out, orders=args.orders, dim=args.dim, max_ndof=args.max_ndof, steps=args.steps,
                   dt=args.dt, inverse=args.inverse, predictor=args.predictor,

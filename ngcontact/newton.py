@@ -122,22 +122,26 @@ class Newton:
                 return NewtonResult(it, residuals, r, clock)
             if it == self.maxit:
                 break
-            if self.condense:
-                self._condensed_update(x, clock)
-            else:
-                with clock("assembly"):
-                    self.form.AssembleLinearization(x)
-                with clock("factorization"):
-                    inverse = self.form.mat.Inverse(self.freedofs, inverse=self.inverse)
-                with clock("solve"):
-                    w.data = inverse * r
+            self.linear_solve(x, clock)
             x.data -= w
         raise NewtonError(f"did not converge in {self.maxit} iterations", iteration=self.maxit,
                           residuals=residuals, step=step, time=time,
                           hint="a smaller time step, a larger Nitsche parameter gamma0, theta = -1, "
                                "or a larger maxit")
 
-    def _condensed_update(self, x, clock):
+    def linear_solve(self, x, clock):
+        """One Newton correction w = R'(x)⁻¹ r (``self.w``, ``self.r``): assembly, factorisation
+        and solve, timed into ``clock``."""
+        if self.condense:
+            return self._condensed_solve(x, clock)
+        with clock("assembly"):
+            self.form.AssembleLinearization(x)
+        with clock("factorization"):
+            inverse = self.form.mat.Inverse(self.freedofs, inverse=self.inverse)
+        with clock("solve"):
+            self.w.data = inverse * self.r
+
+    def _condensed_solve(self, x, clock):
         """w = R'(x)⁻¹ r through the Schur complement on the coupling DOFs."""
         r, w, rc, K = self.r, self.w, self.r_condensed, self.form.K_condensed
         with clock("assembly"):

@@ -96,7 +96,7 @@ class StepSystem:
         ``K_condensed`` offers ``harmonic_extension``, ``harmonic_extension_trans`` and
         ``inner_solve`` (as a condensed BilinearForm does).
 
-    ``add_boundary_terms(integrand, ds)`` adds a (nonlinear) Γ3 part. ``begin_step()``
+    ``add_boundary_terms(terms, ds)`` adds a (nonlinear) Γ3 part. ``begin_step()``
     assembles f(t_n) and (1/k) K_A x_{n−1}; it is called again by ``Apply`` when t_n or
     1/k changed. ``boundary_residual`` holds R_Γ3 at the last ``Apply``.
     """
@@ -124,12 +124,18 @@ class StepSystem:
         self._stamp = None
         self.begin_step()
 
-    def add_boundary_terms(self, integrand, ds):
-        """Add ∫ integrand ds (nonlinear in the trial functions) to R; ``integrand`` should
-        be compiled."""
+    def add_boundary_terms(self, terms, ds, realcompile=False):
+        """Add ∫ terms(u, φ) ds to R: ``terms(u, φ)`` is the integrand (linear in the test
+        functions) for the state (u, φ). Its Jacobian comes from a BilinearForm in the trial
+        functions; R_Γ3 itself from a LinearForm in a copy of the state, whose assembly is
+        about as fast as the Jacobian's where the BilinearForm's Apply is not (under
+        TaskManager, ds(skeleton=True))."""
         if self.boundary is None:
             self.boundary = ngs.BilinearForm(self.body.X, symmetric=False)
-        self.boundary += integrand * ds
+            self.state = ngs.GridFunction(self.body.X)
+            self._boundary_linear = ngs.LinearForm(self.body.X)
+        self.boundary += terms(*self.body.X.TrialFunction()).Compile(realcompile=realcompile, wait=True) * ds
+        self._boundary_linear += terms(*self.state.components).Compile() * ds
 
     def begin_step(self):
         """Assemble the parts fixed during a step: f(t_n), (1/k) K_A x_{n−1} and K."""
@@ -157,7 +163,9 @@ class StepSystem:
         r.data = self.K * x
         r.data -= self._constant
         if self.boundary is not None:
-            self.boundary.Apply(x, self.boundary_residual)
+            self.state.vec.data = x
+            self._boundary_linear.Assemble()
+            self.boundary_residual.data = self._boundary_linear.vec
             r.data += self.boundary_residual
 
     def AssembleLinearization(self, x, condensed=False):

@@ -42,7 +42,8 @@ class Simulation:
     condense : static condensation of the element-interior DOFs (those of the elements at Γ3
         are kept); default: when the space has such DOFs (order >= 3 in 2D, >= 4 in 3D).
     realcompile : compile the Γ3 integrand to machine code (needs a C++ compiler, takes
-        seconds once, assembles the Γ3 terms about 4× faster); default: when ndof >= 50 000.
+        seconds once, assembles the Γ3 terms about 4× faster); default: when ndof >= 50 000
+        in 2D, >= 2 000 in 3D.
     """
 
     def __init__(self, body, loads=None, *, contact=None, time=None, u0=None, inverse=None,
@@ -55,7 +56,9 @@ class Simulation:
         self.gfu = ngs.GridFunction(body.X, name="state")
         self.u_old = ngs.GridFunction(body.V, name="u_old")
         self.u, self.phi = self.gfu.components
-        self.realcompile = body.ndof >= 50_000 if realcompile is None else bool(realcompile)
+        if realcompile is None:         # where it paid in docs/speed.md (the 3D Γ3 terms cost far more)
+            realcompile = body.ndof >= (2_000 if body.dim == 3 else 50_000)
+        self.realcompile = bool(realcompile)
         kept = body.region("contact") if contact is not None else None
         self.condense = has_interior_dofs(body.X) if condense is None else bool(condense)
         if contact is not None and contact.method == "active_set":
@@ -91,11 +94,14 @@ class Simulation:
         self._u_normal = self.u * ngs.specialcf.normal(body.dim)
         enforcement = dict(nitsche=NitscheContact, penalty=PenaltyContact, active_set=NodalContact)
         self.enforcement = enforcement[contact.method](body, contact, self.beta.gf, self.inv_dt, self.gap)
-        (u, phi), (v, xi) = body.X.TnT()
-        terms = self.enforcement.residual(u, phi, v, xi, self.u_old)
-        if contact.conducts:
-            terms = terms + electric_contact.residual(contact, u, phi, xi, self.gap, self.phi_gamma)
-        self.form.add_boundary_terms(terms.Compile(realcompile=self.realcompile, wait=True), side.ds)
+        v, xi = body.X.TestFunction()
+
+        def terms(u, phi):
+            integrand = self.enforcement.residual(u, phi, v, xi, self.u_old)
+            if contact.conducts:
+                integrand = integrand + electric_contact.residual(contact, u, phi, xi, self.gap, self.phi_gamma)
+            return integrand
+        self.form.add_boundary_terms(terms, side.ds, realcompile=self.realcompile)
         self._observables = self._contact_observables()
         self._rigid_modes = []
         for i in range(body.dim + 1):
