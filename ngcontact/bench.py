@@ -28,22 +28,27 @@ from .timestepping import Simulation
 
 COLUMNS = ("dim", "order", "level", "ndof", "steps", "newton_mean", "newton_max", "step_s",
            "assembly_s", "factorization_s", "solve_s", "residual_s", "other_s", "one_solve_s",
-           "overhead", "setup_s", "inverse", "condense", "realcompile")
+           "overhead", "setup_s", "inverse", "condense", "realcompile", "threads")
 """Columns of bench.csv; times in s, per step except one_solve_s and setup_s."""
+THREADS_FROM = 30_000
+"""Below this many DOFs TaskManager made steps slower (docs/speed.md: the ds(skeleton=True)
+loops over all facets lose more to threading than assembly gains)."""
 MAXH = {2: 0.005, 3: 0.01}
 """Coarsest mesh size per dimension, m (level ℓ: ℓ times ``mesh.Refine()``)."""
 
 
 def case(order, level, *, dim=2, steps=10, dt=2.5e-3, inverse=None, realcompile=None,
-         predictor=False, condense=None, threads=True, bare=False):
+         predictor=False, condense=None, threads=None, bare=False):
     """One benchmark row (a dict with ``COLUMNS``) for the reference scene at P``order`` on
     refinement ``level``, ``steps`` steps of ``dt`` s. ``inverse``, ``realcompile``,
-    ``predictor`` and ``condense`` go to Simulation; ``threads``: run under TaskManager; ``bare=True``: no glue,
+    ``predictor`` and ``condense`` go to Simulation; ``threads``: run under TaskManager
+    (default: from ``THREADS_FROM`` DOFs); ``bare=True``: no glue,
     no conduction (symmetric Jacobian with θ = 1: sparse Cholesky by default)."""
     start = wallclock.perf_counter()
+    body = scene.body(order, MAXH[dim], refine=level, dim=dim)
+    threads = body.ndof >= THREADS_FROM if threads is None else threads
     with ngs.TaskManager() if threads else nullcontext():
         t = ngs.Parameter(0.0)
-        body = scene.body(order, MAXH[dim], refine=level, dim=dim)
         sim = Simulation(body, scene.loads(t, dim), time=t, contact=scene.contact(bare=bare), inverse=inverse,
                          keep_states=False, realcompile=realcompile, predictor=predictor,
                          condense=condense)
@@ -59,7 +64,8 @@ def case(order, level, *, dim=2, steps=10, dt=2.5e-3, inverse=None, realcompile=
                 **{f"{phase}_s": mean[phase] for phase in ("assembly", "factorization", "solve",
                                                            "residual", "other")},
                 one_solve_s=one_solve, overhead=step_s / (iterations.mean() * one_solve),
-                setup_s=setup, inverse=sim.inverse, condense=sim.condense, realcompile=sim.realcompile)
+                setup_s=setup, inverse=sim.inverse, condense=sim.condense, realcompile=sim.realcompile,
+                threads=threads)
 
 
 def one_linear_solve(sim, repeat=2):

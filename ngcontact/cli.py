@@ -3,6 +3,7 @@ import argparse
 import json
 import pathlib
 import time as wallclock
+from contextlib import nullcontext
 
 import ngsolve as ngs
 import numpy as np
@@ -10,6 +11,7 @@ from matplotlib import tri
 from matplotlib.figure import Figure
 
 from . import scene
+from .bench import THREADS_FROM
 from .scene import CONTACT, L1, L2, LOAD_HISTORY, PRESSURE, RELAXATION_TIME
 from .timestepping import Simulation
 
@@ -47,7 +49,7 @@ def demo(order=1, out="results", maxh=0.005, steps=200, theta=1, gamma0=10.0):
           f"{'contact [mm]':>12} {'p_max [MPa]':>11} {'beta_min':>8} {'current [C/m]':>13}")
     rows = []
     start = wallclock.perf_counter()
-    with ngs.TaskManager():
+    with ngs.TaskManager() if body.ndof >= THREADS_FROM else nullcontext():
         for _ in range(steps):
             rec = sim.step(LOAD_HISTORY[-1][0] / steps)
             c = rec.contact
@@ -193,7 +195,8 @@ def main(argv=None):
                        help="compile the Γ3 integrand to machine code (auto: ndof >= 50 000 in 2D, 2 000 in 3D)")
     bench.add_argument("--predictor", action="store_true",
                        help="start Newton from the linear extrapolation (default: from x_n)")
-    bench.add_argument("--no-threads", action="store_true", help="run without TaskManager")
+    bench.add_argument("--threads", choices=("auto", "yes", "no"), default="auto",
+                       help="run under TaskManager (auto: from 30 000 DOFs)")
     bench.add_argument("--bare", action="store_true",
                        help="no glue, insulating foundation: symmetric Jacobian (θ = 1)")
     bench.add_argument("--merge", metavar="DIR", nargs="+",
@@ -208,7 +211,7 @@ def main(argv=None):
         study.run(args.out, orders=args.orders, dim=args.dim, max_ndof=args.max_ndof, steps=args.steps,
                   dt=args.dt, inverse=args.inverse, predictor=args.predictor,
                   realcompile=dict(auto=None, yes=True, no=False)[args.realcompile],
-                  threads=not args.no_threads, bare=args.bare)
+                  threads=dict(auto=None, yes=True, no=False)[args.threads], bare=args.bare)
     elif args.command == "demo":
         demo(order=args.order, out=args.out, maxh=args.maxh, steps=args.steps, theta=args.theta,
              gamma0=args.gamma0)

@@ -36,7 +36,7 @@ class Simulation:
     rtol, maxit : Newton tolerance (relative) and iteration limit per step.
     keep_states : keep a copy of (u, φ) of every step in the history.
     predictor : start Newton from the linear extrapolation x_n + (k_{n+1}/k_n)(x_n − x_{n−1})
-        instead of x_n (the default warm start). It saves 4-8 % of the iterations of the
+        instead of x_n (the default warm start). It saves 3-8 % of the iterations of the
         reference run at k = 2.5 ms, but on coarse steps the extrapolated state penetrates deep
         and Newton may fail where the warm start converges (docs/speed.md).
     condense : static condensation of the element-interior DOFs (those of the elements at Γ3

@@ -137,7 +137,7 @@ def test_levels_stay_below_the_size_limit(dim, order, max_ndof):
 
 def test_bench_command_writes_its_table(tmp_path, capsys):
     cli.main(["bench", "--out", str(tmp_path), "--orders", "1", "--max-ndof", "2500",
-                  "--steps", "2", "--no-threads"])
+                  "--steps", "2", "--threads", "no"])
     rows = list(csv.DictReader(open(tmp_path / "bench.csv")))
     assert [int(r["level"]) for r in rows] == [0, 1]
     for r in rows:
