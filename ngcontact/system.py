@@ -19,6 +19,8 @@ from Γ3 appear in K only, so they are eliminated once per time step size by a c
 form of K; the Newton matrix is then the Schur complement of K plus R_Γ3' on the remaining
 DOFs (the interior DOFs of the elements at Γ3 are kept as coupling DOFs).
 """
+import warnings
+
 import ngsolve as ngs
 import numpy as np
 
@@ -134,7 +136,7 @@ class StepSystem:
             self.boundary = ngs.BilinearForm(self.body.X, symmetric=False)
             self.state = ngs.GridFunction(self.body.X)
             self._boundary_linear = ngs.LinearForm(self.body.X)
-        self.boundary += terms(*self.body.X.TrialFunction()).Compile(realcompile=realcompile, wait=True) * ds
+        self.boundary += _compiled(terms(*self.body.X.TrialFunction()), realcompile) * ds
         self._boundary_linear += terms(*self.state.components).Compile() * ds
 
     def begin_step(self):
@@ -193,6 +195,17 @@ class StepSystem:
         if self.boundary is not None:
             source, into = self._positions
             values[into] += self.boundary.mat.AsVector().FV().NumPy()[source]
+
+
+def _compiled(cf, realcompile):
+    """cf.Compile(), to machine code if ``realcompile`` (falls back, with a warning, when
+    there is no working C++ compiler)."""
+    if realcompile:
+        try:
+            return cf.Compile(realcompile=True, wait=True)
+        except Exception as err:                               # NGSolve raises a plain Exception
+            warnings.warn(f"realcompile failed ({err}); using Compile()", RuntimeWarning)
+    return cf.Compile()
 
 
 def _matching_positions(source, target):

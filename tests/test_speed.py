@@ -168,3 +168,16 @@ def test_static_condensation_gives_the_same_steps():
         assert np.abs(a.state - b.state).max() <= 1e-10 * np.abs(a.state).max()
     t = ngs.Parameter(0.0)
     assert not ngc.Simulation(scene.body(2, 0.01), scene.loads(t), time=t, contact=scene.contact()).condense
+
+
+def test_realcompile_falls_back_without_a_compiler():
+    """If compiling to machine code fails, the integrand is Compile()d with a warning."""
+    from ngcontact.system import _compiled
+
+    class NoCompiler:
+        def Compile(self, realcompile=False, wait=False):
+            if realcompile:
+                raise Exception("cannot compile: g++ not found")
+            return "compiled"
+    with pytest.warns(RuntimeWarning, match="realcompile failed.*g\\+\\+ not found"):
+        assert _compiled(NoCompiler(), True) == "compiled"
