@@ -92,10 +92,9 @@ def growth_exponent(ndof, seconds, min_ndof=1e4):
 
 
 def levels(order, dim, max_ndof):
-    """The refinement levels whose ndof stays <= max_ndof (from the coarse ndof, ×2^dim per level)."""
-    coarse = scene.body(order, MAXH[dim], dim=dim).ndof
+    """The refinement levels whose ndof stays <= max_ndof (the meshes are built to count)."""
     found = [0]
-    while coarse * 2 ** (dim * (found[-1] + 1)) <= max_ndof * 1.05:
+    while scene.body(order, MAXH[dim], refine=found[-1] + 1, dim=dim).ndof <= max_ndof:
         found.append(found[-1] + 1)
     return found
 
