@@ -70,11 +70,7 @@ class ActiveSetNewton(Newton):
         xa = x.FV().NumPy()
         residuals, active, clock = [], None, Timings()
         for it in range(self.maxit + 1):
-            with clock("residual"):
-                self.form.Apply(x, r)
-            if self.scales is None:
-                self.form.AssembleLinearization(x)
-                self._set_scales()
+            self._residual(x, clock)
             self.constraint_vector.FV().NumPy()[:] = self.B.T @ self.lam
             r.data += self.constraint_vector
             gap = self.B @ xa - self.g

@@ -110,8 +110,7 @@ def run(out, *, orders=(1, 2, 3, 4), dim=2, max_ndof=1e6, steps=10, dt=2.5e-3, *
         for level in levels(order, dim, max_ndof):
             rows.append(case(order, level, dim=dim, steps=steps, dt=dt, **options))
             print(_line(rows[-1]), flush=True)
-            _write(out, rows, dim, steps, dt)
-    exponents = _write(out, rows, dim, steps, dt)
+            exponents = _write(out, rows, dim, steps, dt)        # after each case: long runs keep results
     print("time per step ~ ndof^a (fit over ndof >= 1e4): "
           + ", ".join(f"P{p}: a = {a:.2f}" for p, a in exponents.items()))
     return rows, exponents

@@ -103,16 +103,20 @@ class Newton:
         self.scales = [float(diag[b].mean()) if len(b) and diag[b].mean() > 0 else 1.0
                        for b in self.blocks]
 
+    def _residual(self, x, clock):
+        """r = R(x), timed; the block scales are set from the first Jacobian."""
+        with clock("residual"):
+            self.form.Apply(x, self.r)
+        if self.scales is None:
+            self.form.AssembleLinearization(x)
+            self._set_scales()
+
     def solve(self, *, step=None, time=None):
         """Iterate from the current ``gfu`` until converged; raise ``NewtonError`` otherwise."""
         x, r, w = self.gfu.vec, self.r, self.w
         residuals, clock = [], Timings()
         for it in range(self.maxit + 1):
-            with clock("residual"):
-                self.form.Apply(x, r)
-            if self.scales is None:
-                self.form.AssembleLinearization(x)
-                self._set_scales()
+            self._residual(x, clock)
             norm = self._norm(r, -1)
             residuals.append(norm)
             if not np.isfinite(norm):
