@@ -1,12 +1,12 @@
-"""The reference scene: a rectangular piezoelectric plate, and its 3D block variant.
+"""Rectangular meshes with named boundaries: the plate (2D) and the block (3D) of the reference scene.
 
 Boundary names (use them for the parts of (2.5)-(2.6)):
 
 * 2D plate 0 ≤ x ≤ L1, 0 ≤ y ≤ L2: "left" (x = 0, Γ1 clamped), "right" and "top" (Γ2,
-  tractions), "bottom" (y = 0, Γ3, the contact side); electrically "top" is the grounded
+  tractions), "bottom" (y = 0, the contact side Γ3); electrically "top" is the grounded
   electrode Γa and the rest is Γb.
 * 3D block 0 ≤ x ≤ L1, 0 ≤ y ≤ L2, 0 ≤ z ≤ L3: "left", "right", "front" (y = 0), "back",
-  "bottom" (z = 0, Γ3) and "top" (z = L3).
+  "bottom" (z = 0, the contact side Γ3) and "top" (z = L3).
 
 Lengths in metres. ``refine`` applies ``mesh.Refine()`` that many times (nested meshes,
 h halves each time): far cheaper than generating a fine mesh.

@@ -1,13 +1,20 @@
 """ngcontact: a piezoelectric Kelvin-Voigt body in frictionless unilateral contact with a
-conductive foundation, with adhesion (Guettaf & Touzaline), on NGSolve."""
+conductive foundation, with adhesion (Guettaf & Touzaline), on NGSolve.
+
+The public API is the names below; ``ngcontact.geometries`` (meshes with named
+boundaries), ``ngcontact.scenes`` (ready scenes and manufactured solutions) and
+``ngcontact.contact_laws`` (the laws p, R_ν, φ_L, ψ) are public modules too.
+"""
+from . import contact_laws
 from .body import Body
 from .contact import Contact
+from .enforcement import METHODS
 from .loads import Loads
-from .materials import Material, academic, batio3, pzt5a
+from .materials import EPS0, Material, academic, batio3, pzt5a
 from .newton import NewtonError
-from .results import History, StepRecord
-from .timestepping import Simulation
+from .records import ContactRecord, History, StepRecord
+from .simulation import Simulation
 from .webgui import save_html
 
-__all__ = ["Body", "Contact", "Loads", "Material", "Simulation", "History", "StepRecord", "NewtonError",
-           "academic", "pzt5a", "batio3", "save_html"]
+__all__ = ["Body", "Contact", "Loads", "Material", "Simulation", "History", "StepRecord", "ContactRecord",
+           "NewtonError", "METHODS", "EPS0", "academic", "pzt5a", "batio3", "save_html", "contact_laws"]

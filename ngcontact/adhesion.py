@@ -1,7 +1,7 @@
 """The bonding field β on Γ3 and its update: (2.9) and the paper's explicit scheme (4.5).
 
 β^h lives in B^h (piecewise constant on the facets of Γ3). Step n updates β from the
-previous displacement u_{n-1}, before (u_n, φ_n) are solved:
+previous displacement u_{n-1}, before (u_n, φ_n) are solved (k = dt in the paper's notation):
 
 * "explicit" (4.5):  β_n = β_{n-1} − k P_B[β_{n-1} γ_ν R_ν(u_{n-1,ν})² − ε_a]_+, then
   clipped to [0, 1]. Its decay factor per step is 1 − k γ_ν R², so it overshoots below 0
@@ -18,7 +18,10 @@ from .contact_laws import positive_part
 
 
 class BondingField:
-    """β^h ∈ B^h with its initial value P_B β0 and one of the two updates."""
+    """β^h ∈ B^h with its initial value P_B β0 and one of the two updates.
+
+    ``values``: the facet values of β (a numpy view). ``unclipped``: the values the last
+    update computed before clipping to [0, 1] (the implicit update needs no clipping)."""
 
     def __init__(self, side, contact):
         self.side, self.contact = side, contact
@@ -28,7 +31,7 @@ class BondingField:
             raise ValueError(f"Contact.beta0 must lie in [0, 1] on Γ3; its facet averages range "
                              f"over [{beta0.min():.3g}, {beta0.max():.3g}]")
         self.values[:] = np.clip(beta0, 0, 1)
-        self.clipped = 0
+        self.unclipped = self.values.copy()
         self._forms = (None, None)
 
     def _integrals(self, u_normal):
@@ -45,19 +48,21 @@ class BondingField:
         """The facet values of β (a numpy view)."""
         return self.gf.vec.FV().NumPy()
 
-    def update(self, u_normal, k):
-        """β_{n-1} -> β_n with u_{n-1,ν} given as a CoefficientFunction, step k in s
-        (pass the same CoefficientFunction object each step: its forms are built once).
+    @property
+    def clipped(self):
+        """Number of facets the last update pushed out of [0, 1] (then clipped)."""
+        return int(np.count_nonzero((self.unclipped < 0) | (self.unclipped > 1)))
 
-        Sets ``clipped`` to the number of facets the explicit update pushed out of [0, 1]."""
+    def update(self, u_normal, dt):
+        """β_{n-1} -> β_n with u_{n-1,ν} given as a CoefficientFunction, time step dt in s
+        (pass the same CoefficientFunction object each step: its forms are built once)."""
         c, beta = self.contact, self.values
         rate, decay = self._integrals(u_normal)
         if c.beta_update == "explicit":
-            new = beta - k * rate() / self.side.measure
-            self.clipped = int(np.count_nonzero((new < 0) | (new > 1)))
-            beta[:] = np.clip(new, 0, 1)
+            self.unclipped = beta - dt * rate() / self.side.measure
+            beta[:] = np.clip(self.unclipped, 0, 1)
         else:
             a, b = decay() / self.side.measure, c.eps_a
             decays = beta * a > b
-            beta[:] = np.where(decays, (beta + k * b) / (1 + k * a), beta)
-            self.clipped = 0
+            beta[:] = np.where(decays, (beta + dt * b) / (1 + dt * a), beta)
+            self.unclipped = beta.copy()

@@ -3,7 +3,7 @@
 Boundaries are named as in the Netgen mesh; a part may list several names joined by
 "|" (Netgen's regex syntax, e.g. ``"top|right"``).
 
-* mechanical: Γ1 ``clamped`` (u = 0), Γ3 ``contact``, Γ2 = the rest (tractions f2);
+* mechanical: Γ1 ``clamped`` (u = 0), Γ3 ``contact_side``, Γ2 = the rest (tractions f2);
 * electric:   Γa ``grounded`` (φ prescribed, 0 by default), Γb = the rest (charges qb),
   with Γ3 ⊂ Γb.
 """
@@ -26,13 +26,22 @@ class Body:
     material : Material.
     clamped : str, boundary names of Γ1 (u = 0), nonempty.
     grounded : str, boundary names of Γa (φ prescribed), nonempty.
-    contact : str or None, boundary names of Γ3 (the contact side); without a contact
-        law it is traction-free and charge-free.
+    contact_side : str or None, boundary names of Γ3; without a contact law
+        (``Simulation(contact=...)``) it is traction-free and charge-free.
     order : int >= 1, polynomial order of u (1 = the paper's P1 space (4.1)).
     order_phi : int >= 1 or None, order of φ (default: ``order``).
+
+    ``X = V × W`` is the body's space; each simulation works on its own copy (``space()``),
+    so that what one simulation sets on it (static condensation) does not reach another.
     """
 
-    def __init__(self, mesh, material, *, clamped, grounded, contact=None, order=1, order_phi=None):
+    def __init__(self, mesh, material, *, clamped, grounded, contact_side=None, order=1, order_phi=None,
+                 **renamed):
+        if "contact" in renamed:
+            raise TypeError("Body(contact=...) is now Body(contact_side=...): the boundary names of Γ3 "
+                            "(contact= is the contact law, given to Simulation)")
+        if renamed:
+            raise TypeError(f"Body got unexpected keyword arguments {sorted(renamed)}")
         if not isinstance(material, Material):
             raise TypeError(f"material must be an ngcontact.Material, got {type(material).__name__}")
         order_phi = order if order_phi is None else order_phi
@@ -46,7 +55,7 @@ class Body:
         self.order, self.order_phi = int(order), int(order_phi)
         existing = set(mesh.GetBoundaries())
         self.boundaries = {}
-        for part, names in (("clamped", clamped), ("grounded", grounded), ("contact", contact)):
+        for part, names in (("clamped", clamped), ("grounded", grounded), ("contact_side", contact_side)):
             listed = split_names(names)
             missing = [n for n in listed if n not in existing]
             if missing:
@@ -58,29 +67,37 @@ class Body:
                 raise ValueError(f"{part} must name at least one boundary (meas > 0 is needed "
                                  f"for a unique solution); the mesh has {sorted(existing)}")
         for part in ("clamped", "grounded"):
-            both = set(self.boundaries[part]) & set(self.boundaries["contact"])
+            both = set(self.boundaries[part]) & set(self.boundaries["contact_side"])
             if both:
-                raise ValueError(f"contact boundary Γ3 must not overlap {part}: {sorted(both)}")
-        self.V = ngs.VectorH1(mesh, order=self.order, dirichlet=self.region_names("clamped"))
-        self.W = ngs.H1(mesh, order=self.order_phi, dirichlet=self.region_names("grounded"))
-        self.X = self.V * self.W
+                raise ValueError(f"contact_side Γ3 must not overlap {part}: {sorted(both)}")
+        self.V, self.W, self.X = self._spaces()
+
+    def _spaces(self):
+        V = ngs.VectorH1(self.mesh, order=self.order, dirichlet=self.region_names("clamped"))
+        W = ngs.H1(self.mesh, order=self.order_phi, dirichlet=self.region_names("grounded"))
+        return V, W, V * W
+
+    def space(self):
+        """A new product space V × W, numbered as ``X`` (a simulation's own copy)."""
+        return self._spaces()[2]
 
     def region_names(self, part):
         """The names of a part joined for ``mesh.Boundaries``."""
         return "|".join(self.boundaries[part])
 
     def region(self, part):
-        """The boundary region of a part ("clamped", "grounded" or "contact")."""
+        """The boundary region of a part ("clamped", "grounded" or "contact_side")."""
         return self.mesh.Boundaries(self.region_names(part))
 
     def free_names(self, excluded):
-        """Boundary names not in the listed parts: Γ2 = free_names(("clamped", "contact")),
-        Γb minus Γ3 = free_names(("grounded", "contact"))."""
+        """Boundary names not in the listed parts: Γ2 = free_names(("clamped", "contact_side")),
+        Γb minus Γ3 = free_names(("grounded", "contact_side"))."""
         taken = {n for part in excluded for n in self.boundaries[part]}
         return [n for n in dict.fromkeys(self.mesh.GetBoundaries()) if n not in taken]
 
     @property
     def ndof(self):
+        """Number of DOFs of V × W (all, Dirichlet ones included)."""
         return self.X.ndof
 
     def __repr__(self):

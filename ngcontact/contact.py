@@ -1,9 +1,10 @@
-"""The data of Γ3 (2.7)-(2.10) and of its Nitsche discretisation, with validation."""
+"""The data of Γ3 (2.7)-(2.10) and of its enforcement method, with validation."""
 from dataclasses import dataclass
 
 import ngsolve as ngs
 
 from . import contact_laws as laws
+from .enforcement import METHODS
 
 
 @dataclass
@@ -30,12 +31,12 @@ class Contact:
         potential_truncation : L_φ > 0 in V.
         foundation_potential : φ_Γ in V, number or CoefficientFunction (may use the time
             Parameter).
-    Enforcement of the Signorini condition:
-        method : "nitsche" (Chouly-Hild θ-family, the default), "penalty" (a stiff
-            normal compliance, see ``penalty``) or "active_set" (the paper's nodal
-            constraint u_ν <= g at the nodes of Γ3, P1 only, with nodal multipliers).
+    Enforcement of the Signorini condition (``ngcontact.enforcement``):
+        method : a name of ``enforcement.METHODS``: "nitsche" (Chouly-Hild θ-family, the
+            default), "penalty" (a stiff normal compliance) or "active_set" (the paper's
+            nodal constraint u_ν <= g at the nodes of Γ3, P1 only, with nodal multipliers).
         theta : 1 (symmetric), 0 (incomplete) or -1 (skew-symmetric); Nitsche only.
-        gamma0 : γ0 > 0; γ = γ0 p² (stiffness)/h, see ``nitsche.nitsche_parameter``.
+        gamma0 : γ0 > 0; γ = γ0 p² (stiffness)/h, see ``forms.boundary_stiffness``.
         penalty : > 0, the penalty factor: ε = penalty p² (stiffness)/h; penalty only.
     """
     gap: object = 0.0
@@ -55,8 +56,8 @@ class Contact:
     penalty: float = 1e3
 
     def __post_init__(self):
-        if self.method not in ("nitsche", "penalty", "active_set"):
-            raise ValueError(f"Contact.method must be 'nitsche', 'penalty' or 'active_set', "
+        if self.method not in METHODS:
+            raise ValueError(f"Contact.method must be one of {', '.join(map(repr, METHODS))}, "
                              f"got {self.method!r}")
         if not self.penalty > 0:
             raise ValueError(f"Contact.penalty must be > 0, got {self.penalty}")
@@ -87,12 +88,13 @@ class Contact:
 
     @property
     def conducts(self):
+        """True if the foundation conducts (ψ is not identically 0)."""
         return callable(self.conductance) or self.conductance > 0
 
     @property
     def symmetric(self):
-        """True if the Newton Jacobian is symmetric: Chouly-Hild's θ = 1 (or the penalty
-        method) with no compliant layer, no adhesion and no conduction (those terms are not
-        symmetrised)."""
-        return ((self.theta == 1 or self.method != "nitsche") and not callable(self.compliance)
+        """True if the Newton Jacobian is symmetric: a method whose Signorini term keeps it so
+        (Nitsche with θ = 1, penalty, the nodal constraint), with no compliant layer, no
+        adhesion and no conduction (those terms are not symmetrised)."""
+        return (METHODS[self.method].keeps_symmetry(self) and not callable(self.compliance)
                 and self.compliance == 0 and self.adhesion == 0 and not self.conducts)

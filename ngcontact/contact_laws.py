@@ -1,4 +1,4 @@
-"""The scalar laws on Γ3 (model.md), as functions of a CoefficientFunction.
+"""The scalar laws on Γ3 (docs/model.md), as functions of a CoefficientFunction.
 
 Each ``*_law(parameters)`` returns a function r ↦ CoefficientFunction, so a user may pass
 any such function instead (it must be Lipschitz; kinks written with IfPos are linearised
@@ -24,20 +24,20 @@ def compliance_law(c_nu):
 
 
 def bond_truncation(L):
-    """R_ν(s) = L for s < -L, -s for -L <= s <= 0, 0 for s > 0 (model.md's reading of (2.8));
+    """R_ν(s) = L for s < -L, -s for -L <= s <= 0, 0 for s > 0 (docs/model.md's reading of (2.8));
     L > 0 is the bond length in m."""
     _positive("bond length L", L, "m")
     return lambda s: clip(-s, 0, L)
 
 
 def potential_truncation(L_phi):
-    """φ_L(s) = max(-L_φ, min(s, L_φ)) (2.7, increasing as model.md fixes it); L_φ in V."""
+    """φ_L(s) = max(-L_φ, min(s, L_φ)) (2.7, increasing as docs/model.md fixes it); L_φ in V."""
     _positive("potential truncation L_phi", L_phi, "V")
     return lambda s: clip(s, -L_phi, L_phi)
 
 
 def conductance_ramp(k_e, delta):
-    """ψ(r) = k_e for r >= 0, k_e (1 + r/δ) for -δ <= r < 0, 0 for r < -δ (model.md's default):
+    """ψ(r) = k_e for r >= 0, k_e (1 + r/δ) for -δ <= r < 0, 0 for r < -δ (docs/model.md's default):
     full conductance k_e when the body touches the foundation (r = u_ν - g = 0)."""
     _nonnegative("conductance k_e", k_e, "")
     _positive("conductance ramp width delta", delta, "m")

@@ -2,7 +2,8 @@
 
 B^h (piecewise constants on the facets of Γ3) is an order-0 ``FacetFESpace`` on all
 facets, compressed to the facets of Γ3: a space defined only on Γ3 evaluates to zero
-inside ``ds(skeleton=True)`` forms (ngsolve-notes), where the Nitsche terms live.
+inside ``ds(skeleton=True)`` forms, where the Nitsche terms live, without an error
+(NGSolve 6.2; tests/test_adhesion.py keeps the trap in view).
 P_B of a CoefficientFunction is its facet average, assembled as a LinearForm over
 ``ds(skeleton=True)`` so that volume gradients (stresses) may appear in it.
 """
@@ -13,14 +14,14 @@ import numpy as np
 class ContactSide:
     """Γ3 of a Body: facets, B^h, P_B, facet normals and points along Γ3."""
 
-    def __init__(self, body, samples_per_facet=None):
-        mesh, names = body.mesh, set(body.boundaries["contact"])
+    def __init__(self, body):
+        mesh, names = body.mesh, set(body.boundaries["contact_side"])
         if not names:
-            raise ValueError("the body has no contact boundary Γ3: pass contact='...' to Body")
+            raise ValueError("the body has no contact side Γ3: pass contact_side='...' to Body")
         self.mesh, self.dim = mesh, body.dim
-        self.ds = ngs.ds(skeleton=True, definedon=body.region("contact"))
+        self.ds = ngs.ds(skeleton=True, definedon=body.region("contact_side"))
         # P_B and the recorded integrals: exact for polynomials of degree 2p + 2 on a facet
-        self._ds_exact = ngs.ds(skeleton=True, definedon=body.region("contact"),
+        self._ds_exact = ngs.ds(skeleton=True, definedon=body.region("contact_side"),
                                 bonus_intorder=2 * body.order + 2)
         facets = ngs.FacetFESpace(mesh, order=0)
         active = ngs.BitArray(facets.ndof)
@@ -42,9 +43,10 @@ class ContactSide:
         self.midpoints = self.facet_vertices.mean(axis=1)
         n = ngs.specialcf.normal(self.dim)
         self.normals = np.array([self.project(n[i]) for i in range(self.dim)]).T
-        q = samples_per_facet or 2 * body.order + 1
+        # sample points: 2p + 1 equidistant points per edge in 2D; vertices, centroid and
+        # edge midpoints per triangle in 3D
         if self.dim == 2:
-            s = np.linspace(0, 1, q)
+            s = np.linspace(0, 1, 2 * body.order + 1)
             weights = np.stack([1 - s, s], axis=1)
         else:
             weights = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [1 / 3] * 3,

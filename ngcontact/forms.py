@@ -1,20 +1,31 @@
-"""The forms of (2.30)-(2.31) as NGSolve symbolic expressions.
+"""The weak form of one backward Euler step: the paper's forms (2.26)-(2.31) in one place.
 
-a(u, v) = (A ε(u), ε(v)),  b(u, v) = (F ε(u), ε(v)),
-c(φ, ξ) = (C ∇φ, ∇ξ),      e(v, ξ) = (E ε(v), ∇ξ).
+For u, v in V^h (displacements, zero on Γ1) and φ, ξ in W^h (potentials, prescribed on Γa)
+(docs/model.md):
 
-Strains and stresses are Voigt vectors with engineering shear, so that σ : ε(v) is the
-dot product of the Voigt vectors. The electric equation is written negated,
--c(φ, ξ) + e(u, ξ) = ..., so that the coupled Jacobian is symmetric quasi-definite:
-the residual of one backward Euler step n is
+  a(u, v) = (A ε(u), ε(v))         viscosity                          (2.30)
+  b(u, v) = (F ε(u), ε(v))         elasticity                         (2.30)
+  c(φ, ξ) = (C ∇φ, ∇ξ)             permittivity                       (2.31)
+  e(v, ξ) = (E ε(v), ∇ξ)           piezoelectric coupling             (2.30)-(2.31)
+  f(v, ξ) = (f0, v) + (f2, v)_Γ2 + (q0, ξ) + (qb, ξ)_Γb               loads (2.26)-(2.27)
+  j_a(β, u, v) = ∫_Γ3 (p(u_ν) − γ_ν β² R_ν(u_ν)) v_ν da            compliant layer, glue (2.28)
+  j_e(u, φ, ξ) = ∫_Γ3 ψ(u_ν − g) φ_L(φ − φ_Γ) ξ da                 conductive foundation (2.29)
 
-R((u, φ); (v, ξ)) = ∫ σ : ε(v) + ∫ D · ∇ξ − ∫ f0 · v − ∫_Γ2 f2 · v − ∫ q0 ξ − ∫_Γb qb ξ
+Step n of the scheme (4.3)-(4.5) finds x = (u, φ) = (u_n, φ_n) such that for all (v, ξ)
 
-with σ = A ε((u − u_{n−1})/k) + F ε(u) + Eᵀ∇φ and D = E ε(u) − C∇φ (model.md); it is
-assembled in parts by ``system.StepSystem``.
+  R(x; v, ξ) = a((u − u_{n−1})/dt, v) + b(u, v) + e(v, φ) + j_a(β_n, u, v) + S(x; v, ξ)
+             + e(u, ξ) − c(φ, ξ) − j_e(u, φ, ξ) − f(v, ξ) = 0,
+
+with the electric equation negated (its Jacobian is then symmetric quasi-definite) and S
+the Signorini term of the enforcement method (``ngcontact.enforcement``). ``StepSystem``
+assembles R in the parts ``bulk`` (b + e + e − c), ``a``, ``f`` and ``contact_terms``.
+
+Strains and stresses are Voigt vectors with engineering shear, so that σ : ε(v) is the dot
+product of the Voigt vectors. The dimension is read off the arguments (``u.dim``).
 """
 import ngsolve as ngs
 
+from .loads import as_cf
 
 
 def matrix_cf(M):
@@ -22,34 +33,126 @@ def matrix_cf(M):
     return ngs.CF(tuple(float(v) for v in M.flat), dims=M.shape)
 
 
-def strain(u, dim):
+def strain(u):
     """ε(u) as a Voigt vector: (ε11, ε22, 2ε12) in 2D, (ε11, ε22, ε33, 2ε23, 2ε13, 2ε12) in 3D."""
     e = ngs.Sym(ngs.Grad(u))
-    if dim == 2:
+    if u.dim == 2:
         return ngs.CF((e[0, 0], e[1, 1], 2 * e[0, 1]))
     return ngs.CF((e[0, 0], e[1, 1], e[2, 2], 2 * e[1, 2], 2 * e[0, 2], 2 * e[0, 1]))
 
 
-def stress(tensors, u, phi, dim, strain_rate=None):
-    """σ = A ε(u̇) + F ε(u) + Eᵀ ∇φ (2.3), Voigt vector; ``strain_rate`` is ε(u̇) (Voigt),
-    None for the elastic part only."""
-    s = matrix_cf(tensors.F) * strain(u, dim) + matrix_cf(tensors.E).trans * ngs.grad(phi)
-    if tensors.viscous and strain_rate is not None:
-        s = s + matrix_cf(tensors.A) * strain_rate
+def stress(T, u, phi, strain_rate=None):
+    """σ = A ε(u̇) + F ε(u) + Eᵀ ∇φ (2.3), Voigt vector, for the MaterialTensors T;
+    ``strain_rate`` is ε(u̇) (Voigt), None for the elastic part only."""
+    s = matrix_cf(T.F) * strain(u) + matrix_cf(T.E).trans * ngs.grad(phi)
+    if T.viscous and strain_rate is not None:
+        s = s + matrix_cf(T.A) * strain_rate
     return s
 
 
-def electric_displacement(tensors, u, phi, dim):
+def electric_displacement(T, u, phi):
     """D = E ε(u) − C ∇φ (2.4)."""
-    return matrix_cf(tensors.E) * strain(u, dim) - matrix_cf(tensors.C) * ngs.grad(phi)
+    return matrix_cf(T.E) * strain(u) - matrix_cf(T.C) * ngs.grad(phi)
 
 
-def normal_stress(sigma_voigt, n, dim):
-    """σ_ν = σν · ν from a Voigt stress vector."""
-    s = sigma_voigt
-    if dim == 2:
+def normal_stress(sigma, n):
+    """σ_ν = σν · ν from a Voigt stress vector and the unit normal n."""
+    s = sigma
+    if n.dim == 2:
         S = ngs.CF((s[0], s[2], s[2], s[1]), dims=(2, 2))
     else:
         S = ngs.CF((s[0], s[5], s[4], s[5], s[1], s[3], s[4], s[3], s[2]), dims=(3, 3))
     return n * (S * n)
 
+
+def step_normal_stress(T, u, phi, inv_dt, u_old=None):
+    """σ_ν of a backward Euler step: ν·(F ε(u) + A ε(u − u_old)/dt + Eᵀ∇φ)ν (Pa), with
+    1/dt given as ``inv_dt`` (1/s). ``u_old=None``: the variation σ_ν(v, ξ) in the test
+    functions, A ε(v)/dt included."""
+    rate = inv_dt * (strain(u) - strain(u_old)) if u_old is not None else inv_dt * strain(u)
+    return normal_stress(stress(T, u, phi, rate), ngs.specialcf.normal(u.dim))
+
+
+def boundary_stiffness(body, inv_dt):
+    """p² (λ_max(F + Eᵀ C⁻¹ E) + λ_max(A)/dt)/h (N/m³): the stiffness of σ_ν per unit normal
+    displacement at a facet of height h = ``specialcf.mesh_size``, p the order of u. The
+    factor p² follows the inverse inequality of degree-p polynomials. Nitsche's γ and the
+    penalty's ε are multiples of it (``Contact.gamma0``, ``Contact.penalty``)."""
+    return body.order ** 2 * body.tensors.stiffness(inv_dt) / ngs.specialcf.mesh_size
+
+
+# ------------------------------------------------------------------------ the bulk forms on Ω
+
+def a(T, u, v):
+    """a(u, v) = (A ε(u), ε(v)): the Kelvin-Voigt viscosity (2.30), integrand on Ω."""
+    return ngs.InnerProduct(matrix_cf(T.A) * strain(u), strain(v))
+
+
+def b(T, u, v):
+    """b(u, v) = (F ε(u), ε(v)): elasticity (2.30), integrand on Ω."""
+    return ngs.InnerProduct(matrix_cf(T.F) * strain(u), strain(v))
+
+
+def c(T, phi, xi):
+    """c(φ, ξ) = (C ∇φ, ∇ξ): permittivity (2.31), integrand on Ω."""
+    return ngs.InnerProduct(matrix_cf(T.C) * ngs.grad(phi), ngs.grad(xi))
+
+
+def e(T, v, xi):
+    """e(v, ξ) = (E ε(v), ∇ξ): piezoelectric coupling (2.30)-(2.31), integrand on Ω."""
+    return ngs.InnerProduct(matrix_cf(T.E) * strain(v), ngs.grad(xi))
+
+
+def bulk(T, trial, test):
+    """b(u, v) + e(v, φ) + e(u, ξ) − c(φ, ξ): the elastic and electric part of R on Ω, for
+    trial = (u, φ) and test = (v, ξ) (σ(u, φ) : ε(v) + D(u, φ) · ∇ξ)."""
+    (u, phi), (v, xi) = trial, test
+    return b(T, u, v) + e(T, v, phi) + e(T, u, xi) - c(T, phi, xi)
+
+
+def f(body, loads, test):
+    """f(v, ξ) = (f0, v) + (f2, v)_Γ2 + (q0, ξ) + (qb, ξ)_Γb (2.26)-(2.27), as a list of
+    integrals (integrand times dx or ds) for a LinearForm."""
+    (v, xi), mesh, dim = test, body.mesh, body.dim
+    integrals = []
+    if loads.f0 is not None:
+        integrals.append(as_cf(loads.f0, dim, "f0") * v * ngs.dx)
+    if loads.q0 is not None:
+        integrals.append(as_cf(loads.q0, 1, "q0") * xi * ngs.dx)
+    for names, f2 in loads.f2.items():
+        integrals.append(as_cf(f2, dim, f"f2[{names!r}]") * v * ngs.ds(mesh.Boundaries(names)))
+    for names, qb in loads.qb.items():
+        integrals.append(as_cf(qb, 1, f"qb[{names!r}]") * xi * ngs.ds(mesh.Boundaries(names)))
+    return integrals
+
+
+# ------------------------------------------------------------------------ the forms on Γ3
+
+def adhesion_traction(contact, beta, u_normal):
+    """p(u_ν) − γ_ν β² R_ν(u_ν) (Pa): the compliant layer's push minus the glue's pull, the
+    integrand of j_a (2.28) per unit v_ν."""
+    return contact.p(u_normal) - contact.adhesion * beta ** 2 * contact.R(u_normal)
+
+
+def charge_flux_density(contact, u, phi, gap, foundation_potential):
+    """ψ(u_ν − g) φ_L(φ − φ_Γ) = D·ν on Γ3 (2.7), C/m²: the charge flux out of the body."""
+    n = ngs.specialcf.normal(u.dim)
+    return contact.psi(u * n - gap) * contact.phi_L(phi - foundation_potential)
+
+
+def j_e(contact, u, phi, xi, gap, foundation_potential):
+    """j_e(u, φ, ξ) (2.29), integrand on Γ3."""
+    return charge_flux_density(contact, u, phi, gap, foundation_potential) * xi
+
+
+def contact_terms(contact, enforcement, beta, gap, foundation_potential, state, test):
+    """The Γ3 part of R: j_a(β, u, v) + S(x; v, ξ) − j_e(u, φ, ξ), for the state
+    x = (u, φ) (trial functions or GridFunctions) and test = (v, ξ); S is the
+    ``enforcement`` method's Signorini term, which may use the traction of j_a."""
+    (u, phi), (v, xi) = state, test
+    n = ngs.specialcf.normal(u.dim)
+    traction = adhesion_traction(contact, beta, u * n)
+    terms = traction * (v * n) + enforcement.signorini(u, phi, v, xi, traction)     # j_a + S
+    if contact.conducts:
+        terms = terms - j_e(contact, u, phi, xi, gap, foundation_potential)
+    return terms

@@ -32,8 +32,8 @@ class Loads:
 
     def check(self, body):
         """Each boundary key must lie on its part of ∂Ω: f2 on Γ2, qb on Γb \\ Γ3, potential on Γa."""
-        allowed = {"f2": body.free_names(("clamped", "contact")),
-                   "qb": body.free_names(("grounded", "contact")),
+        allowed = {"f2": body.free_names(("clamped", "contact_side")),
+                   "qb": body.free_names(("grounded", "contact_side")),
                    "potential": body.boundaries["grounded"]}
         for entry, names in allowed.items():
             for key in getattr(self, entry):

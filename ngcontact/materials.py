@@ -14,7 +14,7 @@ rotation) so that axis 3 points along ``poling``, and for ``dim == 2`` the plane
 reduction keeps the in-plane rows and columns -- ε_zz = ε_xz = ε_yz = 0 and E_z = 0 --
 so F is 3x3 on (11, 22, 12), E is 2x3 and C is 2x2.
 
-With ``σ = A ε(u̇) + F ε(u) + Eᵀ∇φ`` and ``D = E ε(u) − C∇φ`` (model.md), a column
+With ``σ = A ε(u̇) + F ε(u) + Eᵀ∇φ`` and ``D = E ε(u) − C∇φ`` (docs/model.md), a column
 loaded along its poling axis is stiffer open-circuit than short-circuit:
 c33 + e33²/ε33 against c33.
 """
@@ -26,7 +26,7 @@ EPS0 = 8.8541878128e-12
 """Vacuum permittivity ε0 in F/m."""
 
 VOIGT = ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1))
-AXES = {"x": 0, "y": 1, "z": 2}
+"""Voigt order of the index pairs (11, 22, 33, 23, 13, 12), zero-based."""
 
 
 def _full4(c):
@@ -81,6 +81,14 @@ class MaterialTensors:
     @property
     def viscous(self):
         return bool(np.any(self.A))
+
+    def stiffness(self, inv_dt=0.0):
+        """λ_max(F + Eᵀ C⁻¹ E) + λ_max(A)/dt, in Pa: the scale of σ_ν per unit strain in a
+        backward Euler step of length dt (``inv_dt`` = 1/dt in 1/s, a number or a Parameter).
+        The open-circuit tensor F + Eᵀ C⁻¹ E bounds the coupled stiffness; A/dt is the
+        viscous stiffness of the step."""
+        elastic = np.linalg.eigvalsh(self.F + self.E.T @ np.linalg.solve(self.C, self.E)).max()
+        return elastic + inv_dt * (np.linalg.eigvalsh(self.A).max() if self.viscous else 0.0)
 
 
 @dataclass(frozen=True)

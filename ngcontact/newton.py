@@ -1,21 +1,30 @@
-"""Semismooth Newton for the monolithic (u, φ) step, with a relative tolerance.
+"""Semismooth Newton for one step: one loop for every enforcement method.
 
 Forces (N) and charges (C) are not comparable, so residuals are measured in the norm
-‖r‖² = ‖r_u‖²/s_u + ‖r_φ‖²/s_φ, where s_u, s_φ are the mean diagonal entries of the two
-blocks of the Jacobian (N/m and C/V): each term is an energy, in J.
-The step has converged when ‖r‖ ≤ rtol ‖r_0‖ (r_0: residual at the start of the step)
-or when ‖r‖ ≤ 1e-13 ‖x‖_s, ‖x‖²_s = s_u‖x_u‖² + s_φ‖x_φ‖² (round-off level).
+‖r‖² = ‖r_u‖²/s_u + ‖r_φ‖²/s_φ (``ResidualNorm``), where s_u, s_φ are the mean diagonal
+entries of the two blocks of the first Jacobian (N/m and C/V): each term is an energy, in J.
+A solve has converged when ‖r‖ ≤ rtol ‖r_0‖ (r_0: the residual at its start), or when ‖r‖
+is down to round-off: ‖r‖ ≤ max(1e-13 ‖x‖, 10 ε ‖ |J||x| + |b| ‖) with ε the machine
+epsilon and |J||x| + |b| the size of the terms that sum to the residual
+(``StepSystem.magnitude``), so that the floor grows with a stiff contact term.
 
-Unlike ``ngsolve.solvers.Newton`` this raises ``NewtonError`` when it fails. Each solve
-reports its wall time split into residual evaluation, assembly of the Jacobian,
-factorisation and solve (``NewtonResult.timings``, s).
+Every enforcement method runs in this one loop; a method with unknowns of its own (the
+nodal multipliers of the active set method) takes part through a ``Hook``. Wall time goes
+to a ``timer`` callback per phase ("residual", "assembly", "factorization", "solve").
+Unlike ``ngsolve.solvers.Newton``, a failure raises ``NewtonError``.
 """
 import time as wallclock
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 import scipy.sparse as sp
+
+from .linear_solver import DirectSolver
+
+ROUNDOFF = 10 * np.finfo(float).eps
+"""Factor of the round-off floor on ‖ |J||x| + |b| ‖."""
 
 
 class NewtonError(RuntimeError):
@@ -35,14 +44,16 @@ class NewtonError(RuntimeError):
 
 @dataclass
 class NewtonResult:
+    """A converged solve: ``iterations`` (linear solves), ``residuals`` (scaled norms, one
+    per residual evaluation, J^1/2) and ``residual``, the final residual vector R(x)."""
     iterations: int
     residuals: list = field(default_factory=list)
-    residual_vector: object = None
-    timings: dict = field(default_factory=dict)
+    residual: object = None
 
 
 class Timings(dict):
-    """Wall time (s) per phase: ``with timings("assembly"): ...`` adds to timings["assembly"]."""
+    """Wall time (s) per phase: ``with timings("assembly"): ...`` adds to timings["assembly"];
+    a ``timer`` for ``Newton.solve``."""
 
     PHASES = ("residual", "assembly", "factorization", "solve")
 
@@ -56,104 +67,165 @@ class Timings(dict):
         self[phase] += wallclock.perf_counter() - start
 
 
+def _untimed(phase):
+    return nullcontext()
+
+
+class ResidualNorm:
+    """The scaled norms of residuals (dual) and states (primal) on the free DOFs of the u and
+    φ blocks of ``space``; the scales s_u, s_φ are set once, from a Jacobian diagonal."""
+
+    def __init__(self, space, freedofs):
+        free = np.array(list(freedofs), dtype=bool)
+        self.blocks = [np.flatnonzero(free[space.Range(i).start:space.Range(i).stop]) + space.Range(i).start
+                       for i in range(2)]
+        self.scales = None
+
+    def set_scales(self, diagonal):
+        """s_b = mean |diagonal| over block b (1 for an empty or zero block)."""
+        diagonal = np.abs(diagonal)
+        self.scales = [float(diagonal[b].mean()) if len(b) and diagonal[b].mean() > 0 else 1.0
+                       for b in self.blocks]
+
+    def _weighted(self, a, power):
+        return float(np.sqrt(sum(s ** power * np.dot(a[b], a[b]) for b, s in zip(self.blocks, self.scales))))
+
+    def dual(self, r):
+        """‖r‖ = (Σ_b ‖r_b‖²/s_b)^½ of a residual (vector or numpy array), J^½."""
+        return self._weighted(r if isinstance(r, np.ndarray) else r.FV().NumPy(), -1)
+
+    def primal(self, x):
+        """‖x‖ = (Σ_b s_b ‖x_b‖²)^½ of a state vector, J^½."""
+        return self._weighted(x.FV().NumPy(), 1)
+
+
+class Hook(Protocol):
+    """Unknowns of an enforcement method solved inside Newton (e.g. nodal multipliers).
+
+    ``forces``: its contribution to the residual (a vector); ``solver``: the name of the
+    linear solver it uses."""
+
+    def start(self):
+        """A new solve begins."""
+
+    def residual(self, x, r, norm) -> tuple:
+        """Add ``forces`` to the residual r = R(x); return (the scaled norm of the whole
+        residual, with the ``ResidualNorm`` norm, and whether its own unknowns have settled,
+        so that the solve may stop)."""
+
+    def correct(self, system, x, r, timer):
+        """The Newton correction: update x (and its own unknowns) in place; the Jacobian
+        R'(x) is assembled in ``system.mat``."""
+
+    def finish(self):
+        """The solve converged."""
+
+
 class Newton:
-    """Newton on ``form`` (a BilinearForm, nonlinear in the trial function) for ``gfu``.
+    """Newton on ``system`` for the state ``gfu``, solved in place.
 
     Parameters
     ----------
-    form : ngsolve.BilinearForm, the residual R(x; ·).
+    system : the residual R: a BilinearForm (nonlinear in the trial function) or a
+        ``StepSystem``: ``Apply``, ``AssembleLinearization``, ``mat`` and ``condense`` (with
+        ``harmonic_extension``, ``harmonic_extension_trans``, ``inner_solve``); the optional
+        ``jacobian_diagonal(x)`` (for the scales when ``mat`` is condensed) and
+        ``magnitude(x)`` (for the round-off floor).
     gfu : GridFunction on the product space V × W (components u, φ).
+    solver : DirectSolver of the corrections (default: UMFPACK).
     freedofs : BitArray of the unknowns (default: the space's free DOFs).
-    inverse : str, direct solver of ``Mat.Inverse`` ("sparsecholesky" only for a symmetric
-        Jacobian, "umfpack" or "pardiso" otherwise).
-    rtol : relative residual reduction per step.
-    maxit : maximum number of linear solves per step.
-    condense : solve with the statically condensed Jacobian (``form`` must be a condensing
-        ``StepSystem``); default ``form.condense`` when it exists.
+    rtol : relative residual reduction per solve.
+    maxit : maximum number of linear solves per solve.
+    hook : a ``Hook`` of the enforcement method, or None.
     """
 
-    def __init__(self, form, gfu, *, freedofs=None, inverse="umfpack", rtol=1e-10, maxit=50,
-                 condense=None):
+    def __init__(self, system, gfu, *, solver=None, freedofs=None, rtol=1e-10, maxit=50, hook=None):
         if not rtol > 0:
             raise ValueError(f"rtol must be > 0, got {rtol}")
         if int(maxit) != maxit or maxit < 1:
             raise ValueError(f"maxit must be an integer >= 1, got {maxit}")
-        self.form, self.gfu, self.inverse = form, gfu, inverse
+        self.system, self.gfu, self.hook = system, gfu, hook
+        self.solver = solver or DirectSolver("umfpack")
         self.rtol, self.maxit = rtol, int(maxit)
         space = gfu.space
-        self.freedofs = freedofs or space.FreeDofs()
-        free = np.array(list(self.freedofs), dtype=bool)
-        self.blocks = [np.flatnonzero(free[space.Range(i).start:space.Range(i).stop]) + space.Range(i).start
-                       for i in range(2)]
-        self.scales = None
+        self.freedofs = freedofs if freedofs is not None else space.FreeDofs()
+        self.norm = ResidualNorm(space, self.freedofs)
         self.r = gfu.vec.CreateVector()
         self.w = gfu.vec.CreateVector()
-        self.condense = getattr(form, "condense", False) if condense is None else condense
+        self.condense = bool(getattr(system, "condense", False))
         if self.condense:
             self.coupling = self.freedofs & space.FreeDofs(coupling=True)
             self.r_condensed = gfu.vec.CreateVector()
 
-    def _norm(self, vec, power):
-        a = vec.FV().NumPy()
-        return float(np.sqrt(sum(s ** power * np.dot(a[b], a[b]) for b, s in zip(self.blocks, self.scales))))
+    @property
+    def solver_name(self):
+        """The linear solver actually used for the corrections."""
+        return self.hook.solver if self.hook is not None else self.solver.name
 
-    def _set_scales(self):
-        vals, cols, ptr = self.form.mat.CSR()
-        diag = np.abs(sp.csr_matrix((vals, cols, ptr)).diagonal())
-        self.scales = [float(diag[b].mean()) if len(b) and diag[b].mean() > 0 else 1.0
-                       for b in self.blocks]
-
-    def _residual(self, x, clock):
-        """r = R(x), timed; the block scales are set from the first Jacobian."""
-        with clock("residual"):
-            self.form.Apply(x, self.r)
-        if self.scales is None:
-            self.form.AssembleLinearization(x)
-            self._set_scales()
-
-    def solve(self, *, step=None, time=None):
-        """Iterate from the current ``gfu`` until converged; raise ``NewtonError`` otherwise."""
-        x, r, w = self.gfu.vec, self.r, self.w
-        residuals, clock = [], Timings()
+    def solve(self, *, step=None, time=None, timer=None):
+        """Iterate from the current ``gfu`` until converged; raise ``NewtonError`` otherwise.
+        ``step`` and ``time`` (s) are for the error message; ``timer(phase)`` returns a
+        context manager that times a phase (e.g. a ``Timings``)."""
+        timer = timer or _untimed
+        x, r, hook = self.gfu.vec, self.r, self.hook
+        residuals = []
+        if hook is not None:
+            hook.start()
         for it in range(self.maxit + 1):
-            self._residual(x, clock)
-            norm = self._norm(r, -1)
-            residuals.append(norm)
-            if not np.isfinite(norm):
+            with timer("residual"):
+                self.system.Apply(x, r)
+            if self.norm.scales is None:
+                self.norm.set_scales(self._diagonal(x))
+            value, settled = hook.residual(x, r, self.norm) if hook is not None else (self.norm.dual(r), True)
+            residuals.append(value)
+            if not np.isfinite(value):
                 raise NewtonError("diverged (non-finite residual)", iteration=it, residuals=residuals,
                                   step=step, time=time, hint="a smaller time step")
-            if norm <= self.rtol * residuals[0] or norm <= 1e-13 * self._norm(x, 1):
-                return NewtonResult(it, residuals, r, clock)
+            if settled and self._converged(value, residuals[0], x):
+                if hook is not None:
+                    hook.finish()
+                return NewtonResult(it, residuals, r)
             if it == self.maxit:
                 break
-            self.linear_solve(x, clock)
-            x.data -= w
+            if hook is not None:
+                with timer("assembly"):
+                    self.system.AssembleLinearization(x)
+                hook.correct(self.system, x, r, timer)
+            else:
+                self.linear_solve(x, timer)
+                x.data -= self.w
         raise NewtonError(f"did not converge in {self.maxit} iterations", iteration=self.maxit,
                           residuals=residuals, step=step, time=time,
                           hint="a smaller time step, a larger Nitsche parameter gamma0, theta = -1, "
                                "or a larger maxit")
 
-    def linear_solve(self, x, clock):
-        """One Newton correction w = R'(x)⁻¹ r (``self.w``, ``self.r``): assembly, factorisation
-        and solve, timed into ``clock``."""
-        if self.condense:
-            return self._condensed_solve(x, clock)
-        with clock("assembly"):
-            self.form.AssembleLinearization(x)
-        with clock("factorization"):
-            inverse = self.form.mat.Inverse(self.freedofs, inverse=self.inverse)
-        with clock("solve"):
-            self.w.data = inverse * self.r
+    def _diagonal(self, x):
+        if hasattr(self.system, "jacobian_diagonal"):
+            return self.system.jacobian_diagonal(x)
+        self.system.AssembleLinearization(x)
+        return sp.csr_matrix(self.system.mat.CSR()).diagonal()
 
-    def _condensed_solve(self, x, clock):
-        """w = R'(x)⁻¹ r through the Schur complement on the coupling DOFs."""
-        r, w, rc, K = self.r, self.w, self.r_condensed, self.form.K_condensed
-        with clock("assembly"):
-            self.form.AssembleLinearization(x, condensed=True)
-        with clock("factorization"):
-            inverse = self.form.condensed_mat.Inverse(self.coupling, inverse=self.inverse)
-        with clock("solve"):
-            rc.data = r + K.harmonic_extension_trans * r
-            w.data = inverse * rc
-            w.data += K.harmonic_extension * w
-            w.data += K.inner_solve * r
+    def _converged(self, value, first, x):
+        if value <= self.rtol * first or value <= 1e-13 * self.norm.primal(x):
+            return True
+        magnitude = getattr(self.system, "magnitude", None)
+        return magnitude is not None and value <= ROUNDOFF * self.norm.dual(magnitude(x))
+
+    def linear_solve(self, x, timer=None):
+        """One Newton correction w = R'(x)⁻¹ r (``self.w``, ``self.r``): assembly,
+        factorisation and solve, each timed by ``timer``."""
+        timer = timer or _untimed
+        system, r, w = self.system, self.r, self.w
+        with timer("assembly"):
+            system.AssembleLinearization(x)
+        with timer("factorization"):
+            self.solver.factor(system.mat, self.coupling if self.condense else self.freedofs)
+        with timer("solve"):
+            if self.condense:                              # through the Schur complement
+                rc = self.r_condensed
+                rc.data = r + system.harmonic_extension_trans * r
+                self.solver.solve(rc, w)
+                w.data += system.harmonic_extension * w
+                w.data += system.inner_solve * r
+            else:
+                self.solver.solve(r, w)

@@ -1,65 +1,34 @@
-"""The nonlinear system of one backward Euler step, assembled in parts.
+"""The nonlinear system of one backward Euler step, assembled in the parts of ``forms``.
 
-The bulk of (4.6)-(4.7) is linear with constant coefficients: with the two matrices
+The bulk of the step residual (``forms``) is linear with constant coefficients: with
 
-  K_el : b(u, v) + e(v, φ) + e(u, ξ) − c(φ, ξ)   (F, E, C; the electric equation negated),
-  K_A  : a(u, v)                                  (A, the Kelvin-Voigt viscosity),
+  K_el : b(u, v) + e(v, φ) + e(u, ξ) − c(φ, ξ)     (``forms.bulk``),
+  K_A  : a(u, v)                                    (``forms.a``, Kelvin-Voigt viscosity),
 
-assembled once, the step residual at x = (u, φ) is
+assembled once, the residual of the step to t_n with time step dt at x = (u, φ) is
 
-  R(x) = K_el x + (1/k) K_A (x − x_{n−1}) − f(t_n) + R_Γ3(x),
+  R(x) = K_el x + (1/dt) K_A (x − x_{n−1}) − f(t_n) + R_Γ3(x),
 
-where only R_Γ3, the contact terms on Γ3, is nonlinear. Its Jacobian is
-K_el + (1/k) K_A + R_Γ3'(x): each Newton iteration assembles the Γ3 terms only and adds
-matrices of one sparsity pattern. ``StepSystem`` has the interface ``Newton`` uses of a
-nonlinear ``BilinearForm`` (``Apply``, ``AssembleLinearization``, ``mat``).
+where only R_Γ3 (``forms.contact_terms``) is nonlinear. Its Jacobian is
+K = K_el + (1/dt) K_A plus R_Γ3'(x): each Newton iteration assembles the Γ3 terms only and
+adds matrices of one sparsity pattern.
 
-Static condensation (``condense=True``): the element-interior DOFs of the elements away
-from Γ3 appear in K only, so they are eliminated once per time step size by a condensed
-form of K; the Newton matrix is then the Schur complement of K plus R_Γ3' on the remaining
-DOFs (the interior DOFs of the elements at Γ3 are kept as coupling DOFs).
+``StepSystem`` offers what ``Newton`` uses of a nonlinear NGSolve ``BilinearForm``:
+``Apply``, ``AssembleLinearization``, ``mat`` and, for static condensation, ``condense``,
+``harmonic_extension``, ``harmonic_extension_trans`` and ``inner_solve``. With
+``condense=True`` the element-interior DOFs of the elements away from Γ3 appear in K only;
+they are eliminated once per time step size by a condensed form of K, and ``mat`` is the
+Schur complement of K plus R_Γ3' on the remaining (coupling) DOFs. The interior DOFs of the
+elements at Γ3 are kept as coupling DOFs of the system's own space.
 """
 import warnings
 
 import ngsolve as ngs
 import numpy as np
+import scipy.sparse as sp
 
-from .forms import electric_displacement, matrix_cf, strain, stress
+from . import forms
 from .loads import as_cf
-
-
-def bulk_forms(body, inv_dt=None, condense=False):
-    """The BilinearForms of K_el and K_A (not assembled; K_A is None without viscosity), or,
-    given the Parameter ``inv_dt``, the one form K = K_el + (1/k) K_A."""
-    dim, T = body.dim, body.tensors
-    (u, phi), (v, xi) = body.X.TnT()
-    elastic = (ngs.InnerProduct(stress(T, u, phi, dim), strain(v, dim))
-               + ngs.InnerProduct(electric_displacement(T, u, phi, dim), ngs.grad(xi)))
-    viscous = ngs.InnerProduct(matrix_cf(T.A) * strain(u, dim), strain(v, dim)) if T.viscous else None
-    if inv_dt is not None:
-        K = ngs.BilinearForm(body.X, symmetric=False, condense=condense)
-        K += (elastic + inv_dt * viscous if viscous is not None else elastic) * ngs.dx
-        return K
-    K_el = ngs.BilinearForm(body.X, symmetric=False)
-    K_el += elastic * ngs.dx
-    if viscous is None:
-        return K_el, None
-    K_A = ngs.BilinearForm(body.X, symmetric=False)
-    K_A += viscous * ngs.dx
-    return K_el, K_A
-
-
-def keep_interior_dofs(body, region):
-    """Mark the element-interior (LOCAL) DOFs of the volume elements with a facet in the
-    boundary ``region`` as coupling DOFs of body.X, so that condensation leaves them."""
-    X, mesh = body.X, body.mesh
-    facets = {f.nr for el in region.Elements() for f in (el.edges if body.dim == 2 else el.faces)}
-    for nr in facets:
-        for element in mesh.facets[nr].elements:
-            for dof in X.GetDofNrs(element):
-                if dof >= 0 and X.CouplingType(dof) == ngs.COUPLING_TYPE.LOCAL_DOF:
-                    X.SetCouplingType(dof, ngs.COUPLING_TYPE.INTERFACE_DOF)
-    X.FinalizeUpdate()                                      # recomputes FreeDofs(coupling=True)
 
 
 def has_interior_dofs(space):
@@ -67,101 +36,121 @@ def has_interior_dofs(space):
     return space.FreeDofs(coupling=True).NumSet() < space.FreeDofs().NumSet()
 
 
-def load_form(body, loads):
-    """f(t): the LinearForm of the loads f0, f2 (on v) and q0, qb (on ξ)."""
-    dim, mesh = body.dim, body.mesh
-    v, xi = body.X.TestFunction()
-    f = ngs.LinearForm(body.X)
-    if loads.f0 is not None:
-        f += as_cf(loads.f0, dim, "f0") * v * ngs.dx
-    if loads.q0 is not None:
-        f += as_cf(loads.q0, 1, "q0") * xi * ngs.dx
-    for names, f2 in loads.f2.items():
-        f += as_cf(f2, dim, f"f2[{names!r}]") * v * ngs.ds(mesh.Boundaries(names))
-    for names, qb in loads.qb.items():
-        f += as_cf(qb, 1, f"qb[{names!r}]") * xi * ngs.ds(mesh.Boundaries(names))
-    return f
+def keep_interior_dofs(space, region):
+    """Mark the element-interior (LOCAL) DOFs of the volume elements with a facet in the
+    boundary ``region`` as coupling DOFs of ``space``, so that condensation leaves them."""
+    mesh = space.mesh
+    facets = {f.nr for el in region.Elements() for f in (el.edges if mesh.dim == 2 else el.faces)}
+    for nr in facets:
+        for element in mesh.facets[nr].elements:
+            for dof in space.GetDofNrs(element):
+                if dof >= 0 and space.CouplingType(dof) == ngs.COUPLING_TYPE.LOCAL_DOF:
+                    space.SetCouplingType(dof, ngs.COUPLING_TYPE.INTERFACE_DOF)
+    space.FinalizeUpdate()                                  # recomputes FreeDofs(coupling=True)
 
 
 class StepSystem:
-    """R(x) and its Jacobian for a Body under Loads.
+    """R(x) and its Jacobian for a Body under Loads, on the space ``X``.
 
     Parameters
     ----------
     body, loads : Body and Loads (CoefficientFunctions of the ``time`` Parameter).
-    u_old : GridFunction of u_{n−1} on body.V.
-    inv_dt, time : Parameters holding 1/k (1/s) and t_n (s).
-
+    X : the system's own product space V × W (``body.space()``); condensation marks DOFs on it.
+    time : the Parameter the loads depend on; ``begin_step`` sets it to t_n (s).
     condense : static condensation of the interior DOFs away from ``kept`` (a boundary
-        region, Γ3); marks the interior DOFs of the elements at ``kept`` as coupling DOFs of
-        body.X. Then ``AssembleLinearization(x, condensed=True)`` sets ``condensed_mat`` and
-        ``K_condensed`` offers ``harmonic_extension``, ``harmonic_extension_trans`` and
-        ``inner_solve`` (as a condensed BilinearForm does).
+        region, Γ3).
 
-    ``add_boundary_terms(terms, ds)`` adds a (nonlinear) Γ3 part. ``begin_step()``
-    assembles f(t_n) and (1/k) K_A x_{n−1}; it is called again by ``Apply`` when t_n or
-    1/k changed. ``boundary_residual`` holds R_Γ3 at the last ``Apply``.
+    ``u_old`` (GridFunction of u_{n−1}) and ``inv_dt`` (Parameter 1/dt, 1/s) are the step's
+    coefficients, for the Γ3 terms to use. ``add_boundary_terms(terms, ds)`` adds R_Γ3;
+    ``begin_step(t, dt, u_old, state)`` prepares the step; ``boundary_residual`` holds R_Γ3
+    at the last ``Apply``.
     """
 
-    def __init__(self, body, loads, u_old, inv_dt, time, *, condense=False, kept=None):
-        self.body, self.u_old, self.inv_dt, self.time = body, u_old, inv_dt, time
+    def __init__(self, body, loads, X, time, *, condense=False, kept=None):
+        self.body, self.X, self.time = body, X, time
+        self.u_old = ngs.GridFunction(body.V, name="u_old")
+        self.inv_dt = ngs.Parameter(1.0)
+        self.loads = loads
         self.condense = bool(condense)
         if self.condense and kept is not None:
-            keep_interior_dofs(body, kept)
-        self.K_el, self.K_A = bulk_forms(body)
+            keep_interior_dofs(X, kept)
+        trial, test = X.TnT()
+        T = body.tensors
+        self.K_el = ngs.BilinearForm(X, symmetric=False)
+        self.K_el += forms.bulk(T, trial, test) * ngs.dx
+        self.K_A = None
+        if T.viscous:
+            self.K_A = ngs.BilinearForm(X, symmetric=False)
+            self.K_A += forms.a(T, trial[0], test[0]) * ngs.dx
         for form in (self.K_el, self.K_A):
             if form is not None:
                 form.Assemble()
         if self.condense:
-            self.K_condensed = bulk_forms(body, inv_dt, condense=True)
-            self.condensed_mat = None
-        self.f = load_form(body, loads)
+            self._K_condensed = ngs.BilinearForm(X, symmetric=False, condense=True)
+            bulk = forms.bulk(T, trial, test)
+            if T.viscous:
+                bulk = bulk + self.inv_dt * forms.a(T, trial[0], test[0])
+            self._K_condensed += bulk * ngs.dx
+            self._schur = None
+        self.f = ngs.LinearForm(X)
+        for integral in forms.f(body, loads, test):
+            self.f += integral
         self.K = self.K_el.mat.CreateMatrix()
-        self.mat = self.K_el.mat.CreateMatrix()
+        self._full = self.K_el.mat.CreateMatrix()
+        self.mat = self._full
         self.boundary = None
-        self._x_old = ngs.GridFunction(body.X)
-        self._constant = self._x_old.vec.CreateVector()       # f + (1/k) K_A x_{n−1}
+        self._x_old = ngs.GridFunction(X)
+        self._constant = self._x_old.vec.CreateVector()       # f + (1/dt) K_A x_{n−1}
         self.boundary_residual = self._x_old.vec.CreateVector()
         self.boundary_residual[:] = 0.0
-        self._stamp = None
-        self.begin_step()
+        self._dt, self._linearized = None, False
 
+    # ----------------------------------------------------------------------- building
     def add_boundary_terms(self, terms, ds, realcompile=False):
-        """Add ∫ terms(u, φ) ds to R: ``terms(u, φ)`` is the integrand (linear in the test
-        functions) for the state (u, φ). Its Jacobian comes from a BilinearForm in the trial
-        functions; R_Γ3 itself from a LinearForm in a copy of the state, whose assembly is
-        about as fast as the Jacobian's where the BilinearForm's Apply is not (under
-        TaskManager, ds(skeleton=True))."""
+        """Add ∫ terms(state, test) ds to R: ``terms((u, φ), (v, ξ))`` is the integrand
+        (linear in the test functions) for the state (u, φ). Its Jacobian comes from a
+        BilinearForm in the trial functions; R_Γ3 itself from a LinearForm in a copy of the
+        state, whose assembly is about as fast as the Jacobian's where the BilinearForm's
+        Apply is not (under TaskManager, ds(skeleton=True))."""
         if self.boundary is None:
-            self.boundary = ngs.BilinearForm(self.body.X, symmetric=False)
-            self.state = ngs.GridFunction(self.body.X)
-            self._boundary_linear = ngs.LinearForm(self.body.X)
-        self.boundary += _compiled(terms(*self.body.X.TrialFunction()), realcompile) * ds
-        self._boundary_linear += terms(*self.state.components).Compile() * ds
+            self.boundary = ngs.BilinearForm(self.X, symmetric=False)
+            self.state = ngs.GridFunction(self.X)
+            self._boundary_linear = ngs.LinearForm(self.X)
+        test = self.X.TestFunction()
+        self.boundary += _compiled(terms(self.X.TrialFunction(), test), realcompile) * ds
+        self._boundary_linear += terms(self.state.components, test).Compile() * ds
 
-    def begin_step(self):
-        """Assemble the parts fixed during a step: f(t_n), (1/k) K_A x_{n−1} and K."""
-        inv_dt = self.inv_dt.Get()
-        if self._stamp is None or self._stamp[1] != inv_dt:
+    # ----------------------------------------------------------------------- one step
+    def begin_step(self, t, dt, u_old, state):
+        """Prepare the step to t_n = ``t`` (s) with time step ``dt`` (s) from u_{n−1} =
+        ``u_old`` (a vector of V): set the time Parameter, assemble f(t_n), (1/dt) K_A x_{n−1}
+        and, when dt changed, K (and its condensed form); set the electrode potentials at
+        t_n in the ``state`` GridFunction (u, φ)."""
+        self.time.Set(t)
+        if dt != self._dt:
+            self.inv_dt.Set(1.0 / dt)
+            inv_dt = self.inv_dt.Get()
             self.K.AsVector().data = self.K_el.mat.AsVector()
             if self.K_A is not None:
                 self.K.AsVector().data += inv_dt * self.K_A.mat.AsVector()
             if self.condense:
-                self.K_condensed.Assemble()
+                self._K_condensed.Assemble()
+            self._absK = None
+            self._dt = dt
+        self.u_old.vec.data = u_old
         self.f.Assemble()
         self._constant.data = self.f.vec
         if self.K_A is not None:
             self._x_old.components[0].vec.data = self.u_old.vec
-            self._constant.data += inv_dt * (self.K_A.mat * self._x_old.vec)
-        self._stamp = (self.time.Get(), inv_dt)
+            self._constant.data += self.inv_dt.Get() * (self.K_A.mat * self._x_old.vec)
+        phi = state.components[1]                              # φ on Γa (0 where not given)
+        for names, value in self.loads.potential.items():
+            phi.Set(as_cf(value, 1, f"potential[{names!r}]"), ngs.BND,
+                    definedon=self.body.mesh.Boundaries(names))
 
-    def _refresh(self):
-        if self._stamp != (self.time.Get(), self.inv_dt.Get()):
-            self.begin_step()
-
+    # ----------------------------------------------------------------------- BilinearForm protocol
     def Apply(self, x, r):
         """r = R(x)."""
-        self._refresh()
         r.data = self.K * x
         r.data -= self._constant
         if self.boundary is not None:
@@ -170,31 +159,95 @@ class StepSystem:
             self.boundary_residual.data = self._boundary_linear.vec
             r.data += self.boundary_residual
 
-    def AssembleLinearization(self, x, condensed=False):
-        """``mat`` = R'(x) = K + R_Γ3'(x); ``condensed=True``: ``condensed_mat`` = its Schur
-        complement on the coupling DOFs."""
-        self._refresh()
+    def AssembleLinearization(self, x):
+        """``mat`` = R'(x) = K + R_Γ3'(x), or with ``condense`` its Schur complement on the
+        coupling DOFs."""
+        if self.condense:
+            self._linearize_boundary(x)
+            self.mat = self._add_to_condensed()
+        else:
+            self._assemble_full(x)
+
+    def _linearize_boundary(self, x):
         if self.boundary is not None:
             self.boundary.AssembleLinearization(x)
-        if condensed:
-            self._add_to_condensed()
-        elif self.boundary is None:
-            self.mat.AsVector().data = self.K.AsVector()
+            self._linearized = True
+
+    def _assemble_full(self, x):
+        """The full Jacobian K + R_Γ3'(x) into ``_full``."""
+        self._linearize_boundary(x)
+        if self.boundary is None:
+            self._full.AsVector().data = self.K.AsVector()
         else:
-            self.mat.AsVector().data = self.K.AsVector() + self.boundary.mat.AsVector()
+            self._full.AsVector().data = self.K.AsVector() + self.boundary.mat.AsVector()
+
+    @property
+    def harmonic_extension(self):
+        return self._K_condensed.harmonic_extension
+
+    @property
+    def harmonic_extension_trans(self):
+        return self._K_condensed.harmonic_extension_trans
+
+    @property
+    def inner_solve(self):
+        return self._K_condensed.inner_solve
 
     def _add_to_condensed(self):
-        """condensed_mat = Schur complement of K + R_Γ3' (R_Γ3' has no entries on the
-        condensed DOFs, so it adds to the Schur complement of K at matching positions)."""
-        target = self.K_condensed.mat
-        if self.condensed_mat is None:
-            self.condensed_mat = target.CreateMatrix()
+        """Schur complement of K + R_Γ3' (R_Γ3' has no entries on the condensed DOFs, so it
+        adds to the Schur complement of K at matching positions)."""
+        target = self._K_condensed.mat
+        if self._schur is None:
+            self._schur = target.CreateMatrix()
             self._positions = _matching_positions(self.boundary.mat, target) if self.boundary else None
-        values = self.condensed_mat.AsVector().FV().NumPy()
+        values = self._schur.AsVector().FV().NumPy()
         values[:] = target.AsVector().FV().NumPy()
         if self.boundary is not None:
             source, into = self._positions
             values[into] += self.boundary.mat.AsVector().FV().NumPy()[source]
+        return self._schur
+
+    # ----------------------------------------------------------------------- for Newton's norms
+    def jacobian_diagonal(self, x):
+        """The diagonal of the full Jacobian K + R_Γ3'(x) (numpy), assembled at x."""
+        diagonal = _csr(self.K).diagonal()
+        self._linearize_boundary(x)
+        if self.boundary is not None:
+            diagonal = diagonal + _csr(self.boundary.mat).diagonal()
+        return diagonal
+
+    def magnitude(self, x):
+        """|K| |x| + |R_Γ3'| |x| + |f + K_A x_{n−1}/dt| (numpy), with the Γ3 Jacobian of the
+        last linearisation: the size of the terms that sum to R(x), whose round-off limits
+        how far Newton can reduce it."""
+        if self._absK is None:
+            self._absK = abs(_csr(self.K))
+        size = np.abs(x.FV().NumPy())
+        total = self._absK @ size + np.abs(self._constant.FV().NumPy())
+        if self._linearized:
+            total += abs(_csr(self.boundary.mat)) @ size
+        return total
+
+    @property
+    def uncondensed(self):
+        """This system without static condensation (``mat`` is the full Jacobian): for a
+        solve in part of the unknowns, such as the potential at t = 0."""
+        return self if not self.condense else _Uncondensed(self)
+
+
+class _Uncondensed:
+    """A StepSystem's residual and full Jacobian, whatever its ``condense``."""
+
+    condense = False
+
+    def __init__(self, system):
+        self.Apply, self.jacobian_diagonal, self.magnitude = system.Apply, system.jacobian_diagonal, system.magnitude
+        self.AssembleLinearization, self.mat = system._assemble_full, system._full
+
+
+def _csr(matrix):
+    """An NGSolve sparse matrix as a scipy CSR matrix."""
+    return sp.csr_matrix(matrix.CSR(), shape=(matrix.height, matrix.width))
 
 
 def _compiled(cf, realcompile):

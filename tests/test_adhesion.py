@@ -14,7 +14,7 @@ import ngsolve as ngs
 import pytest
 
 import ngcontact as ngc
-from geometries import block, plate
+from ngcontact.geometries import block, plate
 from ngcontact.adhesion import BondingField
 from ngcontact.contact import Contact
 from ngcontact.contact_side import ContactSide
@@ -25,7 +25,7 @@ A, B = GAMMA * S ** 2, EPS_A
 
 
 def contact_side(mesh):
-    body = ngc.Body(mesh, ngc.pzt5a(), clamped="left", grounded="top", contact="bottom")
+    body = ngc.Body(mesh, ngc.pzt5a(), clamped="left", grounded="top", contact_side="bottom")
     return ContactSide(body)
 
 

@@ -11,7 +11,7 @@ import numpy as np
 import ngsolve as ngs
 import pytest
 
-from geometries import plate
+from ngcontact.geometries import plate
 from ngcontact import contact_laws as laws
 from ngcontact.contact import Contact
 

@@ -7,15 +7,15 @@ import ngsolve as ngs
 import pytest
 
 import ngcontact as ngc
-from ngcontact import convergence as study
-from ngcontact.contact_side import ContactSide
+from ngcontact.studies import convergence as study
 from ngcontact.cli import main
-from geometries import plate
+from ngcontact.contact_side import ContactSide
+from ngcontact.geometries import plate
 
 
 @pytest.fixture(scope="module")
 def viscous():
-    return study.manufactured_study(orders=(1, 2), levels=3, case="viscous", progress=None)
+    return study.manufactured_study(orders=(1, 2), levels=3, case="viscous", progress=False)
 
 
 def test_rates_of_the_paper_quantity(viscous):
@@ -33,7 +33,7 @@ def test_rates_of_the_paper_quantity(viscous):
 def test_beta_part_is_first_order_for_every_order():
     """Adhesive case: β ∈ B^h (facet constants) is O(h) whatever the order of u, so the
     paper's total error is capped at O(h) once β0 varies."""
-    runs = study.manufactured_study(orders=(1, 2), levels=3, case="adhesive", progress=None)
+    runs = study.manufactured_study(orders=(1, 2), levels=3, case="adhesive", progress=False)
     for order in (1, 2):
         assert study.fitted_rate(runs, order, "beta") == pytest.approx(1.0, abs=0.05)
     assert 1.7 <= study.fitted_rate(runs, 2, "u") <= 2.4
@@ -41,8 +41,8 @@ def test_beta_part_is_first_order_for_every_order():
 
 
 def test_first_order_in_the_time_step():
-    runs = study.time_study(order=2, level=1, halvings=3, progress=None)
-    assert 0.8 <= study.fitted_rate(runs, 2, by="k") <= 1.2
+    runs = study.time_study(order=2, level=1, halvings=3, progress=False)
+    assert 0.8 <= study.fitted_rate(runs, 2, by="dt") <= 1.2
 
 
 def test_nested_transfer_is_exact():
@@ -55,7 +55,7 @@ def test_nested_transfer_is_exact():
     gf.Set(gc)
     xs = np.random.default_rng(0).random((200, 2)) * [0.1, 0.02]
     assert np.abs(gc(coarse(xs[:, 0], xs[:, 1])) - gf(fine(xs[:, 0], xs[:, 1]))).max() < 1e-12
-    sides = [ContactSide(ngc.Body(m, ngc.pzt5a(), clamped="left", grounded="top", contact="bottom"))
+    sides = [ContactSide(ngc.Body(m, ngc.pzt5a(), clamped="left", grounded="top", contact_side="bottom"))
              for m in (coarse, fine)]
     values = sides[0].midpoints[:, 0] ** 2
     read = study._facet_lookup(sides[0], sides[1].midpoints, values)
@@ -67,7 +67,7 @@ def test_nested_transfer_is_exact():
 def test_cli_writes_csv_and_charts(tmp_path):
     main(["convergence", "--orders", "1", "--levels", "2", "--out", str(tmp_path)])
     rows = list(csv.DictReader(open(tmp_path / "errors.csv")))
-    assert len(rows) == 2 and {"order", "level", "h", "k", "ndof", "error_u", "error_phi",
+    assert len(rows) == 2 and {"order", "level", "h", "dt", "ndof", "error_u", "error_phi",
                                "error_beta", "error_total", "rate_total", "wall_s"} <= set(rows[0])
     assert float(rows[1]["h"]) == float(rows[0]["h"]) / 2
     assert 0.5 < float(rows[1]["rate_total"]) < 1.5
@@ -78,5 +78,5 @@ def test_cli_writes_csv_and_charts(tmp_path):
 @pytest.mark.slow
 def test_reference_scene_converges():
     """The reference scene against its fine solution: the P1 error halves per level."""
-    runs = study.reference_study(orders=(1,), levels=2, progress=None)
+    runs = study.reference_study(orders=(1,), levels=2, progress=False)
     assert runs[1].error_max["total"] < 0.6 * runs[0].error_max["total"]

@@ -3,7 +3,7 @@ import pytest
 
 import ngcontact as ngc
 from conftest import C33, E33, EPS33
-from geometries import block, plate
+from ngcontact.geometries import block, plate
 
 
 def test_plate_names_and_nested_refinement():

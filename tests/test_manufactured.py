@@ -10,8 +10,8 @@ import pytest
 import sympy as sp
 
 import ngcontact as ngc
-from ngcontact.manufactured import Manufactured, t, x, y
-from geometries import plate
+from ngcontact.scenes.manufactured import Manufactured, t, x, y
+from ngcontact.geometries import plate
 
 SCALED = ngc.Material(ngc.pzt5a().c / 1e10, ngc.pzt5a().e, ngc.pzt5a().eps / 1e-9,
                       0.3 * ngc.pzt5a().c / 1e10, name="scaled PZT-5A")
@@ -21,7 +21,7 @@ PHI = x * y**2 * sp.exp(x - y)
 
 def solve(order, level, g, dt, T):
     mesh = plate(L1=1, L2=1, maxh=0.5, refine=level)
-    body = ngc.Body(mesh, SCALED, clamped="left", grounded="left", contact="bottom", order=order)
+    body = ngc.Body(mesh, SCALED, clamped="left", grounded="left", contact_side="bottom", order=order)
     mms = Manufactured(body.tensors, g * U, g * PHI)
     time = ngs.Parameter(0)
     sim = ngc.Simulation(body, mms.loads(body, time), time=time,

@@ -14,5 +14,5 @@ def test_readme_api_example():
     last, c = scope["last"], scope["c"]
     applied = 2e6 * 0.1                                   # pressure at t = 0.1 s times L1, N/m
     assert np.allclose(last.reaction + c.force, [0, applied], rtol=0, atol=1e-6 * applied)
-    assert c.contact_length > 0 and c.max_penetration < 1e-2 * 2e-5
+    assert c.contact_area > 0 and c.max_penetration < 1e-2 * 2e-5
     assert np.all((c.beta >= 0) & (c.beta <= 1))

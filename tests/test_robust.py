@@ -5,12 +5,12 @@ import ngsolve as ngs
 import pytest
 
 import ngcontact as ngc
-from ngcontact import scene
+from ngcontact.scenes import reference as scene
 
 
 def reference(maxh=0.01):
-    t = ngs.Parameter(0)
-    return ngc.Simulation(scene.body(order=1, maxh=maxh), scene.loads(t), contact=scene.contact(), time=t), t
+    sim = scene.simulation(1, maxh)
+    return sim, sim.time
 
 
 def test_cutback_recovers_the_load_reversal():
@@ -36,10 +36,10 @@ def test_unrecoverable_step_reports_the_attempts_and_keeps_the_steps():
     """A load that turns non-finite after t = 0.25 s cannot be stepped over: the error names
     the step and the time steps tried; every step up to 0.25 s is kept."""
     t = ngs.Parameter(0)
-    body = ngc.Body(scene.body().mesh, ngc.pzt5a(), clamped="left", grounded="top", contact="bottom")
+    body = ngc.Body(scene.body().mesh, ngc.pzt5a(), clamped="left", grounded="top", contact_side="bottom")
     bad = ngs.IfPos(t - 0.25, 1e300 * 1e300, 1e6)
     sim = ngc.Simulation(body, ngc.Loads(f2={"top": (0, -bad)}), time=t)
-    with pytest.raises(ngc.NewtonError, match=r"Time steps tried for step \d+ .*k = 0.05, 0.025") as err:
+    with pytest.raises(ngc.NewtonError, match=r"Time steps tried for step \d+ .*dt = 0.05, 0.025") as err:
         sim.run(dt=0.1, T=1, max_cutbacks=2)
     times = err.value.history.times
     assert times[-1] == pytest.approx(0.25) and len(err.value.history) == len(sim.history)

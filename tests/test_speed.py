@@ -10,21 +10,24 @@ import pytest
 import scipy.sparse as sp
 
 import ngcontact as ngc
-from ngcontact import bench, cli, scene
+from ngcontact import cli
 from ngcontact.forms import electric_displacement, strain, stress
+from ngcontact.geometries import block, plate
 from ngcontact.loads import as_cf
+from ngcontact.scenes import reference as scene
+from ngcontact.studies import bench
 from ngcontact.system import StepSystem
-from geometries import block, plate
 
 
 def monolithic_residual(body, loads, u_old, inv_dt):
-    """The whole step residual as one nonlinear-ready BilinearForm (the reference)."""
+    """The whole step residual as one nonlinear-ready BilinearForm (the reference): σ : ε(v)
+    + D · ∇ξ with σ, D of (2.3)-(2.4), not the named forms of ``forms``."""
     dim = body.dim
     (u, phi), (v, xi) = body.X.TnT()
-    sigma = stress(body.tensors, u, phi, dim, inv_dt * (strain(u, dim) - strain(u_old, dim)))
+    sigma = stress(body.tensors, u, phi, inv_dt * (strain(u) - strain(u_old)))
     R = ngs.BilinearForm(body.X, symmetric=False)
-    R += (ngs.InnerProduct(sigma, strain(v, dim))
-          + ngs.InnerProduct(electric_displacement(body.tensors, u, phi, dim), ngs.grad(xi))) * ngs.dx
+    R += (ngs.InnerProduct(sigma, strain(v))
+          + ngs.InnerProduct(electric_displacement(body.tensors, u, phi), ngs.grad(xi))) * ngs.dx
     R += -as_cf(loads.f0, dim, 'f0') * v * ngs.dx - as_cf(loads.q0, 1, 'q0') * xi * ngs.dx
     for names, f2 in loads.f2.items():
         R += -as_cf(f2, dim, 'f2') * v * ngs.ds(names)
@@ -36,10 +39,10 @@ def monolithic_residual(body, loads, u_old, inv_dt):
 @pytest.mark.parametrize("mesh", [plate(maxh=0.01), block(maxh=0.02)], ids=["2D", "3D"])
 def test_step_system_equals_the_monolithic_form(mesh):
     """R(x) and R'(x) of StepSystem (K_el, K_A assembled once, f per step) equal the plain
-    form's at a random state, u_{n−1}, t and k, and again after t and k change."""
+    form's at a random state, u_{n−1}, t and dt, and again after t and dt change."""
     dim = mesh.dim
     body = ngc.Body(mesh, ngc.pzt5a(relaxation_time=2e-3), clamped="left", grounded="top",
-                    contact="bottom", order=2)
+                    contact_side="bottom", order=2)
     t, inv_dt = ngs.Parameter(0.3), ngs.Parameter(400.0)
     x, y = ngs.CoefficientFunction(ngs.x), ngs.CoefficientFunction(ngs.y)
     loads = ngc.Loads(f0=tuple([1e6 * t * x] + [2e5 * y] * (dim - 1)), q0=3e-3 * t * y,
@@ -47,14 +50,15 @@ def test_step_system_equals_the_monolithic_form(mesh):
     rng = np.random.default_rng(3)
     u_old = ngs.GridFunction(body.V)
     u_old.vec.FV().NumPy()[:] = rng.normal(size=body.V.ndof) * 1e-5
-    system = StepSystem(body, loads, u_old, inv_dt, t)
+    system = StepSystem(body, loads, body.space(), t)
     reference = monolithic_residual(body, loads, u_old, inv_dt)
-    state = ngs.GridFunction(body.X).vec
+    gfu = ngs.GridFunction(system.X)
+    state = gfu.vec
     state.FV().NumPy()[:] = rng.normal(size=body.ndof) * np.r_[np.full(body.V.ndof, 1e-5),
                                                                np.full(body.W.ndof, 50.0)]
     r1, r2 = state.CreateVector(), state.CreateVector()
     for time, rate in ((0.3, 400.0), (0.7, 100.0)):
-        t.Set(time)
+        system.begin_step(time, 1 / rate, u_old.vec, gfu)
         inv_dt.Set(rate)
         system.Apply(state, r1)
         reference.Apply(state, r2)
@@ -67,8 +71,7 @@ def test_step_system_equals_the_monolithic_form(mesh):
 
 
 def run_reference(steps=6, **kw):
-    t = ngs.Parameter(0.0)
-    sim = ngc.Simulation(scene.body(1), scene.loads(t), time=t, contact=scene.contact(), **kw)
+    sim = scene.simulation(1, **kw)
     sim.run(2.5e-3, steps * 2.5e-3)
     return sim
 
@@ -108,12 +111,10 @@ def test_bare_scene_uses_cholesky_and_matches_umfpack():
     as UMFPACK to the Newton tolerance."""
     steps = []
     for inverse in (None, "umfpack"):
-        t = ngs.Parameter(0.0)
-        sim = ngc.Simulation(scene.body(1), scene.loads(t), time=t, contact=scene.contact(bare=True),
-                             inverse=inverse)
+        sim = scene.simulation(1, contact=scene.contact(bare=True), inverse=inverse)
         sim.run(2.5e-3, 0.03)
         steps.append(sim)
-    assert steps[0].inverse == "sparsecholesky" and steps[0].history[-1].contact.contact_length > 0
+    assert steps[0].solver == "sparsecholesky" and steps[0].history[-1].contact.contact_area > 0
     for a, b in zip(steps[0].history, steps[1].history):
         assert np.abs(a.state - b.state).max() <= 1e-8 * np.abs(b.state).max()
 
@@ -155,19 +156,16 @@ def test_static_condensation_gives_the_same_steps():
     system to round-off, with the same Newton iterations; P2 in 2D has none to condense."""
     runs = []
     for condense in (False, None):
-        t = ngs.Parameter(0.0)
-        sim = ngc.Simulation(scene.body(3, 0.01), scene.loads(t), time=t, contact=scene.contact(),
-                             condense=condense)
+        sim = scene.simulation(3, 0.01, condense=condense)
         sim.run(2.5e-3, 0.015)
         runs.append(sim)
     full, condensed = runs
     assert condensed.condense and not full.condense
-    assert condensed.history[-1].contact.contact_length > 0
+    assert condensed.history[-1].contact.contact_area > 0
     assert list(condensed.history.newton_iterations) == list(full.history.newton_iterations)
     for a, b in zip(full.history[1:], condensed.history[1:]):
         assert np.abs(a.state - b.state).max() <= 1e-10 * np.abs(a.state).max()
-    t = ngs.Parameter(0.0)
-    assert not ngc.Simulation(scene.body(2, 0.01), scene.loads(t), time=t, contact=scene.contact()).condense
+    assert not scene.simulation(2, 0.01).condense
 
 
 def test_realcompile_falls_back_without_a_compiler():

@@ -6,7 +6,7 @@ import pytest
 import ngcontact as ngc
 from ngcontact.materials import isotropic_stiffness, transversely_isotropic_piezo
 from ngcontact.newton import Newton
-from geometries import block, plate
+from ngcontact.geometries import block, plate
 
 GOOD = dict(c=isotropic_stiffness(1e9, 0.3), e=transversely_isotropic_piezo(-1, 2, 1), eps=1e-9 * np.eye(3))
 
@@ -57,13 +57,13 @@ def mesh():
     (dict(grounded="top|lid"), r"grounded: boundary \['lid'\] not in the mesh"),
     (dict(clamped=""), "clamped must name at least one boundary"),
     (dict(grounded=None), "grounded must name at least one boundary"),
-    (dict(contact="left"), "contact boundary Γ3 must not overlap clamped"),
-    (dict(contact="top"), "contact boundary Γ3 must not overlap grounded"),
+    (dict(contact_side="left"), "contact_side Γ3 must not overlap clamped"),
+    (dict(contact_side="top"), "contact_side Γ3 must not overlap grounded"),
     (dict(order=0), "order must be an integer >= 1"),
     (dict(order_phi=1.5), "order_phi must be an integer >= 1"),
 ])
 def test_body_rejected(mesh, kwargs, match):
-    args = {**dict(clamped="left", grounded="top", contact="bottom"), **kwargs}
+    args = {**dict(clamped="left", grounded="top", contact_side="bottom"), **kwargs}
     with pytest.raises(ValueError, match=match):
         ngc.Body(mesh, ngc.pzt5a(), **args)
 
@@ -76,13 +76,13 @@ def test_body_rejected(mesh, kwargs, match):
     (ngc.Loads(f0=(1, 2, 3)), "f0 must have 2 components"),
 ])
 def test_loads_rejected(mesh, loads, match):
-    body = ngc.Body(mesh, ngc.pzt5a(), clamped="left", grounded="top", contact="bottom")
+    body = ngc.Body(mesh, ngc.pzt5a(), clamped="left", grounded="top", contact_side="bottom")
     with pytest.raises(ValueError, match=match):
         ngc.Simulation(body, loads)
 
 
 def test_time_data_and_initial_state_rejected(mesh):
-    body = ngc.Body(mesh, ngc.pzt5a(), clamped="left", grounded="top", contact="bottom")
+    body = ngc.Body(mesh, ngc.pzt5a(), clamped="left", grounded="top", contact_side="bottom")
     with pytest.raises(ValueError, match="u0 must vanish on the clamped boundary"):
         ngc.Simulation(body, u0=(1e-6, 0))
     sim = ngc.Simulation(body)
@@ -106,7 +106,7 @@ def test_geometry_rejected(make, match):
 def test_failed_step_says_where_and_keeps_the_computed_steps(mesh):
     """A load that turns non-finite at t = 0.25 s: steps 1-2 are kept, step 3 is named."""
     t = ngs.Parameter(0)
-    body = ngc.Body(mesh, ngc.pzt5a(), clamped="left", grounded="top", contact="bottom")
+    body = ngc.Body(mesh, ngc.pzt5a(), clamped="left", grounded="top", contact_side="bottom")
     bad = ngs.IfPos(t - 0.25, 1e300 * 1e300, 1e6)
     sim = ngc.Simulation(body, ngc.Loads(f2={"top": (0, -bad)}), time=t)
     with pytest.raises(ngc.NewtonError, match=r"step 3 \(t = 0.3 s\), iteration 0") as err:

@@ -16,7 +16,7 @@ from matplotlib.image import imread
 from nbclient import NotebookClient
 from ngsolve.webgui import Draw
 
-from geometries import plate
+from ngcontact.geometries import plate
 
 CHROMIUM = shutil.which("chromium")
 TUTORIAL = pathlib.Path(__file__).parents[1] / "tutorials" / "01_quick_start.ipynb"

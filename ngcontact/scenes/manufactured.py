@@ -1,4 +1,4 @@
-"""Manufactured solutions of the strong form (2.1)-(2.11) of model.md.
+"""Manufactured solutions of the strong form (2.1)-(2.11) (docs/model.md).
 
 Given smooth u(x, t), φ(x, t) as sympy expressions in x, y (, z) and t, the data
 f0 = −div σ, q0 = −div D, f2 = σν on Γ2 and qb = D·ν on Γb make them the exact solution,
@@ -11,8 +11,8 @@ import ngsolve as ngs
 import numpy as np
 import sympy as sp
 
-from .loads import Loads
-from .materials import VOIGT
+import ngcontact as ngc
+from ngcontact.materials import VOIGT
 
 x, y, z, t = sp.symbols("x y z t")
 
@@ -72,9 +72,9 @@ class Manufactured:
         """Loads making (u, φ) exact: f0, q0, and σν / D·ν on Γ2 / Γb \\ Γ3."""
         n = ngs.specialcf.normal(self.dim)
         sigma, D = self.cf(self.sigma, time), self.cf(self.D, time)
-        f2 = {name: sigma * n for name in body.free_names(("clamped", "contact"))}
-        qb = {name: D * n for name in body.free_names(("grounded", "contact"))}
-        return Loads(f0=self.cf(self.f0, time), q0=self.cf(self.q0, time), f2=f2, qb=qb)
+        f2 = {name: sigma * n for name in body.free_names(("clamped", "contact_side"))}
+        qb = {name: D * n for name in body.free_names(("grounded", "contact_side"))}
+        return ngc.Loads(f0=self.cf(self.f0, time), q0=self.cf(self.q0, time), f2=f2, qb=qb)
 
     def errors(self, sim):
         """‖ε(u − u_h)‖ and ‖∇(φ − φ_h)‖ (L²(Ω)) at the simulation's current time."""
@@ -98,7 +98,7 @@ class ContactManufactured(Manufactured):
     is chosen, and the normal derivatives ∂_y Û are solved from σ̂_xy = 0 (frictionless) and
     σ̂_yy = ŝ(x), the wanted normal stress. Û = (x² T_x, T) + y N(x) + y² x W, Φ̂ vanishes on
     the top and has ∇Φ̂ = 0 at x = 0, so that u = 0 on Γ1. The data g, φ_Γ and β0 then make
-    the laws hold (k is the smoothness exponent of the contact-set ends, x_c their place):
+    the laws hold (k = ``smoothness``, the exponent at the contact-set ends, x_c their place):
 
     * ``case="viscous"``: s_u = 1 + t (``time_profile="linear"``, backward Euler exact in
       time) or 1 + sin(2t)/2 (``"nonlinear"``); T = (x − x_c)_+^k: separation for x > x_c,
@@ -116,17 +116,18 @@ class ContactManufactured(Manufactured):
     """
 
     def __init__(self, tensors, case="viscous", time_profile="linear", L1=1.0, L2=0.5,
-                 x_c=0.5, k=4, tau=0.3):
+                 x_c=0.5, smoothness=4, tau=0.3):
+        k = smoothness
         if case not in ("viscous", "adhesive"):
             raise ValueError(f"case must be 'viscous' or 'adhesive', got {case!r}")
         if int(k) != k or k < 3:
-            raise ValueError(f"smoothness k must be an integer >= 3 (f0 needs the third derivative "
+            raise ValueError(f"smoothness must be an integer >= 3 (f0 needs the third derivative "
                              f"of (x - x_c)_+^k), got {k}")
         if time_profile not in ("linear", "nonlinear"):
             raise ValueError(f"time_profile must be 'linear' or 'nonlinear', got {time_profile!r}")
         if not np.allclose(tensors.A, tau * tensors.F):
             raise ValueError("ContactManufactured needs the viscosity A = tau F")
-        self.case, self.L1, self.L2, self.x_c, self.k = case, L1, L2, x_c, k
+        self.case, self.L1, self.L2, self.x_c, self.smoothness = case, L1, L2, x_c, k
         self.conductance, self.ramp_width, self.gamma_nu, self.c_nu, eta = 1.0, 10.0, 2.0, 3.0, 0.5
         F, E = sp.Matrix(tensors.F), sp.Matrix(tensors.E)
         inside, outside = Pos(x_c - x) ** k, Pos(x - x_c) ** k
@@ -157,12 +158,11 @@ class ContactManufactured(Manufactured):
 
     def contact(self, time, theta=1, gamma0=10.0, beta_update="explicit"):
         """The Contact data (g, laws, φ_Γ, β0) that make this solution exact."""
-        from .contact import Contact
         dn = (-self.D[1]).subs(y, 0)                                   # D·ν on Γ3
         r = self.u_normal_expr - self.gap_expr
         psi = self.conductance * (1 + r / self.ramp_width)
         phi_gamma = self.phi.subs(y, 0) - dn / psi
-        return Contact(gap=self.cf(self.gap_expr, time),
+        return ngc.Contact(gap=self.cf(self.gap_expr, time),
                        compliance=self.c_nu if self.case == "adhesive" else 0.0,
                        adhesion=self.gamma_nu if self.case == "adhesive" else 0.0,
                        eps_a=self.eps_a, bond_length=10.0, beta0=self.cf(self.beta0_expr, time),

@@ -2,17 +2,16 @@
 
 The floor for one backward Euler step is (Newton iterations) × (one assembly of the
 Jacobian + one factorisation + one solve). For each order and nested refinement level
-``case`` runs the first ``steps`` steps of the reference scene (``scene``; the plate
-pressed onto the foundation: contact forms and spreads, the hardest part for Newton),
-splits the wall time per step into the Newton phases and the rest, and measures one
-linearised solve at the final state in the same run:
+``case`` runs the first ``steps`` time steps of the reference scene (``scenes.reference``;
+the plate pressed onto the foundation: contact forms and spreads, the hardest part for
+Newton), splits the wall time per step into the Newton phases and the rest, and measures
+one linearised solve at the final state in the same run:
 
   overhead = (time per step) / (mean Newton iterations × one linearised solve).
 
 ``python -m ngcontact bench --out DIR`` writes bench.csv, bench.json and time_per_step.png.
 Times are wall-clock seconds on the machine that runs it; nothing here asserts a time.
 """
-import csv
 import json
 import pathlib
 import time as wallclock
@@ -22,14 +21,16 @@ import ngsolve as ngs
 import numpy as np
 from matplotlib.figure import Figure
 
-from . import scene
-from .newton import Timings
-from .timestepping import Simulation
+from ngcontact.progress import bar
+from ngcontact.scenes import reference
 
-COLUMNS = ("dim", "order", "level", "ndof", "steps", "newton_mean", "newton_max", "step_s",
+from .common import fitted_slope, write_csv
+
+COLUMNS = ("dim", "order", "level", "ndof", "records", "newton_mean", "newton_max", "step_s",
            "assembly_s", "factorization_s", "solve_s", "residual_s", "other_s", "one_solve_s",
-           "overhead", "setup_s", "inverse", "condense", "realcompile", "threads")
-"""Columns of bench.csv; times in s, per step except one_solve_s and setup_s."""
+           "overhead", "setup_s", "solver", "condense", "realcompile", "threads")
+"""Columns of bench.csv; times in s, per step except one_solve_s and setup_s; ``records``:
+the steps computed (cut-backs included)."""
 THREADS_FROM = 30_000
 """Below this many DOFs TaskManager made steps slower (docs/speed.md: the ds(skeleton=True)
 loops over all facets lose more to threading than assembly gains)."""
@@ -40,18 +41,17 @@ MAXH = {2: 0.005, 3: 0.01}
 def case(order, level, *, dim=2, steps=10, dt=2.5e-3, inverse=None, realcompile=None,
          predictor=False, condense=None, threads=None, bare=False):
     """One benchmark row (a dict with ``COLUMNS``) for the reference scene at P``order`` on
-    refinement ``level``, ``steps`` steps of ``dt`` s. ``inverse``, ``realcompile``,
+    refinement ``level``: ``steps`` time steps of ``dt`` s. ``inverse``, ``realcompile``,
     ``predictor`` and ``condense`` go to Simulation; ``threads``: run under TaskManager
-    (default: from ``THREADS_FROM`` DOFs); ``bare=True``: no glue,
-    no conduction (symmetric Jacobian with θ = 1: sparse Cholesky by default)."""
+    (default: from ``THREADS_FROM`` DOFs); ``bare=True``: no glue, no conduction (symmetric
+    Jacobian with θ = 1: sparse Cholesky by default)."""
     start = wallclock.perf_counter()
-    body = scene.body(order, MAXH[dim], refine=level, dim=dim)
+    body = reference.body(order, MAXH[dim], refine=level, dim=dim)
     threads = body.ndof >= THREADS_FROM if threads is None else threads
     with ngs.TaskManager() if threads else nullcontext():
-        t = ngs.Parameter(0.0)
-        sim = Simulation(body, scene.loads(t, dim), time=t, contact=scene.contact(bare=bare), inverse=inverse,
-                         keep_states=False, realcompile=realcompile, predictor=predictor,
-                         condense=condense)
+        sim = reference.simulation(order, MAXH[dim], level, dim, contact=reference.contact(bare=bare),
+                                   inverse=inverse, keep_states=False, realcompile=realcompile,
+                                   predictor=predictor, condense=condense)
         setup = wallclock.perf_counter() - start
         sim.run(dt, steps * dt)
         records = sim.history[1:]
@@ -59,12 +59,12 @@ def case(order, level, *, dim=2, steps=10, dt=2.5e-3, inverse=None, realcompile=
     iterations = np.array([r.newton_iterations for r in records])
     mean = {phase: float(np.mean([r.timings[phase] for r in records])) for phase in records[0].timings}
     step_s = float(np.mean([r.wall_s for r in records]))
-    return dict(dim=dim, order=order, level=level, ndof=body.ndof, steps=len(records),
+    return dict(dim=dim, order=order, level=level, ndof=body.ndof, records=len(records),
                 newton_mean=float(iterations.mean()), newton_max=int(iterations.max()), step_s=step_s,
                 **{f"{phase}_s": mean[phase] for phase in ("assembly", "factorization", "solve",
                                                            "residual", "other")},
                 one_solve_s=one_solve, overhead=step_s / (iterations.mean() * one_solve),
-                setup_s=setup, inverse=sim.inverse, condense=sim.condense, realcompile=sim.realcompile,
+                setup_s=setup, solver=sim.solver, condense=sim.condense, realcompile=sim.realcompile,
                 threads=threads)
 
 
@@ -72,45 +72,46 @@ def one_linear_solve(sim, repeat=2):
     """Wall time (s) of one Newton correction at the current state: assembly of the Jacobian,
     factorisation and solve, done by the simulation's own Newton (the fastest of ``repeat``)."""
     newton, x = sim.newton, sim.gfu.vec
-    sim.form.Apply(x, newton.r)
+    sim.system.Apply(x, newton.r)
     times = []
     for _ in range(repeat):
-        clock = Timings()
-        newton.linear_solve(x, clock)
-        times.append(sum(clock.values()))
+        start = wallclock.perf_counter()
+        newton.linear_solve(x)
+        times.append(wallclock.perf_counter() - start)
     return min(times)
 
 
 def growth_exponent(ndof, seconds, min_ndof=1e4):
     """Least-squares slope of log(seconds) against log(ndof) over the sizes >= min_ndof
-    (nan with fewer than two such sizes)."""
+    (nan with fewer than three such sizes)."""
     ndof, seconds = np.asarray(ndof, float), np.asarray(seconds, float)
     keep = ndof >= min_ndof
-    if keep.sum() < 2:
-        return float("nan")
-    return float(np.polyfit(np.log(ndof[keep]), np.log(seconds[keep]), 1)[0])
+    return fitted_slope(ndof[keep], seconds[keep])
 
 
 def levels(order, dim, max_ndof):
     """The refinement levels whose ndof stays <= max_ndof (the meshes are built to count)."""
     found = [0]
-    while scene.body(order, MAXH[dim], refine=found[-1] + 1, dim=dim).ndof <= max_ndof:
+    while reference.body(order, MAXH[dim], refine=found[-1] + 1, dim=dim).ndof <= max_ndof:
         found.append(found[-1] + 1)
     return found
 
 
-def run(out, *, orders=(1, 2, 3, 4), dim=2, max_ndof=1e6, steps=10, dt=2.5e-3, **options):
+def run(out, *, orders=(1, 2, 3, 4), dim=2, max_ndof=1e6, steps=10, dt=2.5e-3, progress=True, **options):
     """All cases up to ``max_ndof``: prints the table as it goes, writes bench.csv,
-    bench.json (rows and fitted exponents per order) and time_per_step.png into ``out``."""
+    bench.json (rows and fitted exponents per order) and time_per_step.png into ``out``
+    after each case (long runs keep what they measured)."""
     out = pathlib.Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    cases = [(order, level) for order in orders for level in levels(order, dim, max_ndof)]
     rows = []
-    print(_header(), flush=True)
-    for order in orders:
-        for level in levels(order, dim, max_ndof):
+    with bar(len(cases), "bench cases", progress) as shown:
+        shown.write(_header())
+        for order, level in cases:
             rows.append(case(order, level, dim=dim, steps=steps, dt=dt, **options))
-            print(_line(rows[-1]), flush=True)
-            exponents = _write(out, rows, dim, steps, dt)        # after each case: long runs keep results
+            shown.write(_line(rows[-1]))
+            shown.update()
+            exponents = _write(out, rows, dim, steps, dt)
     print("time per step ~ ndof^a (fit over ndof >= 1e4): "
           + ", ".join(f"P{p}: a = {a:.2f}" for p, a in exponents.items()))
     return rows, exponents
@@ -118,24 +119,24 @@ def run(out, *, orders=(1, 2, 3, 4), dim=2, max_ndof=1e6, steps=10, dt=2.5e-3, *
 
 def merge(directories, out):
     """Join the bench.json rows of several runs (e.g. one per order) into one bench.csv,
-    bench.json and time_per_step.png in ``out``; returns the fitted exponents per order."""
+    bench.json and time_per_step.png in ``out``; prints and returns the fitted exponents
+    per order."""
     runs = [json.loads((pathlib.Path(d) / "bench.json").read_text()) for d in directories]
     if len({(r["dim"], r["steps"], r["dt"]) for r in runs}) != 1:
         raise ValueError("merge: the runs differ in dim, steps or dt")
     out = pathlib.Path(out)
     out.mkdir(parents=True, exist_ok=True)
     rows = [row for r in runs for row in r["rows"]]
-    return _write(out, rows, runs[0]["dim"], runs[0]["steps"], runs[0]["dt"])
+    exponents = _write(out, rows, runs[0]["dim"], runs[0]["steps"], runs[0]["dt"])
+    print("time per step ~ ndof^a: " + ", ".join(f"P{p}: a = {a:.2f}" for p, a in exponents.items()))
+    return exponents
 
 
 def _write(out, rows, dim, steps, dt):
     exponents = {int(order): growth_exponent([r["ndof"] for r in rows if r["order"] == order],
-                                        [r["step_s"] for r in rows if r["order"] == order])
+                                             [r["step_s"] for r in rows if r["order"] == order])
                  for order in dict.fromkeys(r["order"] for r in rows)}
-    with open(out / "bench.csv", "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=COLUMNS)
-        writer.writeheader()
-        writer.writerows(rows)
+    write_csv(rows, out / "bench.csv", COLUMNS)
     (out / "bench.json").write_text(json.dumps(dict(dim=dim, steps=steps, dt=dt, rows=rows,
                                                     exponents=exponents), indent=1))
     _plot(out / "time_per_step.png", rows, exponents, dim)
@@ -160,7 +161,8 @@ def _plot(path, rows, exponents, dim):
     for order, a in exponents.items():
         sel = [r for r in rows if r["order"] == order]
         ndof = np.array([r["ndof"] for r in sel])
-        ax.loglog(ndof, [r["step_s"] for r in sel], "o-", label=f"P{order} (slope {a:.2f})")
+        slope = f" (slope {a:.2f})" if np.isfinite(a) else ""
+        ax.loglog(ndof, [r["step_s"] for r in sel], "o-", label=f"P{order}{slope}")
         bx.semilogx(ndof, [r["overhead"] for r in sel], "o-", label=f"P{order}")
     if rows:
         n = np.array([min(r["ndof"] for r in rows), max(r["ndof"] for r in rows)], float)

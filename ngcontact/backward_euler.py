@@ -1,0 +1,84 @@
+"""Backward Euler in time, as in the paper's scheme (4.3)-(4.5).
+
+Step n, from t_{n−1} to t_n = t_{n−1} + dt: first β_n from u_{n−1} by the bonding update
+(4.5) (or its implicit variant, ``adhesion``), then (u_n, φ_n) together from the mechanical
+and the (negated) electric equation at t_n, with δu_n = (u_n − u_{n−1})/dt, by Newton on
+the ``StepSystem``. The scheme owns what changes from step to step: t, the state (u, φ),
+β, the multipliers of an enforcement method with unknowns of its own, and the predictor's
+memory; ``checkpoint`` and ``restore`` save and put back all of it, bitwise.
+"""
+from dataclasses import dataclass
+
+import ngsolve as ngs
+
+
+@dataclass(frozen=True)
+class Checkpoint:
+    """Everything a step changes: the time t (s), the state vector, β (and its value before
+    clipping), the enforcement hook's unknowns, and the predictor's memory."""
+    t: float
+    state: object
+    beta: object
+    beta_unclipped: object
+    hook: object
+    last: object
+
+
+class BackwardEuler:
+    """The backward Euler step of a simulation.
+
+    Parameters
+    ----------
+    system : StepSystem.  newton : Newton on it, for ``state``.
+    state : GridFunction (u, φ), the state x_n, changed in place.
+    beta : BondingField, or None without a contact law.
+    predictor : start Newton from the linear extrapolation x_n + (dt/dt_n)(x_n − x_{n−1})
+        instead of x_n (the default warm start).
+    """
+
+    def __init__(self, system, newton, state, beta=None, predictor=False):
+        self.system, self.newton, self.state, self.beta = system, newton, state, beta
+        self.hook = newton.hook
+        self.predictor = predictor
+        self.t = 0.0
+        self._u_old = state.components[0].vec.CreateVector()
+        self._u_normal = state.components[0] * ngs.specialcf.normal(state.space.mesh.dim)
+        self._last = None                                   # (x_{n−1}, dt_n) for the predictor
+
+    def advance(self, dt, *, step=None, timer=None):
+        """One step of length dt (s) from the current state; returns the NewtonResult.
+        Not transactional: on failure the state is part-way (``checkpoint``/``restore``)."""
+        if self.beta is not None:
+            self.beta.update(self._u_normal, dt)            # (4.5), from u_{n−1}
+        self._u_old.data = self.state.components[0].vec
+        if self.predictor:
+            self._predict(dt)
+        self.t = self.t + dt
+        self.system.begin_step(self.t, dt, self._u_old, self.state)
+        return self.newton.solve(step=step, time=self.t, timer=timer)
+
+    def _predict(self, dt):
+        """x_n -> x_n + (dt / dt_n)(x_n − x_{n−1}), the start of Newton for step n + 1."""
+        x = self.state.vec.FV().NumPy()
+        last, self._last = self._last, (x.copy(), dt)
+        if last is not None:
+            x += (dt / last[1]) * (x - last[0])
+
+    def checkpoint(self):
+        """A copy of everything ``advance`` changes."""
+        beta = self.beta
+        return Checkpoint(self.t, self.state.vec.FV().NumPy().copy(),
+                          None if beta is None else beta.values.copy(),
+                          None if beta is None else beta.unclipped.copy(),
+                          None if self.hook is None else self.hook.save(), self._last)
+
+    def restore(self, saved):
+        """Put back a checkpoint, bitwise; the time Parameter of the loads is set to its t."""
+        self.t, self._last = saved.t, saved.last
+        self.state.vec.FV().NumPy()[:] = saved.state
+        if self.beta is not None:
+            self.beta.values[:] = saved.beta
+            self.beta.unclipped = saved.beta_unclipped.copy()
+        if self.hook is not None:
+            self.hook.restore(saved.hook)
+        self.system.time.Set(saved.t)

@@ -1,0 +1,142 @@
+"""The demo: the reference scene run through its whole load history, a line per step, then
+summary.json and charts (``python -m ngcontact demo``)."""
+import json
+import time as wallclock
+from contextlib import nullcontext
+
+import ngsolve as ngs
+import numpy as np
+from matplotlib import tri
+from matplotlib.figure import Figure
+
+from .progress import write
+from .scenes import reference
+from .studies.bench import THREADS_FROM
+from .studies.common import writable_directory
+
+HEADER = (f"{'step':>5} {'t [s]':>7} {'newton':>6} {'contact [mm]':>12} {'p_max [MPa]':>11} "
+          f"{'beta_min':>8} {'charge flux [C/m]':>17}")
+
+
+def run(order=1, out="results", maxh=0.005, steps=200, theta=1, gamma0=10.0):
+    """Run the reference scene (``scenes.reference``) over its load history in ``steps``
+    time steps, print a line per step, write summary.json and charts into ``out``.
+
+    Parameters
+    ----------
+    order : int, polynomial order of u and φ (1 = the paper's P1 scheme).
+    out : str or path, output directory (created).
+    maxh : float, mesh size in m (halved along Γ3).
+    steps : int, number of time steps over the load history, 0 to 0.5 s (dt γ_ν L² = 0.625
+        at 200).
+    theta, gamma0 : Nitsche variant and parameter.
+
+    Returns
+    -------
+    dict, the contents of ``out/summary.json``: settings, ``ndof``, ``steps``, ``wall_s``
+    (time stepping, s), ``max_penetration`` (m), final ``beta_min``/``beta_max``, and per
+    computed step (cut-back steps included): ``times`` (s), ``load`` (Pa), ``newton_iterations``,
+    ``contact_length`` (m), ``max_pressure`` (Pa), ``charge_flux`` (∫_Γ3 D·ν, C/m),
+    ``tip_deflection`` (u_y at (L1, 0), m), ``reaction_y`` and ``contact_force_y`` (N/m).
+    """
+    if int(steps) != steps or steps < 1:
+        raise ValueError(f"steps must be an integer >= 1, got {steps}")
+    out = writable_directory(out)
+    sim = reference.simulation(order, maxh, contact=reference.contact(theta, gamma0))
+    body, mesh = sim.body, sim.body.mesh
+    tip = mesh(reference.L1, 0.0)
+    pressure = reference.pressure(sim.time)
+    print(f"{body}, solver {sim.solver}\n{HEADER}")
+    rows = []
+
+    def report(rec):
+        c = rec.contact
+        rows.append(dict(times=rec.time, load=pressure(tip), newton_iterations=int(rec.newton_iterations),
+                         contact_length=c.contact_area, max_pressure=max(c.pressure.max(), 0.0),
+                         charge_flux=c.charge_flux, tip_deflection=sim.u(tip)[1],
+                         reaction_y=float(rec.reaction[1]), contact_force_y=float(c.force[1]),
+                         max_penetration=c.max_penetration))
+        write(f"{rec.step:5d} {rec.time:7.4f} {rec.newton_iterations:6d} {1e3 * c.contact_area:12.3f} "
+              f"{1e-6 * rows[-1]['max_pressure']:11.3f} {c.beta.min():8.4f} {c.charge_flux:+17.4e}")
+    start = wallclock.perf_counter()
+    with ngs.TaskManager() if body.ndof >= THREADS_FROM else nullcontext():
+        history = sim.run(reference.LOAD_HISTORY[-1][0] / steps, reference.LOAD_HISTORY[-1][0], on_step=report)
+    wall = wallclock.perf_counter() - start
+    columns = {key: [row[key] for row in rows] for key in rows[0]}
+    max_penetration = max(columns.pop("max_penetration"))
+    peak = 1 + int(np.argmax(columns["contact_length"]))
+    _plot_overview(out / "history.png", columns, history)
+    _plot_gamma3(out / "beta.png", out / "pressure.png", sim, history)
+    _plot_potential(out / "potential_at_peak.png", mesh, sim.state(peak), history[peak].time)
+    summary = dict(order=order, maxh=maxh, ndof=body.ndof, L1=reference.L1, L2=reference.L2,
+                   pressure=reference.PRESSURE, relaxation_time=reference.RELAXATION_TIME,
+                   contact=reference.CONTACT, theta=theta, gamma0=gamma0, steps=steps, wall_s=wall,
+                   max_penetration=max_penetration, beta_min=float(history[-1].contact.beta.min()),
+                   beta_max=float(history[-1].contact.beta.max()), **columns)
+    (out / "summary.json").write_text(json.dumps(summary, indent=1))
+    print(f"{len(rows)} steps, ndof {body.ndof}, {sum(columns['newton_iterations'])} Newton iterations, "
+          f"wall {wall:.2f} s; results in {out}")
+    return summary
+
+
+def _plot_overview(path, columns, history):
+    """Load, contact length, min β and tip deflection over time."""
+    fig = Figure(figsize=(8, 6), layout="constrained")
+    axes = fig.subplots(3, 1, sharex=True)
+    time = np.array(columns["times"])
+    axes[0].plot(time, 1e-6 * np.array(columns["load"]), color="C3")
+    axes[0].set_ylabel("pressure on top [MPa]")
+    axes[1].plot(time, 1e3 * np.array(columns["contact_length"]), color="C0", label="contact length [mm]")
+    axes[1].plot(time, 1e6 * np.array(columns["tip_deflection"]), color="C2", label="tip u_y [µm]")
+    axes[1].legend()
+    beta = history.contact_column("beta")[1:]
+    axes[2].plot(time, beta.min(axis=1), color="C1", label="min β")
+    axes[2].plot(time, beta.mean(axis=1), "--", color="C1", label="mean β")
+    axes[2].set(xlabel="time t [s]", ylabel="bonding field β", ylim=(-0.05, 1.05))
+    axes[2].legend()
+    axes[0].set_title("push: contact zone grows; pull: contact opens, glue debonds, plate lifts off")
+    fig.savefig(path, dpi=120)
+
+
+def _plot_gamma3(beta_path, pressure_path, sim, history):
+    """β along Γ3 over time (x-t map), and the contact pressure along Γ3 at several times."""
+    order = np.argsort(sim.side.midpoints[:, 0])
+    x = 1e3 * sim.side.midpoints[order, 0]
+    times = history.times
+    beta = history.contact_column("beta")[:, order]
+    fig = Figure(figsize=(7, 4), layout="constrained")
+    ax = fig.add_subplot()
+    shown = ax.pcolormesh(x, times, beta, shading="nearest", cmap="magma", vmin=0, vmax=1)
+    fig.colorbar(shown, ax=ax, label="bonding field β")
+    ax.set(xlabel="x along Γ3 [mm]", ylabel="time t [s]", title="β on Γ3: debonding from the free end")
+    fig.savefig(beta_path, dpi=120)
+    fig = Figure(figsize=(7, 4), layout="constrained")
+    ax = fig.add_subplot()
+    pressure = history.contact_column("pressure")[:, order]
+    for n in np.linspace(1, len(history) - 1, 9).astype(int):
+        ax.step(x, 1e-6 * pressure[n], where="mid", label=f"t = {times[n]:.3f} s")
+    ax.set(xlabel="x along Γ3 [mm]", ylabel="normal pressure −σ_ν [MPa]",
+           title="contact pressure along Γ3 (negative: glue in tension)")
+    ax.legend(fontsize=7, ncol=3)
+    fig.savefig(pressure_path, dpi=120)
+
+
+def _plot_potential(path, mesh, state, time):
+    """The deformed plate (displacement magnified) coloured by the potential φ."""
+    xy = np.array([v.point for v in mesh.vertices])
+    cells = [[v.nr for v in el.vertices] for el in mesh.Elements(ngs.VOL)]
+    coarse = tri.Triangulation(xy[:, 0], xy[:, 1], cells)
+    fine = tri.UniformTriRefiner(coarse).refine_triangulation(subdiv=2)
+    points = mesh(fine.x, fine.y)
+    u, phi = (gf(points) for gf in state.components)
+    scale = 0.1 * reference.L1 / np.abs(u).max()
+    fig = Figure(figsize=(8, 2.8), layout="constrained")
+    ax = fig.add_subplot()
+    L1, L2 = reference.L1, reference.L2
+    ax.plot([0, L1, L1, 0, 0], [0, 0, L2, L2, 0], "k--", lw=0.8)
+    shown = ax.tripcolor(fine.x + scale * u[:, 0], fine.y + scale * u[:, 1], fine.triangles,
+                         phi[:, 0], shading="gouraud", cmap="viridis")
+    fig.colorbar(shown, ax=ax, shrink=0.8, label="potential φ [V]")
+    ax.set(aspect="equal", xlabel="x [m]", ylabel="y [m]",
+           title=f"t = {time:.3g} s, largest contact zone: displacement × {scale:.3g}, dashed: undeformed")
+    fig.savefig(path, dpi=120)

@@ -1,0 +1,54 @@
+"""How the Signorini condition of (2.8) is enforced on Γ3: the methods and their protocol.
+
+``METHODS`` maps the names ``Contact(method=...)`` accepts to the method classes, siblings
+that share nothing but this protocol (``Enforcement``). To add a method: one module in this
+package with such a class, and one line in ``METHODS``.
+"""
+from typing import Protocol
+
+from .active_set import NodalConstraint
+from .nitsche import Nitsche
+from .penalty import Penalty
+
+
+class Enforcement(Protocol):
+    """The protocol of an enforcement method.
+
+    ``Method(body, contact, side, *, gap, u_old, inv_dt)``: the Body, the Contact data (θ,
+    γ0, penalty, ...), the ContactSide Γ3, the gap g (CoefficientFunction, m), the
+    GridFunction of u_{n−1} and the Parameter 1/dt of the step (1/s).
+
+    ``traction`` below is p(u_ν) − γ_ν β² R_ν(u_ν) (Pa), the integrand of j_a (2.28), so that
+    σ̃_ν = σ_ν + traction; j_a itself is in ``forms.contact_terms``.
+    """
+
+    newton_hook: object
+    """None, or an object that takes part in every Newton iteration (``newton.Hook``):
+    extra unknowns such as the nodal multipliers of the active set method."""
+
+    condensable: bool
+    """(class attribute) Whether static condensation may eliminate element-interior DOFs."""
+
+    @classmethod
+    def keeps_symmetry(cls, contact) -> bool:
+        """Whether the method's Γ3 term keeps the step Jacobian symmetric."""
+
+    def signorini(self, u, phi, v, xi, traction):
+        """S(x; v, ξ): the Γ3 integrand, linear in the test functions (v, ξ), that imposes
+        u_ν <= g, σ̃_ν <= 0, σ̃_ν (u_ν − g) = 0 for the state x = (u, φ)."""
+
+    def multiplier(self, u, phi, traction):
+        """λ_h >= 0, the contact pressure of the rigid foundation (Pa), a CoefficientFunction."""
+
+    def active(self, u, phi, traction):
+        """1 where the constraint is active (u_ν reaches g), else 0."""
+
+
+METHODS = {
+    "nitsche": Nitsche,
+    "penalty": Penalty,
+    "active_set": NodalConstraint,
+}
+"""The enforcement methods by the name ``Contact(method=...)`` takes."""
+
+__all__ = ["Enforcement", "METHODS", "Nitsche", "Penalty", "NodalConstraint"]

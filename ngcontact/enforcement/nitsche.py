@@ -1,0 +1,64 @@
+"""Nitsche's method for the contact law (2.8) on Γ3 (Chouly & Hild's θ-family).
+
+With σ̃_ν = σ_ν + p(u_ν) − γ_ν β² R_ν(u_ν), Signorini u_ν ≤ g, σ̃_ν ≤ 0, σ̃_ν (u_ν − g) = 0
+is, for any γ > 0,  σ̃_ν = [P]_-,  P = σ̃_ν − γ (u_ν − g),  [P]_- = min(P, 0).
+Substituting this for the normal traction in the mechanical equation gives, besides j_a,
+the Signorini term of the step residual, for test functions (v, ξ):
+
+  S = −(θ/γ) ∫_Γ3 σ̃_ν σ_ν(v, ξ) + (1/γ) ∫_Γ3 [P]_- (θ σ_ν(v, ξ) − γ v_ν),
+
+where σ_ν(v, ξ) is the variation of σ_ν: ν·(F ε(v) + A ε(v)/dt + Eᵀ∇ξ)ν. It is consistent
+(the exact solution makes the two terms −∫σ̃_ν v_ν), and with p = 0, γ_ν = 0, A = 0 and
+E = 0 it is exactly Chouly & Hild's method. On the set P ≤ 0 (P = 0 counts as contact, so a
+body starting exactly at the gap gets contact stiffness at once) the constraint is active.
+γ = γ0 ``forms.boundary_stiffness`` (γ0 = ``Contact.gamma0``).
+"""
+import ngsolve as ngs
+
+from ..forms import boundary_stiffness, step_normal_stress
+
+
+class Nitsche:
+    """The Γ3 expressions of Nitsche's method (``enforcement.Enforcement``)."""
+
+    newton_hook = None
+    condensable = True
+
+    def __init__(self, body, contact, side, *, gap, u_old, inv_dt):
+        self.tensors, self.theta, self.gap = body.tensors, contact.theta, gap
+        self.u_old, self.inv_dt = u_old, inv_dt
+        self.n = ngs.specialcf.normal(body.dim)
+        self.gamma = contact.gamma0 * boundary_stiffness(body, inv_dt)
+
+    @classmethod
+    def keeps_symmetry(cls, contact):
+        """θ = 1 is the symmetric variant."""
+        return contact.theta == 1
+
+    def sigma_n(self, u, phi):
+        """σ_ν of the step at (u, φ), Pa."""
+        return step_normal_stress(self.tensors, u, phi, self.inv_dt, self.u_old)
+
+    def P(self, u, phi, traction):
+        """P = σ̃_ν − γ (u_ν − g); [P]_- = min(P, 0) is the Nitsche contact stress."""
+        return self.sigma_n(u, phi) + traction - self.gamma * (u * self.n - self.gap)
+
+    def signorini(self, u, phi, v, xi, traction):
+        theta, gamma = self.theta, self.gamma
+        effective = self.sigma_n(u, phi) + traction
+        P = effective - gamma * (u * self.n - self.gap)
+        negative_part = ngs.IfPos(P, 0, P)
+        terms = -negative_part * (v * self.n)
+        if theta != 0:
+            variation = step_normal_stress(self.tensors, v, xi, self.inv_dt)
+            terms = terms + theta / gamma * (negative_part - effective) * variation
+        return terms
+
+    def multiplier(self, u, phi, traction):
+        """λ_h = −[P]_-, the Nitsche contact pressure (>= 0), Pa."""
+        P = self.P(u, phi, traction)
+        return -ngs.IfPos(P, 0, P)
+
+    def active(self, u, phi, traction):
+        """1 where P <= 0, else 0."""
+        return ngs.IfPos(self.P(u, phi, traction), 0, 1)

@@ -1,0 +1,117 @@
+"""What is recorded of a converged step: reactions, electrode charges and the state of Γ3.
+
+Forces and charges come from the residual itself: for a test function w that is e_i on Γ1
+(or 1 on one electrode) and 0 at the other boundary DOFs, R(w) is the reaction ∫_Γ1 σν·e_i
+(or the flux ∫ D·ν through that electrode; exact when electrodes held at different
+potentials do not touch). Likewise the force and charge flux through Γ3 are −R_Γ3(w) for
+the rigid modes w = (e_i, 0) and w = (0, 1), so that the balances hold to the Newton
+tolerance. The facet fields on Γ3 are exact facet averages (``ContactSide.facet_integrals``).
+"""
+from dataclasses import dataclass
+
+import ngsolve as ngs
+import numpy as np
+
+from . import forms
+from .records import ContactRecord, StepRecord
+
+
+@dataclass(frozen=True)
+class Gamma3:
+    """Γ3 of a simulation: the ContactSide ``side``, the Contact data ``contact``, its
+    ``enforcement`` method, the BondingField ``beta``, and the ``gap`` g (m) and
+    ``foundation_potential`` φ_Γ (V) as CoefficientFunctions."""
+    side: object
+    contact: object
+    enforcement: object
+    beta: object
+    gap: object
+    foundation_potential: object
+
+
+class Recorder:
+    """Builds the records of a simulation's steps; the forms are built once.
+
+    Parameters
+    ----------
+    body : Body.  state : GridFunction (u, φ) on the simulation's space.
+    system : the StepSystem (its ``boundary_residual`` is R_Γ3 at the last residual).
+    gamma3 : Gamma3, or None without a contact law.
+    """
+
+    def __init__(self, body, state, system, gamma3=None):
+        self.body, self.state, self.system = body, state, system
+        self.gamma3 = gamma3
+        self._reaction, self._charge = self._boundary_tests()
+        if gamma3 is not None:
+            self._facet_fields = self._build_facet_fields()
+            self._rigid_modes = self._build_rigid_modes()
+
+    def _test(self, component, value, names):
+        w = ngs.GridFunction(self.state.space)
+        w.components[component].Set(value, ngs.BND, definedon=self.body.mesh.Boundaries(names))
+        return w.vec
+
+    def _boundary_tests(self):
+        body, dim = self.body, self.body.dim
+        reaction = [self._test(0, ngs.CF(tuple(float(i == j) for j in range(dim))), body.region_names("clamped"))
+                    for i in range(dim)]
+        charge = {name: self._test(1, 1.0, name) for name in body.boundaries["grounded"]}
+        return reaction, charge
+
+    def _build_rigid_modes(self):
+        modes = []
+        for i in range(self.body.dim + 1):
+            w = ngs.GridFunction(self.state.space)
+            if i < self.body.dim:
+                w.components[0].Set(ngs.CF(tuple(float(i == j) for j in range(self.body.dim))))
+            else:
+                w.components[1].Set(1.0)
+            modes.append(w.vec)
+        return modes
+
+    def _build_facet_fields(self):
+        """Facet integrals over Γ3 of the recorded fields, built once."""
+        g = self.gamma3
+        u, phi = self.state.components
+        n = ngs.specialcf.normal(self.body.dim)
+        traction = forms.adhesion_traction(g.contact, g.beta.gf, u * n)
+        lam = g.enforcement.multiplier(u, phi, traction)
+        pressure = lam + traction                               # −σ_ν = λ_h + p − γ_ν β² R_ν
+        opening = u * n - g.gap
+        fields = dict(pressure=pressure, multiplier=lam, potential=phi,
+                      charge_flux_density=forms.charge_flux_density(g.contact, u, phi, g.gap,
+                                                                    g.foundation_potential),
+                      contact_area=ngs.IfPos(pressure, 1, 0),
+                      complementarity=ngs.IfPos(lam * opening, lam * opening, -lam * opening))
+        return {name: g.side.facet_integrals(cf) for name, cf in fields.items()}
+
+    def record(self, n, time, result, *, keep_state):
+        """The StepRecord of step n at ``time`` (s) from the converged NewtonResult;
+        ``wall_s`` and ``timings`` are left for the caller."""
+        r = result.residual
+        return StepRecord(
+            step=n, time=time, newton_iterations=result.iterations, residuals=result.residuals,
+            wall_s=0.0, reaction=np.array([ngs.InnerProduct(r, w) for w in self._reaction]),
+            electrode_charge={name: -ngs.InnerProduct(r, w) for name, w in self._charge.items()},
+            state=self.state.vec.FV().NumPy().copy() if keep_state else None,
+            contact=self._contact_record() if self.gamma3 is not None else None)
+
+    def _contact_record(self):
+        g = self.gamma3
+        side = g.side
+        integrals = {name: assemble() for name, assemble in self._facet_fields.items()}
+        residual = self.system.boundary_residual.FV().NumPy()
+        hook = g.enforcement.newton_hook
+        if hook is not None:                         # the constraint forces Bᵀλ are Γ3 terms too
+            residual = residual + hook.forces.FV().NumPy()
+        flux = [-float(np.dot(residual, w.FV().NumPy())) for w in self._rigid_modes]
+        averages = {name: integrals[name] / side.measure for name in
+                    ("pressure", "multiplier", "potential", "charge_flux_density")}
+        u = self.state.components[0]
+        return ContactRecord(
+            **averages, contact_set=integrals["contact_area"] / side.measure,
+            beta=g.beta.values.copy(), beta_unclipped=g.beta.unclipped.copy(),
+            charge_flux=flux[-1], contact_area=integrals["contact_area"].sum(),
+            max_penetration=float((side.normal_displacement(u) - side.sample(g.gap)).max()),
+            complementarity=integrals["complementarity"].sum(), force=np.array(flux[:-1]))

@@ -1,0 +1,108 @@
+"""Per-step records of a simulation: ``StepRecord``, ``ContactRecord`` and the ``History``.
+
+Units are SI. In 2D (plane strain) every surface quantity is per metre of depth: an area on
+a boundary is a length (m), a force N/m, a charge C/m. Signs follow docs/model.md: ν is the
+outward normal of the body.
+"""
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass
+class ContactRecord:
+    """Γ3 at one step. Arrays have one value per facet of Γ3 (``ContactSide.midpoints``):
+    the facet average P_B of the quantity.
+
+    pressure : −σ_ν = λ_h + p(u_ν) − γ_ν β² R_ν(u_ν), the normal pressure of the foundation
+        on the body (Pa; negative where the glue pulls).
+    multiplier : λ_h >= 0, the contact pressure of the rigid foundation given by the
+        enforcement method (Pa).
+    beta : the bonding field β_n.
+    beta_unclipped : β_n as the update computed it before clipping to [0, 1] (the explicit
+        update (4.5) may leave it; the implicit one never does).
+    potential : φ_h on Γ3 (V).
+    charge_flux_density : D·ν = ψ(u_ν − g) φ_L(φ − φ_Γ) (C/m²): positive where charge leaves
+        the body into the foundation.
+    contact_set : the fraction of each facet in the contact zone {pressure > 0} (0 to 1).
+    charge_flux : ∫_Γ3 D·ν da, the charge flux out of the body into the foundation (C; C/m
+        in 2D), from the residual's Γ3 terms.
+    contact_area : the measure of the contact zone (m²; in 2D per metre of depth: m).
+    max_penetration : max (u_ν − g) at the sample points of Γ3 (m; > 0 means penetration).
+    complementarity : ∫_Γ3 |λ_h (u_ν − g)| da (N·m; N·m/m in 2D), 0 for an exact solution.
+    force : ∫_Γ3 σν da, the force of the foundation on the body (N; N/m in 2D), from the
+        residual's Γ3 terms, so that it balances the reaction and the loads to the Newton
+        tolerance.
+    """
+    pressure: np.ndarray
+    multiplier: np.ndarray
+    beta: np.ndarray
+    beta_unclipped: np.ndarray
+    potential: np.ndarray
+    charge_flux_density: np.ndarray
+    contact_set: np.ndarray
+    charge_flux: float
+    contact_area: float
+    max_penetration: float
+    complementarity: float
+    force: np.ndarray
+
+    @property
+    def beta_clipped(self):
+        """Number of facets the β update pushed out of [0, 1] (then clipped)."""
+        return int(np.count_nonzero((self.beta_unclipped < 0) | (self.beta_unclipped > 1)))
+
+
+@dataclass
+class StepRecord:
+    """The state at one time t_n (step 0 is the initial state).
+
+    step : n.  time : t_n (s).
+    newton_iterations : linear solves of the step's Newton solve; residuals : its scaled
+        residual norms (J^1/2).
+    wall_s : wall time of the step (s), records included; ``timings`` splits it into the
+        Newton phases "residual", "assembly", "factorization", "solve" and "other" (s).
+    reaction : ∫_Γ1 σν da, the force of the support on the body (N; N/m in 2D).
+    electrode_charge : {name: Q}, the charge each named part of Γa carries,
+        Q = −∫ D·ν da (C; C/m in 2D).
+    state : copy of the (u, φ) coefficient vector (with ``keep_states``), else None.
+    contact : ContactRecord, or None without a contact law.
+    """
+    step: int
+    time: float
+    newton_iterations: int
+    residuals: list
+    wall_s: float
+    reaction: np.ndarray
+    electrode_charge: dict
+    state: np.ndarray = field(repr=False, default=None)
+    contact: ContactRecord = None
+    timings: dict = field(default_factory=dict)
+
+
+class History(list):
+    """The list of StepRecords (step 0 is the initial state), with column accessors."""
+
+    def column(self, name):
+        """A field of the StepRecords at every step, stacked."""
+        return np.array([getattr(r, name) for r in self])
+
+    @property
+    def times(self):
+        return self.column("time")
+
+    @property
+    def reactions(self):
+        return self.column("reaction")
+
+    def contact_column(self, name):
+        """A field of the ContactRecords at every step, stacked (steps × ...)."""
+        return np.array([getattr(r.contact, name) for r in self])
+
+    def electrode_charges(self, name):
+        """The charge on the electrode ``name`` at every step (C; C/m in 2D)."""
+        return np.array([r.electrode_charge[name] for r in self])
+
+    @property
+    def newton_iterations(self):
+        return self.column("newton_iterations")

@@ -1,0 +1,278 @@
+"""The simulation of a body under loads in contact on Γ3: backward Euler steps, their records,
+and the cut-back policy.
+
+``Simulation`` puts the pieces together (the step system of ``forms``, the enforcement
+method, Newton, the backward Euler scheme, the recorder), then ``step(dt)`` makes one
+transactional step, ``advance(t)`` reaches a time with cut-backs where Newton fails, and
+``run(dt, T)`` steps to a final time.
+"""
+import time as wallclock
+
+import ngsolve as ngs
+import numpy as np
+import scipy.sparse as sp
+
+from . import forms
+from .adhesion import BondingField
+from .backward_euler import BackwardEuler
+from .contact_side import ContactSide
+from .enforcement import METHODS
+from .linear_solver import DirectSolver
+from .loads import Loads, as_cf
+from .newton import Newton, NewtonError, ResidualNorm, Timings
+from .observables import Gamma3, Recorder
+from .progress import bar
+from .records import History
+from .system import StepSystem, has_interior_dofs
+
+
+class Simulation:
+    """Backward Euler time stepping of a Body under Loads, with a contact law on Γ3.
+
+    Parameters
+    ----------
+    body : Body.
+    loads : Loads (CoefficientFunctions may depend on ``time``).
+    contact : Contact or None; None leaves Γ3 traction-free and charge-free.
+    time : ngsolve.Parameter used in the loads and the contact data (created if not given);
+        set to t_n at step n.
+    u0 : initial displacement (number tuple or CoefficientFunction), zero on Γ1; default 0.
+    inverse : direct solver of the Newton corrections ("sparsecholesky", "umfpack",
+        "pardiso"); default: "sparsecholesky" where the step Jacobian is symmetric (no
+        contact, or ``Contact.symmetric``), "umfpack" otherwise. The nodal constraint
+        (``method="active_set"``) solves its saddle point systems itself; ``solver`` says
+        what is used.
+    rtol, maxit : Newton tolerance (relative) and iteration limit per step.
+    keep_states : keep a copy of (u, φ) of every step in the history.
+    predictor : start Newton from the linear extrapolation of the last two states instead of
+        the last state. It saves 3-8 % of the iterations of the reference run at dt = 2.5 ms,
+        but on coarse steps the extrapolated state penetrates deep and Newton may fail where
+        the warm start converges (docs/speed.md).
+    condense : static condensation of the element-interior DOFs (those of the elements at Γ3
+        are kept); default: when the space has such DOFs (order >= 3 in 2D, >= 4 in 3D).
+    realcompile : compile the Γ3 integrand to machine code (needs a C++ compiler, takes
+        seconds once, assembles the Γ3 terms about 4× faster); default: when ndof >= 50 000
+        in 2D, >= 2 000 in 3D.
+
+    The state after the last step: ``t`` (s), ``u``, ``phi`` (components of ``gfu``), the
+    bonding field ``beta`` (``beta.values``), and ``history``, one StepRecord per step.
+    """
+
+    def __init__(self, body, loads=None, *, contact=None, time=None, u0=None, inverse=None,
+                 rtol=1e-10, maxit=50, keep_states=True, predictor=False, condense=None, realcompile=None):
+        self.body = body
+        self.loads = loads or Loads()
+        self.loads.check(body)
+        self.time = time if time is not None else ngs.Parameter(0.0)
+        self.contact, self.keep_states = contact, keep_states
+        self.X = body.space()
+        self.gfu = ngs.GridFunction(self.X, name="state")
+        self.u, self.phi = self.gfu.components
+        if realcompile is None:         # where it paid in docs/speed.md (the 3D Γ3 terms cost far more)
+            realcompile = body.ndof >= (2_000 if body.dim == 3 else 50_000)
+        self.realcompile = bool(realcompile)
+        self.condense = has_interior_dofs(self.X) if condense is None else bool(condense)
+        if contact is not None and not METHODS[contact.method].condensable:
+            self.condense = False
+        kept = body.region("contact_side") if contact is not None else None
+        self.system = StepSystem(body, self.loads, self.X, self.time, condense=self.condense, kept=kept)
+        self.gamma3 = self._contact_side(contact) if contact is not None else None
+        symmetric = contact is None or contact.symmetric
+        solver = DirectSolver(inverse or ("sparsecholesky" if symmetric else "umfpack"))
+        hook = self.gamma3.enforcement.newton_hook if contact is not None else None
+        self.newton = Newton(self.system, self.gfu, solver=solver, rtol=rtol, maxit=maxit, hook=hook)
+        self.scheme = BackwardEuler(self.system, self.newton, self.gfu,
+                                    self.gamma3.beta if contact is not None else None, predictor)
+        self.recorder = Recorder(body, self.gfu, self.system, self.gamma3)
+        self.history = History()
+        self.cutbacks = []
+        self._start(u0)
+
+    def _contact_side(self, contact):
+        """Γ3: B^h, the bonding field, the enforcement method and the Γ3 terms of the residual."""
+        body = self.body
+        side = ContactSide(body)
+        gap = as_cf(contact.gap, 1, "Contact.gap")
+        if side.sample(gap).min() < 0:
+            raise ValueError(f"Contact.gap must be >= 0 on Γ3, its minimum is {side.sample(gap).min():.3g} m")
+        foundation_potential = as_cf(contact.foundation_potential, 1, "Contact.foundation_potential")
+        beta = BondingField(side, contact)
+        enforcement = METHODS[contact.method](body, contact, side, gap=gap, u_old=self.system.u_old,
+                                              inv_dt=self.system.inv_dt)
+
+        def terms(state, test):
+            return forms.contact_terms(contact, enforcement, beta.gf, gap, foundation_potential, state, test)
+        self.system.add_boundary_terms(terms, side.ds, realcompile=self.realcompile)
+        return Gamma3(side, contact, enforcement, beta, gap, foundation_potential)
+
+    # the parts of Γ3 users read
+    side = property(lambda self: self.gamma3.side, doc="The ContactSide Γ3.")
+    beta = property(lambda self: self.gamma3.beta, doc="The BondingField β (``beta.values``).")
+    gap = property(lambda self: self.gamma3.gap, doc="The gap g, a CoefficientFunction (m).")
+    enforcement = property(lambda self: self.gamma3.enforcement, doc="The enforcement method on Γ3.")
+
+    @property
+    def t(self):
+        """The time of the last step, s."""
+        return self.scheme.t
+
+    @property
+    def solver(self):
+        """The linear solver of the Newton corrections, as it is actually used."""
+        return self.newton.solver_name
+
+    def _start(self, u0):
+        """Step 0: u0 (checked), φ0 from the electric equation at t = 0, and its record."""
+        if u0 is not None:
+            u0 = as_cf(u0, self.body.dim, "u0")
+            mesh, square = self.body.mesh, ngs.InnerProduct(u0, u0)
+            on_gamma1 = ngs.Integrate(square * ngs.ds(self.body.region("clamped")), mesh)
+            if on_gamma1 > 1e-20 * (1 + ngs.Integrate(square, mesh)):
+                raise ValueError("u0 must vanish on the clamped boundary Γ1 "
+                                 f"({self.body.region_names('clamped')!r})")
+            if self.contact is not None:
+                excess = (self.side.normal_displacement(u0) - self.side.sample(self.gap)).max()
+                if excess > 1e-12 * (1 + np.abs(self.side.sample(u0)).max()):
+                    raise ValueError(f"u0 must be admissible, u0_ν <= g on Γ3; it exceeds g by {excess:.3g} m")
+            self.u.Set(u0)
+            clamped = ~np.array(list(self.body.V.FreeDofs()), dtype=bool)
+            self.u.vec.FV().NumPy()[clamped] = 0.0
+        start, timings = wallclock.perf_counter(), Timings()
+        # φ0 with u = u0 held: the potential's free DOFs only, with the terms of a step of 1 s
+        self.system.begin_step(0.0, 1.0, self.u.vec, self.gfu)
+        phi_only = ngs.BitArray(self.X.FreeDofs())
+        phi_only[self.X.Range(0)] = False
+        newton = Newton(self.system.uncondensed, self.gfu, solver=DirectSolver(self.newton.solver.name),
+                        freedofs=phi_only, rtol=self.newton.rtol, maxit=self.newton.maxit)
+        result = newton.solve(step=0, time=0.0, timer=timings)
+        self.history.append(self._record(0, result, start, timings))
+
+    def _record(self, n, result, start, timings):
+        """The StepRecord of step n, with its wall time since ``start`` split into ``timings``."""
+        record = self.recorder.record(n, self.t, result, keep_state=self.keep_states)
+        record.wall_s = wallclock.perf_counter() - start
+        record.timings = dict(timings, other=record.wall_s - sum(timings.values()))
+        return record
+
+    # ----------------------------------------------------------------------- stepping
+    def step(self, dt):
+        """One backward Euler step of length dt (s); returns its StepRecord.
+
+        Transactional: either t, u, φ, β and the history all advance, or they are left
+        bitwise as they were and the error (``NewtonError`` if Newton fails) is raised."""
+        if not dt > 0:
+            raise ValueError(f"time step dt must be > 0 s, got {dt}")
+        n = len(self.history)
+        start = wallclock.perf_counter()
+        saved, timings = self.scheme.checkpoint(), Timings()
+        try:
+            result = self.scheme.advance(dt, step=n, timer=timings)
+            record = self._record(n, result, start, timings)
+        except BaseException:
+            self.scheme.restore(saved)
+            raise
+        self.history.append(record)
+        return record
+
+    def advance(self, target, max_cutbacks=6, on_step=None):
+        """Reach the time ``target`` (s) in one step, or, where Newton fails, in two half
+        steps, each halved again on failure, down to 1/2^max_cutbacks of the step; returns
+        the new StepRecords and calls ``on_step(record)`` after each step, while the state is
+        that step's. Each cut-back is listed in ``cutbacks``. If even the smallest step fails,
+        the NewtonError names the time steps tried; the state is that of the last computed
+        step."""
+        _check_cutbacks(max_cutbacks)
+        if not target > self.t:
+            raise ValueError(f"target time must be > the current time {self.t} s, got {target}")
+        return self._advance(target, int(max_cutbacks), on_step)
+
+    def _advance(self, target, cutbacks_left, on_step):
+        dt = target - self.t
+        try:
+            record = self.step(dt)
+        except NewtonError as err:
+            n = len(self.history)
+            self.cutbacks.append(dict(step=n, time=target, dt=dt, iterations=err.iteration,
+                                      residuals=err.residuals))
+            if cutbacks_left == 0:
+                tried = ", ".join(f"{c['dt']:.3g}" for c in self.cutbacks if c["step"] == n)
+                err.args = (f"{err.args[0]}. Time steps tried for step {n} (t -> {target:.6g} s): "
+                            f"dt = {tried} s; the state is that of step {n - 1}",)
+                raise
+            middle = self.t + dt / 2
+            return (self._advance(middle, cutbacks_left - 1, on_step)
+                    + self._advance(target, cutbacks_left - 1, on_step))
+        if on_step is not None:
+            on_step(record)
+        return [record]
+
+    def run(self, dt, T, *, max_cutbacks=6, progress=False, vtk=None, on_step=None):
+        """Step from the current time to T (s) with nominal steps dt (s); returns the History.
+
+        max_cutbacks : the cut-back policy of ``advance`` for each nominal step (the next
+            nominal step uses dt again).
+        progress : show a progress bar.
+        vtk : file name stem for NGSolve's VTKOutput of u and φ (one file per step), or None.
+        on_step : called with each new StepRecord, right after its step (cut-back steps
+            included).
+        If a step fails even at the smallest cut-back, the NewtonError is raised with
+        ``error.history`` holding every step computed so far (also in ``history``).
+        """
+        if not dt > 0:
+            raise ValueError(f"time step dt must be > 0 s, got {dt}")
+        if not T > self.t:
+            raise ValueError(f"final time T must be > the current time {self.t} s, got {T}")
+        _check_cutbacks(max_cutbacks)
+        start = self.t
+        steps = int(np.ceil((T - start) / dt - 1e-9))
+        callbacks = [on_step] if on_step else []
+        if vtk:
+            writer = ngs.VTKOutput(self.body.mesh, coefs=[self.u, self.phi], names=["displacement", "potential"],
+                                   filename=str(vtk), subdivision=max(self.body.order, self.body.order_phi) - 1)
+            writer.Do(time=self.t)
+            callbacks.insert(0, lambda record: writer.Do(time=record.time))
+
+        def after(record):
+            for callback in callbacks:
+                callback(record)
+        with bar(steps, "time steps", progress) as shown:
+            for i in range(steps):
+                try:
+                    records = self.advance(start + (T - start) * (i + 1) / steps, max_cutbacks, after)
+                except NewtonError as err:
+                    err.history = self.history
+                    raise
+                shown.set_postfix_str(f"t = {self.t:.4g} s, newton {records[-1].newton_iterations}")
+                shown.update(1)
+        return self.history
+
+    # ----------------------------------------------------------------------- reading the state
+    def state(self, n):
+        """GridFunction of (u, φ) at step n (needs ``keep_states``)."""
+        if self.history[n].state is None:
+            raise ValueError("the states were not kept: pass keep_states=True to Simulation")
+        gf = ngs.GridFunction(self.body.X)
+        gf.vec.FV().NumPy()[:] = self.history[n].state
+        return gf
+
+    def jacobian(self, scaled=True):
+        """The step Jacobian R'(x) at the current state (with the last step's t and dt) on the
+        free DOFs, as a scipy CSR matrix; ``scaled``: S J S with S = diag(s_u^-½, s_φ^-½), s_b
+        the mean of |diagonal| over block b (the scaling of Newton's norms)."""
+        system = self.system.uncondensed
+        system.AssembleLinearization(self.gfu.vec)
+        J = sp.csr_matrix(system.mat.CSR(), shape=(system.mat.height, system.mat.width))
+        free = np.flatnonzero(np.array(list(self.X.FreeDofs()), dtype=bool))
+        if scaled:
+            norm = ResidualNorm(self.X, self.X.FreeDofs())
+            norm.set_scales(J.diagonal())
+            scale = np.ones(J.shape[0])
+            for block, s in zip(norm.blocks, norm.scales):
+                scale[block] = s ** -0.5
+            J = sp.diags(scale) @ J @ sp.diags(scale)
+        return J[free][:, free].tocsr()
+
+
+def _check_cutbacks(max_cutbacks):
+    if int(max_cutbacks) != max_cutbacks or max_cutbacks < 0:
+        raise ValueError(f"max_cutbacks must be an integer >= 0, got {max_cutbacks}")

@@ -1,0 +1,119 @@
+"""What every study shares: rows written as CSV and printed as tables, failed runs classified,
+and the one progress convention (``ngcontact.progress.bar``).
+
+A study's result is a list of rows, flat dicts with the same keys; a failed Newton solve is
+kept as a row too, with ``failure_kind`` of its residual history.
+"""
+import csv
+import math
+import pathlib
+
+import numpy as np
+
+import ngcontact as ngc
+
+
+def writable_directory(out):
+    """``out`` as a created, writable directory (a Path); checked before a study starts."""
+    out = pathlib.Path(out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        probe = out / ".ngcontact-write-test"
+        probe.write_text("")
+        probe.unlink()
+    except OSError as err:
+        raise ValueError(f"output directory {str(out)!r} cannot be written: {err.strerror}") from None
+    return out
+
+
+def fmt(value):
+    """A value for a table: yes/no, nan, 4 significant digits, or str."""
+    if isinstance(value, (bool, np.bool_)):
+        return "yes" if value else "no"
+    if isinstance(value, (float, np.floating)):
+        return "nan" if math.isnan(value) else f"{value:.4g}"
+    return str(value)
+
+
+def write_csv(rows, path, columns=None):
+    """The rows as a CSV file, one column per key of the first row (or ``columns``); floats
+    with 12 significant digits."""
+    columns = list(columns or rows[0])
+    with open(path, "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=columns, extrasaction="ignore")
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({k: (f"{v:.12g}" if isinstance(v, (float, np.floating)) else v) for k, v in row.items()})
+
+
+def table(rows, columns):
+    """A plain-text table of the given columns of the rows."""
+    cells = [[fmt(row[c]) for c in columns] for row in rows]
+    widths = [max(len(c), *(len(line[i]) for line in cells)) for i, c in enumerate(columns)]
+    lines = ["  ".join(c.rjust(w) for c, w in zip(columns, widths))]
+    lines += ["  ".join(v.rjust(w) for v, w in zip(line, widths)) for line in cells]
+    return "\n".join(lines)
+
+
+def line(row, columns):
+    """One row as ``key value`` pairs, for the progress output."""
+    return "  ".join(f"{k} {fmt(row[k])}" for k in columns)
+
+
+def add_row(rows, row, shown, columns):
+    """Append a run's row to ``rows``, print its ``columns`` above the progress bar ``shown``
+    and advance the bar."""
+    rows.append(row)
+    shown.write(line(row, columns))
+    shown.update()
+
+
+def failure_kind(residuals):
+    """Classify the residual history of a failed Newton solve.
+
+    Returns "stagnation" if the residual fell below 1e-6 of the first one but not to the
+    tolerance (it stalls at round-off level), "cycle p" if the last residuals repeat with
+    period p <= 8 (the semismooth Newton iteration cycles between active sets; p = 1: it is
+    stuck), "diverged" if a residual is not finite, "no convergence" otherwise.
+    """
+    r = np.asarray(residuals, dtype=float)
+    if not np.all(np.isfinite(r)):
+        return "diverged"
+    if r.min() < 1e-6 * r[0]:
+        return "stagnation"
+    tail = r[len(r) // 2:]
+    for p in range(1, 9):
+        if len(tail) > 2 * p and np.allclose(tail[p:], tail[:-p], rtol=1e-6, atol=0):
+            return f"cycle {p}"
+    return "no convergence"
+
+
+def failure(err):
+    """A NewtonError as a dict: ``failure`` (``failure_kind``), ``failed_step``,
+    ``failed_iterations``."""
+    return dict(failure=failure_kind(err.residuals), failed_step=err.step, failed_iterations=err.iteration)
+
+
+def run(sim, dt, T, max_cutbacks=0):
+    """``sim.run`` without raising: None if it reached T, else ``failure`` of the error."""
+    try:
+        sim.run(dt=dt, T=T, max_cutbacks=max_cutbacks)
+    except ngc.NewtonError as err:
+        return failure(err)
+    return None
+
+
+def newton_total(sim, failed):
+    """Newton iterations of a run: all computed steps, plus the failed attempt (``failed``
+    from ``run``, or None)."""
+    return int(sim.history.newton_iterations[1:].sum()) + (failed["failed_iterations"] if failed else 0)
+
+
+def fitted_slope(xs, ys):
+    """Least-squares slope of log y against log x over the finite, positive pairs; nan with
+    fewer than three (a slope from two points is not a fit)."""
+    pts = [(x, y) for x, y in zip(xs, ys) if np.isfinite(x) and np.isfinite(y) and x > 0 and y > 0]
+    if len(pts) < 3:
+        return math.nan
+    lx, ly = np.log(np.array(pts)).T
+    return float(np.polyfit(lx, ly, 1)[0])

@@ -1,0 +1,269 @@
+"""Order-convergence studies against the paper's estimate (4.12): O(h + k) for P1.
+
+The error quantity of (4.12) is max_n (‖u_n − u_n^h‖_V + ‖φ_n − φ_n^h‖_W + ‖β_n − β_n^h‖_L²(Γ3))
+with ‖v‖_V = ‖ε(v)‖ and ‖ξ‖_W = ‖∇ξ‖ (L²(Ω)). Each part is recorded, as a maximum over
+the steps and at the final time, for every order and level, with ndof, Newton iterations
+and wall time. Two kinds of exact solution:
+
+* ``manufactured_study``: ``scenes.manufactured.ContactManufactured`` (known contact set,
+  the contact, adhesion and conduction laws satisfied exactly), on the plate [0, 1] × [0, 0.5]
+  refined by ``mesh.Refine()`` (nested, h halves per level).
+* ``reference_study``: the reference scene (``scenes.reference``), against a fine solution
+  computed with the same time steps at level ``levels`` (one finer than the finest compared)
+  and order ``max(orders)``. In SI units ‖ε(u)‖ (m) and ‖∇φ‖ (V) cannot be added, so each
+  part is divided by the largest norm of the reference solution's part over the run: the
+  total is a sum of relative errors. The coarse solutions are compared with it on the fine
+  mesh: nested meshes make every coarse finite element function exactly representable
+  there, and ``GridFunction.Set`` on the fine mesh (point search across meshes) transfers it
+  exactly; β, piecewise constant on coarse facets that are unions of fine facets, is read
+  at the fine facet midpoints.
+"""
+import math
+import time as wallclock
+from dataclasses import dataclass, field
+
+import ngsolve as ngs
+import numpy as np
+from matplotlib.figure import Figure
+
+import ngcontact as ngc
+from ngcontact.geometries import plate
+from ngcontact.progress import bar
+from ngcontact.scenes import reference
+from ngcontact.scenes.manufactured import ContactManufactured, t as t_symbol
+
+from .common import fitted_slope, writable_directory, write_csv
+
+PARTS = ("u", "phi", "beta")
+
+
+@dataclass
+class Run:
+    """One solve of a study: errors are dicts over PARTS and "total" (= their sum); h the
+    mesh size (m or the plate's unit), dt the time step (s)."""
+    order: int
+    level: int
+    h: float
+    dt: float
+    ndof: int
+    error_max: dict
+    error_final: dict
+    newton_iterations: list = field(default_factory=list)
+    wall_s: float = 0.0
+    rates: dict = field(default_factory=dict)
+
+
+def scaled_pzt(tau=0.3):
+    """PZT-5A in scaled units (c / 1e10, e, ε / 1e-9) with A = τ F: strong coupling, O(1) data."""
+    m = ngc.pzt5a()
+    return ngc.Material(m.c / 1e10, m.e, m.eps / 1e-9, tau * m.c / 1e10, name="scaled PZT-5A")
+
+
+def _with_total(errors):
+    return {**errors, "total": sum(errors[p] for p in PARTS)}
+
+
+def _measured_run(sim, dt, T, measure):
+    """Step ``sim`` to T with ``Simulation.run`` (cut-backs included), measuring the error
+    parts after every step; returns (max, final)."""
+    worst = dict.fromkeys(PARTS, 0.0)
+    last = {}
+
+    def after(record):
+        last.update(measure())
+        worst.update({p: max(worst[p], last[p]) for p in PARTS})
+    sim.run(dt, T, on_step=after)
+    return _with_total(worst), _with_total(last)
+
+
+def manufactured_study(orders=(1, 2), levels=3, case="viscous", dt=0.25, T=1.0, maxh=0.25,
+                       time_profile="linear", smoothness=4, theta=1, gamma0=10.0, progress=True):
+    """Errors against ``ContactManufactured`` for every order and level (0 .. levels-1)."""
+    cases = [(order, level) for order in orders for level in range(levels)]
+    runs = []
+    with bar(len(cases), f"convergence ({case})", progress) as shown:
+        for order, level in cases:
+            runs.append(_manufactured_run(order, level, case, dt, T, maxh, time_profile, smoothness, theta, gamma0))
+            shown.write(_line(runs[-1]))
+            shown.update()
+    return add_rates(runs)
+
+
+def time_study(order=2, level=2, halvings=4, case="viscous", dt0=0.25, T=1.0, maxh=0.25,
+               smoothness=4, progress=True):
+    """Errors for dt = dt0 / 2^j (j < halvings) on one mesh: the time-step part of (4.12)."""
+    runs = []
+    with bar(halvings, "convergence in dt", progress) as shown:
+        for j in range(halvings):
+            runs.append(_manufactured_run(order, level, case, dt0 / 2**j, T, maxh, "nonlinear", smoothness,
+                                          1, 10.0))
+            shown.write(_line(runs[-1]))
+            shown.update()
+    return add_rates(runs, by="dt")
+
+
+def _manufactured_run(order, level, case, dt, T, maxh, time_profile, smoothness, theta, gamma0):
+    mesh = plate(L1=1.0, L2=0.5, maxh=maxh, refine=level)
+    body = ngc.Body(mesh, scaled_pzt(), clamped="left", grounded="top", contact_side="bottom", order=order)
+    mms = ContactManufactured(body.tensors, case=case, time_profile=time_profile, smoothness=smoothness)
+    time = ngs.Parameter(0.0)
+    start = wallclock.perf_counter()
+    with ngs.TaskManager():
+        sim = ngc.Simulation(body, mms.loads(body, time), contact=mms.contact(time, theta, gamma0),
+                             time=time, u0=mms.cf(mms.u.subs(t_symbol, 0), time), keep_states=False)
+        worst, final = _measured_run(sim, dt, T, lambda: dict(zip(PARTS, mms.errors(sim) + (mms.beta_error(sim),))))
+    wall = wallclock.perf_counter() - start
+    return Run(order, level, maxh / 2**level, dt, body.ndof, worst, final,
+               [int(n) for n in sim.history.newton_iterations[1:]], wall)
+
+
+def reference_study(orders=(1, 2), levels=3, steps=80, T=0.25, maxh=0.01, reference_order=None,
+                    reference_level=None, progress=True):
+    """Relative errors of the reference scene against a fine solution, ``steps`` time steps
+    over [0, T] for each (T = 0.25 s: contact growth, release, the start of debonding)."""
+    reference_order = reference_order or max(orders)
+    reference_level = levels if reference_level is None else reference_level
+    dt = T / steps
+    cases = [(order, level) for order in orders for level in range(levels)]
+    with bar(len(cases) + 1, "convergence (reference scene)", progress) as shown:
+        shown.write(f"reference: order {reference_order}, level {reference_level}")
+        fine = reference.simulation(reference_order, maxh, reference_level)
+        with ngs.TaskManager():
+            fine.run(dt=dt, T=T)
+        shown.update()
+        fine_states = [fine.state(n) for n in range(len(fine.history))]
+        fine_side, mesh = fine.side, fine.body.mesh
+
+        def norm(cf):
+            return math.sqrt(ngs.Integrate(ngs.InnerProduct(cf, cf), mesh))
+        scale = dict(u=max(norm(ngs.Sym(ngs.Grad(g.components[0]))) for g in fine_states),
+                     phi=max(norm(ngs.grad(g.components[1])) for g in fine_states),
+                     beta=math.sqrt(np.dot(np.ones_like(fine_side.measure), fine_side.measure)))
+        runs = []
+        for order, level in cases:
+            sim = reference.simulation(order, maxh, level)
+            transfer = ngs.GridFunction(fine.body.X)
+            start = wallclock.perf_counter()
+            with ngs.TaskManager():
+                def measure():
+                    n = len(sim.history) - 1
+                    for i in range(2):
+                        transfer.components[i].Set(sim.gfu.components[i])
+                    ref = fine_states[n]
+                    eu = ngs.Sym(ngs.Grad(ref.components[0]) - ngs.Grad(transfer.components[0]))
+                    dphi = ngs.grad(ref.components[1]) - ngs.grad(transfer.components[1])
+                    beta_c = _facet_lookup(sim.side, fine_side.midpoints, sim.beta.values)
+                    beta_f = fine.history[n].contact.beta
+                    return dict(u=norm(eu) / scale["u"], phi=norm(dphi) / scale["phi"],
+                                beta=math.sqrt(np.dot((beta_f - beta_c) ** 2, fine_side.measure)) / scale["beta"])
+                worst, final = _measured_run(sim, dt, T, measure)
+            runs.append(Run(order, level, maxh / 2**level, dt, sim.body.ndof, worst, final,
+                            [int(k) for k in sim.history.newton_iterations[1:]],
+                            wallclock.perf_counter() - start))
+            shown.write(_line(runs[-1]))
+            shown.update()
+    return add_rates(runs)
+
+
+def _facet_lookup(side, points, values):
+    """Values of a facet field of ``side`` at points lying on its facets (nested meshes)."""
+    out = np.empty(len(points))
+    a, b = side.facet_vertices[:, 0], side.facet_vertices[:, 1]
+    for i, p in enumerate(points):
+        d = b - a
+        s = np.einsum("fd,fd->f", p - a, d) / np.einsum("fd,fd->f", d, d)
+        dist = np.linalg.norm(a + s[:, None] * d - p, axis=1) + np.where((s < 0) | (s > 1), 1.0, 0.0)
+        out[i] = values[np.argmin(dist)]
+    return out
+
+
+def add_rates(runs, by="h"):
+    """Observed rates log(e_i / e_{i+1}) / log(x_i / x_{i+1}) between consecutive runs of an
+    order, x = h or dt."""
+    for order in {r.order for r in runs}:
+        seq = [r for r in runs if r.order == order]
+        for prev, run in zip(seq[:-1], seq[1:]):
+            ratio = math.log(getattr(prev, by) / getattr(run, by))
+            run.rates = {p: (math.log(prev.error_max[p] / run.error_max[p]) / ratio
+                             if prev.error_max[p] > 0 and run.error_max[p] > 0 else float("nan"))
+                         for p in (*PARTS, "total")}
+    return runs
+
+
+def fitted_rate(runs, order, part="total", by="h", last=3):
+    """Least-squares slope of log(error) against log(h or dt) over the last runs of an order
+    (nan from fewer than three runs)."""
+    seq = [r for r in runs if r.order == order][-last:]
+    return fitted_slope([getattr(r, by) for r in seq], [r.error_max[part] for r in seq])
+
+
+def _line(run):
+    errors = "  ".join(f"{p} {run.error_max[p]:.3e}" for p in (*PARTS, "total"))
+    return (f"order {run.order} level {run.level} h {run.h:.4g} dt {run.dt:.4g} ndof {run.ndof:7d}  "
+            f"{errors}  newton {sum(run.newton_iterations)}  wall {run.wall_s:.2f} s")
+
+
+def rows(runs):
+    """The runs as flat rows, the columns of errors.csv: order, level, h, dt, ndof, each
+    error part (max over steps, and final), observed rates, Newton iterations, wall_s."""
+    return [dict(order=r.order, level=r.level, h=r.h, dt=r.dt, ndof=r.ndof,
+                 **{f"error_{p}": r.error_max[p] for p in (*PARTS, "total")},
+                 **{f"error_{p}_final": r.error_final[p] for p in (*PARTS, "total")},
+                 **{f"rate_{p}": r.rates.get(p, float("nan")) for p in (*PARTS, "total")},
+                 newton_iterations=sum(r.newton_iterations), wall_s=r.wall_s) for r in runs]
+
+
+def plot(runs, out, title, by="h"):
+    """Charts: error vs h (slope guides), vs ndof, vs wall time (work-precision); or vs dt."""
+    orders = sorted({r.order for r in runs})
+    charts = {"h": [("h", "mesh size h", "error_vs_h.png"), ("ndof", "ndof", "error_vs_ndof.png"),
+                    ("wall_s", "wall time [s]", "work_precision.png")],
+              "dt": [("dt", "time step dt [s]", "error_vs_dt.png")]}[by]
+    paths = []
+    for attr, label, name in charts:
+        fig = Figure(figsize=(6.5, 4.5), layout="constrained")
+        ax = fig.add_subplot()
+        for i, order in enumerate(orders):
+            seq = [r for r in runs if r.order == order]
+            xs = np.array([getattr(r, attr) for r in seq])
+            for part, style in (("total", "o-"), ("u", "s--"), ("beta", "^:")):
+                ys = np.array([r.error_max[part] for r in seq])
+                if np.all(ys > 0):
+                    ax.loglog(xs, ys, style, color=f"C{i}", ms=4,
+                              label=f"P{order} {'(4.12) total' if part == 'total' else part}")
+            if attr in ("h", "dt"):
+                slope = order if attr == "h" else 1
+                e0 = seq[0].error_max["u"] or seq[0].error_max["total"]
+                ax.loglog(xs, e0 * (xs / xs[0]) ** slope, color=f"C{i}", lw=0.6, alpha=0.6)
+        ax.set(xlabel=label, ylabel="max over steps of the error", title=title)
+        if attr in ("h", "dt"):
+            ax.text(0.02, 0.02, "thin lines: slope guides h^p (dt^1)", transform=ax.transAxes, fontsize=7)
+        ax.legend(fontsize=6, ncol=2)
+        fig.savefig(out / name, dpi=120)
+        paths.append(out / name)
+    return paths
+
+
+def save(runs, out, title, by="h"):
+    """errors.csv and the charts in ``out``; returns the chart paths."""
+    out.mkdir(parents=True, exist_ok=True)
+    write_csv(rows(runs), out / "errors.csv")
+    return plot(runs, out, title, by)
+
+
+def command(orders, levels, case, smoothness, dt_halvings, out):
+    """``python -m ngcontact convergence``: run the study, write errors.csv and the charts
+    into ``out``, print the fitted rates."""
+    out = writable_directory(out)
+    if dt_halvings:
+        runs = time_study(orders[0], levels - 1, dt_halvings, smoothness=smoothness)
+        paths = save(runs, out, f"time steps, P{orders[0]}, level {levels - 1}", by="dt")
+        print(f"fitted rate in dt: {fitted_rate(runs, orders[0], by='dt'):.2f}")
+    else:
+        runs = (reference_study(orders, levels) if case == "reference" else
+                manufactured_study(orders, levels, case, smoothness=smoothness))
+        paths = save(runs, out, f"{case}: error (4.12) and its parts")
+        for order in orders:
+            rates = {p: fitted_rate(runs, order, p) for p in ("u", "phi", "total")}
+            print(f"P{order}: fitted rates " + ", ".join(f"{p} {r:.2f}" for p, r in rates.items()))
+    print(f"wrote {out / 'errors.csv'} and " + ", ".join(p.name for p in paths))

@@ -1,0 +1,42 @@
+"""Stability maps: where the discretisation and the solver fail, measured on small 2D scenes.
+
+One module per study; each has ``run(out=None, *, quick=False, progress=True, ...)``
+returning its rows (flat dicts, one per run or per step) and drawing its charts into
+``out``, and ``summary(rows)``, a short text with the headline numbers:
+
+* ``nitsche_map``: γ0 × θ on the reference plate pressed onto the foundation.
+* ``time_step_sweep``: the explicit β update (4.5) against the implicit one as dt γ_ν L²
+  crosses 1.
+* ``incompressibility``: ν → 1/2 with P1, P2, P3 (locking).
+* ``strong_coupling``: the piezoelectric coupling factor k² → 1.
+* ``debonding``: complete debonding and contact afterwards, against the glue-free body.
+* ``load_cycles``: push-pull cycles that open and close the contact.
+* ``penalty_sweep``: the penalty factor over decades against Nitsche's γ0.
+
+Runs are made without time-step cut-backs unless stated, so that failures show; a failed
+Newton solve is classified by ``common.failure_kind``. Units are SI, per metre of depth.
+"""
+import time as wallclock
+
+from ..common import writable_directory, write_csv
+from . import (debonding, incompressibility, load_cycles, nitsche_map, penalty_sweep, strong_coupling,
+               time_step_sweep)
+
+STUDIES = dict(nitsche_map=nitsche_map, time_step_sweep=time_step_sweep, incompressibility=incompressibility,
+               strong_coupling=strong_coupling, debonding=debonding, load_cycles=load_cycles,
+               penalty_sweep=penalty_sweep)
+"""The studies in the order ``python -m ngcontact stability`` runs them."""
+
+
+def command(out, quick=False):
+    """``python -m ngcontact stability``: run every study, write <study>.csv and the charts
+    into ``out``, print each study's summary."""
+    out = writable_directory(out)
+    start = wallclock.perf_counter()
+    for name, study in STUDIES.items():
+        print(f"\n{name}", flush=True)
+        began = wallclock.perf_counter()
+        rows = study.run(out, quick=quick)
+        write_csv(rows, out / f"{name}.csv")
+        print(f"{study.summary(rows)}\n({wallclock.perf_counter() - began:.1f} s)", flush=True)
+    print(f"\nwall {wallclock.perf_counter() - start:.1f} s; results in {out}")

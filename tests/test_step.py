@@ -1,0 +1,151 @@
+"""One step: transactional, one Newton loop for every method, its own space per simulation.
+
+* ``Simulation.step(dt)`` either advances t, u, φ, β and the history together, or leaves
+  them bitwise as they were and raises; a retried step then gives what an uninterrupted
+  run gives.
+* The cut-back policy (``advance``) is the one ``run`` uses, and the demo and studies run
+  through ``run``.
+* The factorisation is kept and updated; the solver reported is the one used.
+"""
+import numpy as np
+import ngsolve as ngs
+import pytest
+
+import ngcontact as ngc
+from ngcontact.linear_solver import DirectSolver
+from ngcontact.scenes import reference
+
+DT = 2.5e-3
+FIRST_CONTACT = 4          # the reference scene's plate first touches the foundation at step 4
+
+
+def state(sim):
+    """Everything a step may change, as copies."""
+    return dict(t=sim.t, time=sim.time.Get(), x=sim.gfu.vec.FV().NumPy().copy(),
+                beta=sim.beta.values.copy(), unclipped=sim.beta.unclipped.copy(), records=len(sim.history))
+
+
+def assert_same(a, b):
+    assert a["t"] == b["t"] and a["time"] == b["time"] and a["records"] == b["records"]
+    for key in ("x", "beta", "unclipped"):
+        assert np.array_equal(a[key], b[key]), key
+
+
+@pytest.mark.parametrize("contact", [reference.contact(), reference.contact(bare=True, method="active_set")],
+                         ids=["nitsche, glue", "nodal active set"])
+def test_failed_step_leaves_the_state_bitwise_and_the_retry_matches(contact):
+    """maxit = 2 fails at first contact; t, u, φ, β (and the nodal multipliers) and the history
+    are untouched, and the retried step equals the same step of an uninterrupted run."""
+    sim = reference.simulation(1, 0.01, contact=contact)
+    plain = reference.simulation(1, 0.01, contact=contact)
+    for _ in range(FIRST_CONTACT - 1):
+        sim.step(DT)
+        plain.step(DT)
+    before = state(sim)
+    hook = sim.enforcement.newton_hook
+    multipliers = hook.lam.copy() if hook is not None else None
+    sim.newton.maxit = 2
+    with pytest.raises(ngc.NewtonError, match="did not converge in 2 iterations"):
+        sim.step(DT)
+    assert_same(state(sim), before)
+    if hook is not None:
+        assert np.array_equal(hook.lam, multipliers)
+    sim.newton.maxit = 50
+    retried, uninterrupted = sim.step(DT), plain.step(DT)
+    assert retried.newton_iterations == uninterrupted.newton_iterations > 2
+    assert np.abs(retried.state - uninterrupted.state).max() <= 1e-12 * np.abs(uninterrupted.state).max()
+    assert retried.contact.contact_area > 0 and retried.time == uninterrupted.time
+
+
+def test_interrupted_step_is_rolled_back():
+    """Any exception inside a step (here a KeyboardInterrupt in the middle of Newton, after
+    β was updated and the state moved) rolls it back."""
+    sim = reference.simulation(1, 0.01, predictor=True)
+    for _ in range(FIRST_CONTACT):
+        sim.step(DT)
+    before = state(sim)
+    apply, calls = sim.system.Apply, []
+
+    def interrupted(x, r):
+        calls.append(1)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        apply(x, r)
+    sim.system.Apply = interrupted
+    with pytest.raises(KeyboardInterrupt):
+        sim.step(DT)
+    assert_same(state(sim), before)
+    sim.system.Apply = apply
+    again = reference.simulation(1, 0.01, predictor=True)
+    for _ in range(FIRST_CONTACT + 1):
+        again.step(DT)
+    assert np.abs(sim.step(DT).state - again.history[-1].state).max() <= 1e-12 * np.abs(again.history[-1].state).max()
+
+
+def test_cutbacks_reach_the_target_through_the_same_steps():
+    """advance(t) with the cut-back policy: a step too large for maxit = 5 at first contact
+    is halved until it converges; the records are the steps themselves, callback included."""
+    sim = reference.simulation(1, 0.01, maxit=5)
+    for _ in range(FIRST_CONTACT - 1):
+        sim.step(DT)
+    seen = []
+    records = sim.advance(sim.t + 4 * DT, on_step=lambda record: seen.append((record.time, sim.t)))
+    assert len(records) > 1 and sim.cutbacks and sim.cutbacks[0]["dt"] == pytest.approx(4 * DT)
+    assert [r.time for r in records] == [t for t, _ in seen] == [t for _, t in seen]
+    assert records[-1].time == pytest.approx((FIRST_CONTACT + 3) * DT, abs=1e-15)
+    assert sim.history[-len(records):] == records
+
+
+def test_a_body_shared_by_two_simulations_is_left_alone():
+    """Static condensation marks DOFs on the simulation's own space, not on the Body's."""
+    body = reference.body(3, 0.01)
+    coupling = body.X.FreeDofs(coupling=True).NumSet()
+    condensed = ngc.Simulation(body, reference.loads(ngs.Parameter(0)), contact=reference.contact())
+    assert condensed.condense and condensed.X.FreeDofs(coupling=True).NumSet() > coupling
+    assert body.X.FreeDofs(coupling=True).NumSet() == coupling
+    plain = ngc.Simulation(body, reference.loads(ngs.Parameter(0)), condense=False)
+    assert not plain.condense and plain.X.FreeDofs(coupling=True).NumSet() == coupling
+
+
+def test_the_solver_reported_is_the_one_used():
+    assert reference.simulation(1, 0.01).solver == "umfpack"
+    assert reference.simulation(1, 0.01, contact=reference.contact(bare=True)).solver == "sparsecholesky"
+    nodal = reference.simulation(1, 0.01, contact=reference.contact(bare=True, method="active_set"))
+    assert "spsolve" in nodal.solver and nodal.solver == nodal.enforcement.newton_hook.solver
+
+
+@pytest.mark.parametrize("name", ["umfpack", "sparsecholesky"])
+def test_factorisation_is_updated_in_place(name):
+    """Factorising the same matrix object again updates the factorisation (NGSolve's Update):
+    the solution equals a fresh factorisation's, for new values of the matrix."""
+    sim = reference.simulation(1, 0.01, contact=reference.contact(bare=True))
+    sim.run(DT, (FIRST_CONTACT + 1) * DT)
+    system, x, free = sim.system, sim.gfu.vec, sim.X.FreeDofs()
+    kept, r = DirectSolver(name), x.CreateVector()
+    r.FV().NumPy()[:] = np.random.default_rng(0).normal(size=len(r))
+    system.AssembleLinearization(x)
+    kept.factor(system.mat, free)
+    system.mat.AsVector().data *= 2.0                              # new values, same object
+    kept.factor(system.mat, free)
+    w, fresh = x.CreateVector(), DirectSolver(name)
+    kept.solve(r, w)
+    fresh.factor(system.mat, free)
+    w0 = x.CreateVector()
+    fresh.solve(r, w0)
+    assert kept.factorizations == 2 and kept._inverse is not None
+    assert np.abs(w.FV().NumPy() - w0.FV().NumPy()).max() <= 1e-10 * np.abs(w0.FV().NumPy()).max()
+
+
+def test_bad_step_input():
+    sim = reference.simulation(1, 0.01)
+    with pytest.raises(ValueError, match="time step dt must be > 0 s"):
+        sim.step(-1.0)
+    with pytest.raises(ValueError, match="target time must be > the current time"):
+        sim.advance(0.0)
+    with pytest.raises(ValueError, match="max_cutbacks must be an integer >= 0"):
+        sim.advance(1.0, max_cutbacks=1.5)
+    with pytest.raises(TypeError, match=r"Body\(contact=...\) is now Body\(contact_side=...\)"):
+        ngc.Body(sim.body.mesh, ngc.pzt5a(), clamped="left", grounded="top", contact="bottom")
+    keepless = reference.simulation(1, 0.01, keep_states=False)
+    with pytest.raises(ValueError, match="states were not kept"):
+        keepless.state(0)
