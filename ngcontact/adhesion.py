@@ -50,8 +50,9 @@ class BondingField:
 
     @property
     def clipped(self):
-        """Number of facets the last update pushed out of [0, 1] (then clipped)."""
-        return int(np.count_nonzero((self.unclipped < 0) | (self.unclipped > 1)))
+        """Number of facets the last update pushed out of [0, 1] (then clipped), beyond
+        round-off (1e-12: an update to exactly 0 may land at −1e-24)."""
+        return int(np.count_nonzero((self.unclipped < -1e-12) | (self.unclipped > 1 + 1e-12)))
 
     def update(self, u_normal, dt):
         """β_{n-1} -> β_n with u_{n-1,ν} given as a CoefficientFunction, time step dt in s

@@ -21,7 +21,7 @@ class Contact:
         eps_a : ε_a >= 0, the healing threshold of (2.9) (1/s, with γ_ν R_ν² read as a rate).
         bond_length : L > 0 in m, the truncation of R_ν.
         beta0 : β0 in [0, 1], number or CoefficientFunction.
-        beta_update : "explicit" (the paper's (4.5), stable while k γ_ν L² <= 1) or
+        beta_update : "explicit" (the paper's (4.5), stable while dt γ_ν L² <= 1) or
             "implicit" (β_n implicit in (2.9) with u_{n-1}: unconditionally stable, see
             ``adhesion``).
     Conductive foundation (2.7):

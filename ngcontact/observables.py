@@ -114,4 +114,5 @@ class Recorder:
             beta=g.beta.values.copy(), beta_unclipped=g.beta.unclipped.copy(),
             charge_flux=flux[-1], contact_area=integrals["contact_area"].sum(),
             max_penetration=float((side.normal_displacement(u) - side.sample(g.gap)).max()),
-            complementarity=integrals["complementarity"].sum(), force=np.array(flux[:-1]))
+            complementarity=integrals["complementarity"].sum(), force=np.array(flux[:-1]),
+            beta_clipped=g.beta.clipped)

@@ -21,6 +21,7 @@ class ContactRecord:
     beta : the bonding field β_n.
     beta_unclipped : β_n as the update computed it before clipping to [0, 1] (the explicit
         update (4.5) may leave it; the implicit one never does).
+    beta_clipped : the number of facets the update pushed out of [0, 1] beyond round-off.
     potential : φ_h on Γ3 (V).
     charge_flux_density : D·ν = ψ(u_ν − g) φ_L(φ − φ_Γ) (C/m²): positive where charge leaves
         the body into the foundation.
@@ -46,11 +47,7 @@ class ContactRecord:
     max_penetration: float
     complementarity: float
     force: np.ndarray
-
-    @property
-    def beta_clipped(self):
-        """Number of facets the β update pushed out of [0, 1] (then clipped)."""
-        return int(np.count_nonzero((self.beta_unclipped < 0) | (self.beta_unclipped > 1)))
+    beta_clipped: int
 
 
 @dataclass

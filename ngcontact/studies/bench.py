@@ -105,7 +105,7 @@ def run(out, *, orders=(1, 2, 3, 4), dim=2, max_ndof=1e6, steps=10, dt=2.5e-3, p
     out.mkdir(parents=True, exist_ok=True)
     cases = [(order, level) for order in orders for level in levels(order, dim, max_ndof)]
     rows = []
-    with bar(len(cases), "bench cases", progress) as shown:
+    with bar(len(cases), "bench cases", progress, unit="run") as shown:
         shown.write(_header())
         for order, level in cases:
             rows.append(case(order, level, dim=dim, steps=steps, dt=dt, **options))

@@ -81,7 +81,7 @@ def manufactured_study(orders=(1, 2), levels=3, case="viscous", dt=0.25, T=1.0, 
     """Errors against ``ContactManufactured`` for every order and level (0 .. levels-1)."""
     cases = [(order, level) for order in orders for level in range(levels)]
     runs = []
-    with bar(len(cases), f"convergence ({case})", progress) as shown:
+    with bar(len(cases), f"convergence ({case})", progress, unit="run") as shown:
         for order, level in cases:
             runs.append(_manufactured_run(order, level, case, dt, T, maxh, time_profile, smoothness, theta, gamma0))
             shown.write(_line(runs[-1]))
@@ -93,7 +93,7 @@ def time_study(order=2, level=2, halvings=4, case="viscous", dt0=0.25, T=1.0, ma
                smoothness=4, progress=True):
     """Errors for dt = dt0 / 2^j (j < halvings) on one mesh: the time-step part of (4.12)."""
     runs = []
-    with bar(halvings, "convergence in dt", progress) as shown:
+    with bar(halvings, "convergence in dt", progress, unit="run") as shown:
         for j in range(halvings):
             runs.append(_manufactured_run(order, level, case, dt0 / 2**j, T, maxh, "nonlinear", smoothness,
                                           1, 10.0))
@@ -125,7 +125,7 @@ def reference_study(orders=(1, 2), levels=3, steps=80, T=0.25, maxh=0.01, refere
     reference_level = levels if reference_level is None else reference_level
     dt = T / steps
     cases = [(order, level) for order in orders for level in range(levels)]
-    with bar(len(cases) + 1, "convergence (reference scene)", progress) as shown:
+    with bar(len(cases) + 1, "convergence (reference scene)", progress, unit="run") as shown:
         shown.write(f"reference: order {reference_order}, level {reference_level}")
         fine = reference.simulation(reference_order, maxh, reference_level)
         with ngs.TaskManager():

@@ -41,7 +41,7 @@ def run(out=None, *, force=3e8, dt=2e-3, T=0.2, beta_update="explicit", quick=Fa
     if quick:
         dt *= 2
     runs = {}
-    with bar(2, "debonding", progress) as shown:
+    with bar(2, "debonding", progress, unit="run") as shown:
         for name, adhesion in (("glued", reference.CONTACT["adhesion"]), ("free", 0.0)):
             contact = reference.contact(adhesion=adhesion, conductance=0.0, beta_update=beta_update)
             sim = column.simulation(lambda t: force * reference.load_factor(t, LOAD_HISTORY), contact,

@@ -49,7 +49,7 @@ def run(out=None, *, nus=None, orders=(1, 2, 3), maxh=0.005, reference_order=3, 
                   refined=lambda: plate(reference.L1, reference.L2, maxh=2 * maxh, refine=1))
     cases = [(order, "netgen") for order in orders] + [(1, "refined")]
     rows = []
-    with bar(len(nus) * (len(cases) + 1), "incompressibility", progress) as shown:
+    with bar(len(nus) * (len(cases) + 1), "incompressibility", progress, unit="run") as shown:
         for nu in nus:
             fine, _ = tip_deflection(nu, reference_order, plate(reference.L1, reference.L2, maxh=maxh,
                                                                 refine=reference_refine))

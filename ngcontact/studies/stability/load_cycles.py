@@ -51,7 +51,7 @@ def run(out=None, *, dts=None, cycles=4, period=0.1, low=-0.2, maxh=0.01, quick=
         cycles = 2
     history = cycle_history(cycles, period, low)
     rows, traces = [], {}
-    with bar(len(dts), "load_cycles", progress) as shown:
+    with bar(len(dts), "load_cycles", progress, unit="run") as shown:
         for dt in dts:
             sim = reference.simulation(1, maxh, load_history=history, keep_states=False)
             failure = run_quietly(sim, dt, cycles * period, max_cutbacks=6)

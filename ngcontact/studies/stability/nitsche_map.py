@@ -47,7 +47,7 @@ def run(out=None, *, gamma0s=None, thetas=(1, 0, -1), maxh=0.01, order=1, steps=
     if gamma0s is None:
         gamma0s = np.logspace(-3, 4, 8 if quick else 15)
     rows = []
-    with bar(1 + len(thetas) * len(gamma0s), "nitsche_map", progress) as shown:
+    with bar(1 + len(thetas) * len(gamma0s), "nitsche_map", progress, unit="run") as shown:
         force = reference_force(maxh, order, steps, reference_gamma0)
         shown.update()
         for theta in thetas:

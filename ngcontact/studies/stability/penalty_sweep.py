@@ -36,7 +36,7 @@ def run(out=None, *, factors=None, maxh=0.01, order=1, steps=4, quick=False, pro
     if factors is None:
         factors = np.logspace(-3, 5, 5) if quick else np.logspace(-3, 6, 10)
     rows = []
-    with bar(1 + 2 * len(factors), "penalty_sweep", progress) as shown:
+    with bar(1 + 2 * len(factors), "penalty_sweep", progress, unit="run") as shown:
         force = reference_force(maxh, order, steps)
         shown.update()
         for method in ("penalty", "nitsche"):

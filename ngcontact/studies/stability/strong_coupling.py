@@ -58,7 +58,7 @@ def run(out=None, *, k2s=None, maxh=0.01, order=1, steps=4, quick=False, progres
     ratio0 = nominal / (1 - nominal)
     elastic = np.linalg.eigvalsh(base.tensors(2).F).max()
     rows = []
-    with bar(len(k2s), "strong_coupling", progress) as shown:
+    with bar(len(k2s), "strong_coupling", progress, unit="run") as shown:
         for k2 in k2s:
             scale = math.sqrt(k2 / (1 - k2) / ratio0)
             material = ngc.Material(base.c, scale * base.e, base.eps, base.eta, name=f"PZT-5A, e × {scale:.3g}")

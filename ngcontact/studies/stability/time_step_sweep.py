@@ -8,7 +8,7 @@ from ngcontact.scenes import reference
 
 from ..common import line, newton_total, run as run_quietly, table
 
-COLUMNS = ("update", "dt_gamma_L2", "steps", "beta_unclipped_min", "beta_min", "clipped", "beta_rise",
+COLUMNS = ("update", "dt_gamma_L2", "records", "beta_unclipped_min", "beta_min", "clipped", "beta_rise",
            "beta_error")
 """The columns of the summary table."""
 RATE = reference.CONTACT["adhesion"] * reference.CONTACT["bond_length"] ** 2
@@ -64,9 +64,9 @@ def run(out=None, *, dt_gamma_L2s=None, reference_dt_gamma_L2=0.125, T=0.32, pul
 
     Returns
     -------
-    list of dict, one per (update, dt): ``steps``, ``failure``, ``newton``, ``beta_min`` and
-    ``beta_max`` (over facets and steps), ``beta_unclipped_min`` (min of the update before
-    clipping), ``clipped`` (facet-steps clipped) and ``clipped_steps``, ``beta_rise``
+    list of dict, one per (update, dt): ``records`` (steps computed), ``failure``, ``newton``,
+    ``beta_min`` and ``beta_max`` (over facets and steps), ``beta_unclipped_min`` (min of the
+    update before clipping), ``clipped`` (facet-steps clipped) and ``clipped_steps``, ``beta_rise``
     (largest increase of β in a step: 0 for a monotone decay), ``beta_mean_final``,
     ``beta_error`` (max over the common times of ‖β − β_ref‖_L²(Γ3) / |Γ3|^½).
     """
@@ -75,7 +75,7 @@ def run(out=None, *, dt_gamma_L2s=None, reference_dt_gamma_L2=0.125, T=0.32, pul
     if quick:
         reference_dt_gamma_L2 *= 2
     rows, traces = [], {}
-    with bar(1 + 2 * len(dt_gamma_L2s), "time_step_sweep", progress) as shown:
+    with bar(1 + 2 * len(dt_gamma_L2s), "time_step_sweep", progress, unit="run") as shown:
         ref_times, ref_beta, side = extrapolated_beta(reference_dt_gamma_L2 / RATE, T, maxh, pull)
         shown.update()
         measure = side.measure
@@ -87,8 +87,8 @@ def run(out=None, *, dt_gamma_L2s=None, reference_dt_gamma_L2=0.125, T=0.32, pul
                 beta, unclipped = h.contact_column("beta"), h.contact_column("beta_unclipped")
                 every = int(round(dt * RATE / (2 * reference_dt_gamma_L2)))
                 diff = beta - ref_beta[::every][:len(beta)]
-                clipped = np.array([r.contact.beta_clipped for r in h])
-                row = dict(update=update, dt=dt, dt_gamma_L2=value, steps=len(beta) - 1,
+                clipped = h.contact_column("beta_clipped")
+                row = dict(update=update, dt=dt, dt_gamma_L2=value, records=len(beta) - 1,
                            failure=failure["failure"] if failure else "", newton=newton_total(sim, failure),
                            beta_min=float(beta.min()), beta_max=float(beta.max()),
                            beta_unclipped_min=float(unclipped.min()), clipped=int(clipped.sum()),
