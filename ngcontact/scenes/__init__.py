@@ -1,5 +1,4 @@
-"""Ready scenes, built with the public API: the reference plate (``reference``), the soft
-column (``column``) and manufactured solutions with a known contact set (``manufactured``)."""
-from . import column, manufactured, reference
-
-__all__ = ["reference", "column", "manufactured"]
+"""Ready scenes, built with the public API: the reference plate (``scenes.reference``), the
+soft column (``scenes.column``) and manufactured solutions with a known contact set
+(``scenes.manufactured``, which needs sympy). Import the one you need:
+``from ngcontact.scenes import reference``."""
