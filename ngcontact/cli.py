@@ -64,6 +64,11 @@ def parser():
                        help="run under TaskManager (auto: from 30 000 DOFs)")
     bench.add_argument("--bare", action="store_true",
                        help="no glue, insulating foundation: symmetric Jacobian (θ = 1)")
+    bench.add_argument("--path", choices=("new", "old"), default="new",
+                       help="new: kept factorisation and limited Newton steps (the defaults); old: a "
+                            "factorisation at every Newton iteration, full steps")
+    bench.add_argument("--compare", action="store_true",
+                       help="run each case on both paths, one after the other: time ratio and state difference")
     bench.add_argument("--merge", metavar="DIR", nargs="+",
                        help="join the tables of earlier runs into --out instead of running")
     return main_parser
@@ -90,4 +95,5 @@ def main(argv=None):
         from .studies import bench
         bench.run(args.out, orders=args.orders, dim=args.dim, max_ndof=args.max_ndof, steps=args.steps,
                   dt=args.dt, inverse=args.inverse, predictor=args.predictor,
-                  realcompile=choice[args.realcompile], threads=choice[args.threads], bare=args.bare)
+                  realcompile=choice[args.realcompile], threads=choice[args.threads], bare=args.bare,
+                  path=args.path, compare=args.compare)

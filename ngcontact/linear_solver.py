@@ -1,31 +1,56 @@
-"""The linear solver of the Newton correction: a sparse direct factorisation, kept and reused.
+"""The linear solvers of the Newton correction: a sparse direct factorisation, and GMRES
+preconditioned by a factorisation kept from an earlier Jacobian.
 
 NGSolve's pip wheel factorises with "sparsecholesky" (LDLᵀ; only for a symmetric matrix:
 a non-symmetric one is factored as if it were symmetric, silently) or "umfpack"
-("pardiso" needs the mkl package). A ``DirectSolver`` keeps its factorisation: factorising
-the same matrix object again (new values, same sparsity pattern) calls NGSolve's
-``Update()``, which reuses the symbolic analysis, as ``ngsolve.solvers.NewtonSolver`` does.
+("pardiso" needs the mkl package). Factorising the same matrix object again (new values,
+same sparsity pattern) calls NGSolve's ``Update()``, which reuses the symbolic analysis, as
+``ngsolve.solvers.NewtonSolver`` does.
+
+Between Newton iterations, and between the steps of one time step size, the Jacobian of
+the step changes only in its Γ3 terms (``system``): the factorisation of an earlier one is
+then an excellent preconditioner, and ``KeptFactorization`` solves with GMRES (NGSolve's
+``GMResSolver``) instead of factorising again, until the Krylov iterations cost more than
+a factorisation would.
+
+Both solvers have ``solve(matrix, freedofs, r, w, generation=..., timer=..., weights=...)``
+(w = A⁻¹ r on the free DOFs; ``generation`` changes when the matrix changed beyond the Γ3
+terms, e.g. a new time step size; ``weights`` per DOF for GMRES's inner product) and count
+``factorizations``, ``krylov_iterations`` and ``krylov_failures``.
 """
+import time as wallclock
+from contextlib import nullcontext
+
+import numpy as np
+
 NAMES = ("sparsecholesky", "umfpack", "pardiso")
-"""The direct solvers ``DirectSolver`` accepts (NGSolve's ``inverse=`` names)."""
+"""The direct solvers (NGSolve's ``inverse=`` names)."""
+
+
+def untimed(phase):
+    """A ``timer`` that times nothing."""
+    return nullcontext()
 
 
 class DirectSolver:
-    """w = A⁻¹ r for a sparse matrix A on a set of free DOFs.
+    """w = A⁻¹ r by a sparse direct factorisation of A at every solve.
 
     Parameters
     ----------
     name : one of ``NAMES``.
-
-    ``factorizations`` counts the factorisations (numeric ones, updates included).
     """
 
     def __init__(self, name):
         if name not in NAMES:
             raise ValueError(f"inverse must be one of {', '.join(map(repr, NAMES))}, got {name!r}")
         self.name = name
-        self.factorizations = 0
+        self.factorizations = self.krylov_iterations = self.krylov_failures = 0
         self._inverse = self._matrix = self._freedofs = None
+
+    @property
+    def inverse(self):
+        """The last factorisation (an NGSolve inverse), or None."""
+        return self._inverse
 
     def factor(self, matrix, freedofs):
         """Factorise ``matrix`` restricted to ``freedofs`` (a BitArray); the same matrix
@@ -41,10 +66,170 @@ class DirectSolver:
         self._matrix, self._freedofs = matrix, freedofs
         self.factorizations += 1
 
-    def solve(self, r, w):
-        """w = A⁻¹ r with the last factorisation (zero on the other DOFs)."""
-        w.data = self._inverse * r
+    def solve(self, matrix, freedofs, r, w, generation=None, timer=untimed, weights=None, tol=None):
+        """w = A⁻¹ r with a new factorisation of A (exact: ``weights`` and ``tol`` are not used)."""
+        with timer("factorization"):
+            self.factor(matrix, freedofs)
+        with timer("solve"):
+            w.data = self._inverse * r
 
     def __repr__(self):
         return f"DirectSolver({self.name!r})"
 
+
+class KeptFactorization:
+    """w = A⁻¹ r by GMRES, preconditioned by the factorisation of an earlier matrix.
+
+    The factorisation is made anew (``DirectSolver.factor``) when there is none, when
+    ``generation`` or the free DOFs changed, when the last solve used more than half of the
+    budget of GMRES iterations that one factorisation costs (measured: factorisation time /
+    time per GMRES iteration), or when GMRES does not reach ``tol`` within that budget
+    (``krylov_failures`` counts those solves). If
+    GMRES does not converge even right after a factorisation, a factorisation of A itself
+    (UMFPACK) solves, and ``fallbacks`` counts it.
+
+    Parameters
+    ----------
+    direct : DirectSolver whose factorisations precondition GMRES.
+    symmetric : factorise the symmetric part (A + Aᵀ)/2 instead of A (with "sparsecholesky",
+        for a Jacobian that is nearly symmetric: the non-symmetric terms live on Γ3 only).
+    tol : relative reduction of the preconditioned residual in GMRES, measured in the
+        ``weights`` inner product of ``solve`` when given.
+    max_budget : the most GMRES iterations allowed before refactorising.
+    """
+
+    def __init__(self, direct, *, symmetric=False, tol=1e-8, max_budget=40):
+        self.direct, self.symmetric, self.tol, self.max_budget = direct, symmetric, tol, max_budget
+        self.krylov_iterations = self.krylov_failures = self.fallbacks = 0
+        self._generation = self._freedofs = self._symmetric_part = None
+        self._factor_time = self._iteration_time = None
+        self._stale = True
+
+    @property
+    def name(self):
+        what = "symmetric part" if self.symmetric else "Jacobian"
+        return f"GMRES preconditioned by a kept {self.direct.name} factorisation of an earlier {what}"
+
+    @property
+    def factorizations(self):
+        return self.direct.factorizations + self.fallbacks
+
+    @property
+    def budget(self):
+        """GMRES iterations that cost one factorisation (between 4 and ``max_budget``)."""
+        if not self._factor_time or not self._iteration_time:
+            return self.max_budget // 2
+        return int(min(self.max_budget, max(4, self._factor_time / self._iteration_time)))
+
+    def _factor(self, matrix, freedofs, timer):
+        start = wallclock.perf_counter()
+        with timer("factorization"):
+            if self.symmetric:
+                if self._symmetric_part is None:
+                    self._symmetric_part = matrix.CreateMatrix()
+                    self._transpose = _transposed_positions(matrix)
+                values = matrix.AsVector().FV().NumPy()
+                self._symmetric_part.AsVector().FV().NumPy()[:] = 0.5 * (values + values[self._transpose])
+                self.direct.factor(self._symmetric_part, freedofs)
+            else:
+                self.direct.factor(matrix, freedofs)
+        self._factor_time = wallclock.perf_counter() - start
+        self._stale = False
+
+    def _gmres(self, matrix, r, w, maxiter, weights, tol, timer):
+        start = wallclock.perf_counter()
+        with timer("solve"):
+            converged, iterations = gmres(matrix, self.direct.inverse, r, w, weights, tol, maxiter)
+        self.krylov_iterations += iterations
+        self._iteration_time = (wallclock.perf_counter() - start) / max(iterations, 1)
+        return converged, iterations
+
+    def solve(self, matrix, freedofs, r, w, generation=None, timer=untimed, weights=None, tol=None):
+        """w = A⁻¹ r to the relative accuracy ``tol`` (default: the solver's ``tol``) in the
+        ``weights`` norm of the preconditioned residual."""
+        tol = self.tol if tol is None else tol
+        if self._stale or generation != self._generation or freedofs is not self._freedofs:
+            self._generation, self._freedofs = generation, freedofs
+            self._factor(matrix, freedofs, timer)
+        budget = self.budget
+        converged, iterations = self._gmres(matrix, r, w, budget, weights, tol, timer)
+        if not converged:                               # a factorisation pays: make it
+            self.krylov_failures += 1
+            self._factor(matrix, freedofs, timer)
+            converged, iterations = self._gmres(matrix, r, w, self.max_budget, weights, tol, timer)
+        if not converged:                               # the preconditioner does not fit A
+            self.krylov_failures += 1
+            self.fallbacks += 1
+            with timer("factorization"):
+                exact = matrix.Inverse(freedofs, inverse="umfpack")
+            with timer("solve"):
+                w.data = exact * r
+        self._stale = iterations > budget / 2           # next time, a factorisation will pay
+
+    def __repr__(self):
+        return f"KeptFactorization({self.direct!r}, symmetric={self.symmetric})"
+
+
+def _transposed_positions(matrix):
+    """For each stored entry (i, j) of a structurally symmetric sparse matrix, the position
+    of (j, i) among its stored values."""
+    _, cols, ptr = matrix.CSR()
+    cols, ptr = np.asarray(cols, dtype=np.int64), np.asarray(ptr, dtype=np.int64)
+    rows = np.repeat(np.arange(matrix.height, dtype=np.int64), np.diff(ptr))
+    keys = rows * matrix.width + cols
+    transposed = cols * matrix.width + rows
+    where = np.searchsorted(keys, transposed)
+    if not np.array_equal(keys[np.clip(where, 0, len(keys) - 1)], transposed):
+        raise ValueError("the matrix is not structurally symmetric")
+    return where
+
+
+def gmres(matrix, preconditioner, r, w, weights, tol, maxiter):
+    """Left-preconditioned GMRES from w = 0 for A w = r: minimises ‖M⁻¹(r − A w)‖ in the
+    inner product (x, y) = Σ weights x y (Euclidean without weights) over the Krylov space,
+    until it falls below ``tol`` times its start or after ``maxiter`` iterations.
+    Returns (converged, iterations); w holds the solution."""
+    n = len(w)
+    weights = np.ones(n) if weights is None else weights
+    work = w.CreateVector()
+    work.data = preconditioner * r
+    z = work.FV().NumPy()
+    beta = float(np.sqrt(np.dot(weights * z, z)))
+    w[:] = 0.0
+    if beta == 0:
+        return True, 0
+    basis = np.empty((maxiter + 1, n))
+    basis[0] = z / beta
+    H = np.zeros((maxiter + 1, maxiter))
+    cs, sn = np.zeros(maxiter), np.zeros(maxiter)
+    g = np.zeros(maxiter + 1)
+    g[0] = beta
+    product = w.CreateVector()
+    k, converged = 0, False
+    while k < maxiter:
+        w.FV().NumPy()[:] = basis[k]
+        product.data = matrix * w
+        work.data = preconditioner * product
+        q = z.copy()
+        for i in range(k + 1):                                 # modified Gram-Schmidt, twice
+            H[i, k] = np.dot(weights * basis[i], q)
+            q -= H[i, k] * basis[i]
+        for i in range(k + 1):
+            c = np.dot(weights * basis[i], q)
+            H[i, k] += c
+            q -= c * basis[i]
+        H[k + 1, k] = np.sqrt(np.dot(weights * q, q))
+        for i in range(k):                                     # the earlier Givens rotations
+            H[i, k], H[i + 1, k] = cs[i] * H[i, k] + sn[i] * H[i + 1, k], -sn[i] * H[i, k] + cs[i] * H[i + 1, k]
+        rho = np.hypot(H[k, k], H[k + 1, k])
+        cs[k], sn[k] = H[k, k] / rho, H[k + 1, k] / rho
+        H[k, k], H[k + 1, k] = rho, 0.0
+        g[k], g[k + 1] = cs[k] * g[k], -sn[k] * g[k]
+        k += 1
+        if abs(g[k]) <= tol * beta or rho == 0:
+            converged = True
+            break
+        basis[k] = q / np.sqrt(np.dot(weights * q, q))
+    y = np.linalg.solve(np.triu(H[:k, :k]), g[:k]) if k else np.zeros(0)
+    w.FV().NumPy()[:] = y @ basis[:k]
+    return converged or abs(g[k]) <= tol * beta, k

@@ -9,20 +9,23 @@ epsilon and |J||x| + |b| the size of the terms that sum to the residual
 (``StepSystem.magnitude``), so that the floor grows with a stiff contact term.
 
 Every enforcement method runs in this one loop; a method with unknowns of its own (the
-nodal multipliers of the active set method) takes part through a ``Hook``. Wall time goes
+nodal multipliers of the active set method) takes part through a ``Hook``, and a
+``step_length`` callback may shorten a correction (``step_length``). Wall time goes
 to a ``timer`` callback per phase ("residual", "assembly", "factorization", "solve").
 Unlike ``ngsolve.solvers.Newton``, a failure raises ``NewtonError``.
 """
 import time as wallclock
-from contextlib import contextmanager, nullcontext
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np
 import scipy.sparse as sp
 
-from .linear_solver import DirectSolver
+from .linear_solver import DirectSolver, untimed
 
+LINEAR_COUNTS = ("factorizations", "krylov_iterations", "krylov_failures")
+"""The linear solver's counters that a solve reports."""
 ROUNDOFF = 10 * np.finfo(float).eps
 """Factor of the round-off floor on ‖ |J||x| + |b| ‖."""
 
@@ -36,6 +39,8 @@ class NewtonError(RuntimeError):
     def __init__(self, reason, *, iteration, residuals, step=None, time=None, hint=""):
         self.reason, self.iteration, self.residuals = reason, iteration, residuals
         self.step, self.time, self.history = step, time, None
+        self.residuals_limited = None    # the history of a first try with shortened steps
+        self.factorizations = self.krylov_iterations = self.krylov_failures = 0   # the linear solver's work
         where = f"step {step} (t = {time:.6g} s), " if step is not None else ""
         hist = ", ".join(f"{r:.3e}" for r in residuals)
         super().__init__(f"Newton {reason} at {where}iteration {iteration}; scaled residual "
@@ -45,10 +50,17 @@ class NewtonError(RuntimeError):
 @dataclass
 class NewtonResult:
     """A converged solve: ``iterations`` (linear solves), ``residuals`` (scaled norms, one
-    per residual evaluation, J^1/2) and ``residual``, the final residual vector R(x)."""
+    per residual evaluation, J^1/2), ``residual``, the final residual vector R(x), and the
+    linear solver's ``factorizations``, ``krylov_iterations`` and ``krylov_failures`` (GMRES
+    solves that did not converge and were followed by a fresh factorisation) during the solve (both tries
+    of a repeated solve), ``discarded``: the linear solves of a first try that was repeated."""
     iterations: int
     residuals: list = field(default_factory=list)
     residual: object = None
+    factorizations: int = 0
+    krylov_iterations: int = 0
+    krylov_failures: int = 0
+    discarded: int = 0
 
 
 class Timings(dict):
@@ -67,10 +79,6 @@ class Timings(dict):
         self[phase] += wallclock.perf_counter() - start
 
 
-def _untimed(phase):
-    return nullcontext()
-
-
 class ResidualNorm:
     """The scaled norms of residuals (dual) and states (primal) on the free DOFs of the u and
     φ blocks of ``space``; the scales s_u, s_φ are set once, from a Jacobian diagonal."""
@@ -86,6 +94,12 @@ class ResidualNorm:
         diagonal = np.abs(diagonal)
         self.scales = [float(diagonal[b].mean()) if len(b) and diagonal[b].mean() > 0 else 1.0
                        for b in self.blocks]
+        self.weights = np.zeros(len(diagonal))
+        for block, scale in zip(self.blocks, self.scales):
+            self.weights[block] = scale
+
+    weights = None
+    """s_b on the free DOFs of block b, 0 elsewhere (numpy): the primal norm is (Σ w x²)^½."""
 
     def _weighted(self, a, power):
         return float(np.sqrt(sum(s ** power * np.dot(a[b], a[b]) for b, s in zip(self.blocks, self.scales))))
@@ -132,21 +146,27 @@ class Newton:
         ``jacobian_diagonal(x)`` (for the scales when ``mat`` is condensed) and
         ``magnitude(x)`` (for the round-off floor).
     gfu : GridFunction on the product space V × W (components u, φ).
-    solver : DirectSolver of the corrections (default: UMFPACK).
+    solver : the linear solver of the corrections, ``linear_solver.DirectSolver`` (default:
+        UMFPACK) or ``KeptFactorization``.
     freedofs : BitArray of the unknowns (default: the space's free DOFs).
     rtol : relative residual reduction per solve.
     maxit : maximum number of linear solves per solve.
     hook : a ``Hook`` of the enforcement method, or None.
+    step_length : None, or a callable w ↦ α ∈ (0, 1]: the correction is x − α w (with
+        optional ``start()``, called when a solve begins, and ``cut``, whether the solve
+        shortened a step).
     """
 
-    def __init__(self, system, gfu, *, solver=None, freedofs=None, rtol=1e-10, maxit=50, hook=None):
+    def __init__(self, system, gfu, *, solver=None, freedofs=None, rtol=1e-10, maxit=50, hook=None,
+                 step_length=None):
         if not rtol > 0:
             raise ValueError(f"rtol must be > 0, got {rtol}")
         if int(maxit) != maxit or maxit < 1:
             raise ValueError(f"maxit must be an integer >= 1, got {maxit}")
-        self.system, self.gfu, self.hook = system, gfu, hook
+        self.system, self.gfu, self.hook, self.step_length = system, gfu, hook, step_length
         self.solver = solver or DirectSolver("umfpack")
         self.rtol, self.maxit = rtol, int(maxit)
+        self.retries = 0
         space = gfu.space
         self.freedofs = freedofs if freedofs is not None else space.FreeDofs()
         self.norm = ResidualNorm(space, self.freedofs)
@@ -165,12 +185,41 @@ class Newton:
     def solve(self, *, step=None, time=None, timer=None):
         """Iterate from the current ``gfu`` until converged; raise ``NewtonError`` otherwise.
         ``step`` and ``time`` (s) are for the error message; ``timer(phase)`` returns a
-        context manager that times a phase (e.g. a ``Timings``)."""
-        timer = timer or _untimed
+        context manager that times a phase (e.g. a ``Timings``). A solve whose shortened
+        steps did not converge is repeated from its start with full steps (``retries``
+        counts these); the error of a second failure gives both residual histories."""
+        if self.step_length is None:
+            return self._solve(step, time, timer, limit=False)
+        start = self.gfu.vec.CreateVector()
+        start.data = self.gfu.vec
+        try:
+            return self._solve(step, time, timer, limit=True)
+        except NewtonError as limited:
+            if not getattr(self.step_length, "cut", True):
+                raise
+            self.retries += 1
+            self.gfu.vec.data = start
+            try:
+                result = self._solve(step, time, timer, limit=False)
+                result.discarded = limited.iteration
+                for name in LINEAR_COUNTS:
+                    setattr(result, name, getattr(result, name) + getattr(limited, name))
+                return result
+            except NewtonError as full:
+                full.residuals_limited = limited.residuals
+                full.args = (f"{full.args[0]} (with full steps; with shortened steps: {limited.reason}, "
+                             f"residual history [{', '.join(f'{r:.3e}' for r in limited.residuals)}])",)
+                raise full from None
+
+    def _solve(self, step, time, timer, limit):
+        timer = timer or untimed
         x, r, hook = self.gfu.vec, self.r, self.hook
         residuals = []
+        counts = self._linear_counts()
         if hook is not None:
             hook.start()
+        if limit and hasattr(self.step_length, "start"):
+            self.step_length.start()
         for it in range(self.maxit + 1):
             with timer("residual"):
                 self.system.Apply(x, r)
@@ -184,7 +233,7 @@ class Newton:
             if settled and self._converged(value, residuals[0], x):
                 if hook is not None:
                     hook.finish()
-                return NewtonResult(it, residuals, r)
+                return NewtonResult(it, residuals, r, **self._linear_counts(since=counts))
             if it == self.maxit:
                 break
             if hook is not None:
@@ -192,12 +241,22 @@ class Newton:
                     self.system.AssembleLinearization(x)
                 hook.correct(self.system, x, r, timer)
             else:
-                self.linear_solve(x, timer)
-                x.data -= self.w
-        raise NewtonError(f"did not converge in {self.maxit} iterations", iteration=self.maxit,
-                          residuals=residuals, step=step, time=time,
-                          hint="a smaller time step, a larger Nitsche parameter gamma0, theta = -1, "
-                               "or a larger maxit")
+                # inexact Newton: the correction needs the accuracy that brings ‖r‖ to the tolerance
+                self.linear_solve(x, timer, tol=min(1e-3, max(1e-12, 0.1 * self.rtol * residuals[0] / value)))
+                alpha = self.step_length(self.w) if limit else 1.0
+                x.data -= alpha * self.w
+        error = NewtonError(f"did not converge in {self.maxit} iterations", iteration=self.maxit,
+                            residuals=residuals, step=step, time=time,
+                            hint="a smaller time step, a larger Nitsche parameter gamma0, theta = -1, "
+                                 "or a larger maxit")
+        for name, value in self._linear_counts(since=counts).items():
+            setattr(error, name, value)
+        raise error
+
+    def _linear_counts(self, since=None):
+        """The linear solver's counters (``LINEAR_COUNTS``), minus ``since``."""
+        now = {name: getattr(self.solver, name, 0) for name in LINEAR_COUNTS}
+        return now if since is None else {name: now[name] - since[name] for name in LINEAR_COUNTS}
 
     def _diagonal(self, x):
         if hasattr(self.system, "jacobian_diagonal"):
@@ -211,21 +270,24 @@ class Newton:
         magnitude = getattr(self.system, "magnitude", None)
         return magnitude is not None and value <= ROUNDOFF * self.norm.dual(magnitude(x))
 
-    def linear_solve(self, x, timer=None):
+    def linear_solve(self, x, timer=None, tol=None):
         """One Newton correction w = R'(x)⁻¹ r (``self.w``, ``self.r``): assembly,
-        factorisation and solve, each timed by ``timer``."""
-        timer = timer or _untimed
+        factorisation and solve, each timed by ``timer``; ``tol``: the relative accuracy an
+        iterative solver needs (None: its own)."""
+        timer = timer or untimed
         system, r, w = self.system, self.r, self.w
         with timer("assembly"):
             system.AssembleLinearization(x)
-        with timer("factorization"):
-            self.solver.factor(system.mat, self.coupling if self.condense else self.freedofs)
-        with timer("solve"):
-            if self.condense:                              # through the Schur complement
-                rc = self.r_condensed
+        generation = getattr(system, "generation", None)
+        if self.condense:                                  # through the Schur complement
+            rc = self.r_condensed
+            with timer("solve"):
                 rc.data = r + system.harmonic_extension_trans * r
-                self.solver.solve(rc, w)
+            self.solver.solve(system.mat, self.coupling, rc, w, generation=generation, timer=timer,
+                              weights=self.norm.weights, tol=tol)
+            with timer("solve"):
                 w.data += system.harmonic_extension * w
                 w.data += system.inner_solve * r
-            else:
-                self.solver.solve(r, w)
+        else:
+            self.solver.solve(system.mat, self.freedofs, r, w, generation=generation, timer=timer,
+                              weights=self.norm.weights, tol=tol)

@@ -92,6 +92,8 @@ class Recorder:
         r = result.residual
         return StepRecord(
             step=n, time=time, newton_iterations=result.iterations, residuals=result.residuals,
+            factorizations=result.factorizations, krylov_iterations=result.krylov_iterations,
+            krylov_failures=result.krylov_failures, discarded_iterations=result.discarded,
             wall_s=0.0, reaction=np.array([ngs.InnerProduct(r, w) for w in self._reaction]),
             electrode_charge={name: -ngs.InnerProduct(r, w) for name, w in self._charge.items()},
             state=self.state.vec.FV().NumPy().copy() if keep_state else None,

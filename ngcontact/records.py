@@ -56,7 +56,12 @@ class StepRecord:
 
     step : n.  time : t_n (s).
     newton_iterations : linear solves of the step's Newton solve; residuals : its scaled
-        residual norms (J^1/2).
+        residual norms (J^1/2); factorizations and krylov_iterations : what the linear
+        solver did for them (a factorisation kept from an earlier step is reused);
+        krylov_failures : GMRES solves that did not converge within their budget and were
+        repeated after a fresh factorisation;
+        discarded_iterations : the linear solves of a first try with shortened steps that
+        did not converge and was repeated with full steps (``newton.Newton.solve``), else 0.
     wall_s : wall time of the step (s), records included; ``timings`` splits it into the
         Newton phases "residual", "assembly", "factorization", "solve" and "other" (s).
     reaction : ∫_Γ1 σν da, the force of the support on the body (N; N/m in 2D).
@@ -75,6 +80,10 @@ class StepRecord:
     state: np.ndarray = field(repr=False, default=None)
     contact: ContactRecord = None
     timings: dict = field(default_factory=dict)
+    factorizations: int = 0
+    krylov_iterations: int = 0
+    krylov_failures: int = 0
+    discarded_iterations: int = 0
 
 
 class History(list):

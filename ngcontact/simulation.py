@@ -17,10 +17,11 @@ from .adhesion import BondingField
 from .backward_euler import BackwardEuler
 from .contact_side import ContactSide
 from .enforcement import METHODS
-from .linear_solver import DirectSolver
+from .linear_solver import DirectSolver, KeptFactorization
 from .loads import Loads, as_cf
 from .newton import Newton, NewtonError, ResidualNorm, Timings
 from .observables import Gamma3, Recorder
+from .step_length import StepLength
 from .progress import bar
 from .records import History
 from .system import StepSystem, has_interior_dofs
@@ -37,11 +38,12 @@ class Simulation:
     time : ngsolve.Parameter used in the loads and the contact data (created if not given);
         set to t_n at step n.
     u0 : initial displacement (number tuple or CoefficientFunction), zero on Γ1; default 0.
-    inverse : direct solver of the Newton corrections ("sparsecholesky", "umfpack",
-        "pardiso"); default: "sparsecholesky" where the step Jacobian is symmetric (no
-        contact, or ``Contact.symmetric``), "umfpack" otherwise. The nodal constraint
-        (``method="active_set"``) solves its saddle point systems itself; ``solver`` says
-        what is used.
+    inverse : the direct factorisation of the Newton corrections ("sparsecholesky",
+        "umfpack", "pardiso"); default: "sparsecholesky" where the step Jacobian is symmetric
+        (no contact, or ``Contact.symmetric``), else, with ``reuse_factorization``, the
+        sparse Cholesky factorisation of its symmetric part as GMRES's preconditioner, and
+        "umfpack" without. The nodal constraint (``method="active_set"``) solves its saddle
+        point systems itself. ``solver`` says what is used.
     rtol, maxit : Newton tolerance (relative) and iteration limit per step.
     keep_states : keep a copy of (u, φ) of every step in the history.
     predictor : start Newton from the linear extrapolation of the last two states instead of
@@ -53,13 +55,22 @@ class Simulation:
     realcompile : compile the Γ3 integrand to machine code (needs a C++ compiler, takes
         seconds once, assembles the Γ3 terms about 4× faster); default: when ndof >= 50 000
         in 2D, >= 2 000 in 3D.
+    limit_steps : shorten Newton corrections that would carry open points of Γ3 deep into
+        the foundation (``step_length``): Newton's iterations at first contact then no longer
+        grow with the mesh. Nitsche and penalty (the nodal constraint makes its own
+        corrections).
+    reuse_factorization : solve the Newton corrections by GMRES preconditioned with the
+        factorisation of an earlier Jacobian of the same time step size, factorising again
+        only when that pays (``linear_solver.KeptFactorization``); False: factorise at every
+        Newton iteration.
 
     The state after the last step: ``t`` (s), ``u``, ``phi`` (components of ``gfu``), the
     bonding field ``beta`` (``beta.values``), and ``history``, one StepRecord per step.
     """
 
     def __init__(self, body, loads=None, *, contact=None, time=None, u0=None, inverse=None,
-                 rtol=1e-10, maxit=50, keep_states=True, predictor=False, condense=None, realcompile=None):
+                 rtol=1e-10, maxit=50, keep_states=True, predictor=False, condense=None, realcompile=None,
+                 limit_steps=True, reuse_factorization=True):
         self.body = body
         self.loads = loads or Loads()
         self.loads.check(body)
@@ -78,9 +89,19 @@ class Simulation:
         self.system = StepSystem(body, self.loads, self.X, self.time, condense=self.condense, kept=kept)
         self.gamma3 = self._contact_side(contact) if contact is not None else None
         symmetric = contact is None or contact.symmetric
-        solver = DirectSolver(inverse or ("sparsecholesky" if symmetric else "umfpack"))
+        self._inverse = inverse or ("sparsecholesky" if symmetric else "umfpack")
+        if not reuse_factorization:
+            solver = DirectSolver(self._inverse)
+        elif inverse is None and not symmetric:   # LDLᵀ of the symmetric part: the skew part lives on Γ3
+            solver = KeptFactorization(DirectSolver("sparsecholesky"), symmetric=True)
+        else:
+            solver = KeptFactorization(DirectSolver(self._inverse))
         hook = self.gamma3.enforcement.newton_hook if contact is not None else None
-        self.newton = Newton(self.system, self.gfu, solver=solver, rtol=rtol, maxit=maxit, hook=hook)
+        limit = None
+        if contact is not None and hook is None and limit_steps:
+            limit = StepLength(self.gamma3.side, self.gfu, self.gamma3.gap)
+        self.newton = Newton(self.system, self.gfu, solver=solver, rtol=rtol, maxit=maxit, hook=hook,
+                             step_length=limit)
         self.scheme = BackwardEuler(self.system, self.newton, self.gfu,
                                     self.gamma3.beta if contact is not None else None, predictor)
         self.recorder = Recorder(body, self.gfu, self.system, self.gamma3)
@@ -102,7 +123,7 @@ class Simulation:
 
         def terms(state, test):
             return forms.contact_terms(contact, enforcement, beta.gf, gap, foundation_potential, state, test)
-        self.system.add_boundary_terms(terms, side.ds, realcompile=self.realcompile)
+        self.system.add_boundary_terms(terms, side, realcompile=self.realcompile)
         return Gamma3(side, contact, enforcement, beta, gap, foundation_potential)
 
     # the parts of Γ3 users read
@@ -142,7 +163,7 @@ class Simulation:
         self.system.begin_step(0.0, 1.0, self.u.vec, self.gfu)
         phi_only = ngs.BitArray(self.X.FreeDofs())
         phi_only[self.X.Range(0)] = False
-        newton = Newton(self.system.uncondensed, self.gfu, solver=DirectSolver(self.newton.solver.name),
+        newton = Newton(self.system.uncondensed, self.gfu, solver=DirectSolver(self._inverse),
                         freedofs=phi_only, rtol=self.newton.rtol, maxit=self.newton.maxit)
         result = newton.solve(step=0, time=0.0, timer=timings)
         self.history.append(self._record(0, result, start, timings))

@@ -61,7 +61,8 @@ class StepSystem:
         region, Γ3).
 
     ``u_old`` (GridFunction of u_{n−1}) and ``inv_dt`` (Parameter 1/dt, 1/s) are the step's
-    coefficients, for the Γ3 terms to use. ``add_boundary_terms(terms, ds)`` adds R_Γ3;
+    coefficients, for the Γ3 terms to use; ``generation`` counts the changes of the bulk
+    matrix K (with dt), after which a kept factorisation no longer fits. ``add_boundary_terms(terms, side)`` adds R_Γ3;
     ``begin_step(t, dt, u_old, state)`` prepares the step; ``boundary_residual`` holds R_Γ3
     at the last ``Apply``.
     """
@@ -104,21 +105,27 @@ class StepSystem:
         self.boundary_residual = self._x_old.vec.CreateVector()
         self.boundary_residual[:] = 0.0
         self._dt, self._linearized = None, False
+        self._positions = {}
+        self.generation = 0                                    # counts the changes of K
 
     # ----------------------------------------------------------------------- building
-    def add_boundary_terms(self, terms, ds, realcompile=False):
-        """Add ∫ terms(state, test) ds to R: ``terms((u, φ), (v, ξ))`` is the integrand
-        (linear in the test functions) for the state (u, φ). Its Jacobian comes from a
-        BilinearForm in the trial functions; R_Γ3 itself from a LinearForm in a copy of the
-        state, whose assembly is about as fast as the Jacobian's where the BilinearForm's
-        Apply is not (under TaskManager, ds(skeleton=True))."""
+    def add_boundary_terms(self, terms, side, realcompile=False):
+        """Add ∫_Γ3 terms(state, test) da to R: ``terms((u, φ), (v, ξ))`` is the integrand
+        (linear in the test functions) for the state (u, φ); ``side`` the ContactSide.
+
+        R_Γ3 comes from a LinearForm over ``side.ds`` (ds(skeleton=True)) in a copy of the
+        state; its Jacobian from a BilinearForm in the trial functions over the element
+        boundaries of the volume elements at Γ3 only (``side.dx_at``, the integrand times
+        the Γ3 indicator), whose matrix holds just their couplings: its linearisation does
+        not visit every facet of the mesh (P1, 121 851 DOFs: 0.084 s against 0.33 s)."""
         if self.boundary is None:
             self.boundary = ngs.BilinearForm(self.X, symmetric=False)
             self.state = ngs.GridFunction(self.X)
             self._boundary_linear = ngs.LinearForm(self.X)
         test = self.X.TestFunction()
-        self.boundary += _compiled(terms(self.X.TrialFunction(), test), realcompile) * ds
-        self._boundary_linear += terms(self.state.components, test).Compile() * ds
+        integrand = side.indicator * terms(self.X.TrialFunction(), test)
+        self.boundary += _compiled(integrand, realcompile) * side.dx_at
+        self._boundary_linear += terms(self.state.components, test).Compile() * side.ds
 
     # ----------------------------------------------------------------------- one step
     def begin_step(self, t, dt, u_old, state):
@@ -137,6 +144,7 @@ class StepSystem:
                 self._K_condensed.Assemble()
             self._absK = None
             self._dt = dt
+            self.generation += 1
         self.u_old.vec.data = u_old
         self.f.Assemble()
         self._constant.data = self.f.vec
@@ -174,12 +182,20 @@ class StepSystem:
             self._linearized = True
 
     def _assemble_full(self, x):
-        """The full Jacobian K + R_Γ3'(x) into ``_full``."""
+        """The full Jacobian K + R_Γ3'(x) into ``_full`` (R_Γ3' added at the positions of
+        its entries in K's pattern)."""
         self._linearize_boundary(x)
-        if self.boundary is None:
-            self._full.AsVector().data = self.K.AsVector()
-        else:
-            self._full.AsVector().data = self.K.AsVector() + self.boundary.mat.AsVector()
+        self._full.AsVector().data = self.K.AsVector()
+        if self.boundary is not None:
+            self._add_boundary(self._full)
+
+    def _add_boundary(self, target):
+        """target += R_Γ3' (target: K's pattern, or the Schur complement's)."""
+        positions = self._positions.get(id(target))
+        if positions is None:
+            positions = self._positions[id(target)] = _matching_positions(self.boundary.mat, target)
+        source, into = positions
+        target.AsVector().FV().NumPy()[into] += self.boundary.mat.AsVector().FV().NumPy()[source]
 
     @property
     def harmonic_extension(self):
@@ -196,15 +212,11 @@ class StepSystem:
     def _add_to_condensed(self):
         """Schur complement of K + R_Γ3' (R_Γ3' has no entries on the condensed DOFs, so it
         adds to the Schur complement of K at matching positions)."""
-        target = self._K_condensed.mat
         if self._schur is None:
-            self._schur = target.CreateMatrix()
-            self._positions = _matching_positions(self.boundary.mat, target) if self.boundary else None
-        values = self._schur.AsVector().FV().NumPy()
-        values[:] = target.AsVector().FV().NumPy()
+            self._schur = self._K_condensed.mat.CreateMatrix()
+        self._schur.AsVector().data = self._K_condensed.mat.AsVector()
         if self.boundary is not None:
-            source, into = self._positions
-            values[into] += self.boundary.mat.AsVector().FV().NumPy()[source]
+            self._add_boundary(self._schur)
         return self._schur
 
     # ----------------------------------------------------------------------- for Newton's norms

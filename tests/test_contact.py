@@ -185,7 +185,7 @@ def test_penalty_method_penetrates_like_one_over_epsilon():
     penetration, force = [], []
     for factor in (10.0, 100.0, 1000.0):
         sim = pressed_plate(Contact(gap=GAP, method="penalty", penalty=factor))
-        assert sim.solver == "sparsecholesky"
+        assert "sparsecholesky" in sim.solver
         h = sim.run(dt=1, T=1)
         c = h[-1].contact
         assert np.abs(h[-1].reaction + c.force - [0, P * 0.1]).max() < 1e-6 * P * 0.1

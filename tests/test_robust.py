@@ -8,25 +8,29 @@ import ngcontact as ngc
 from ngcontact.scenes import reference as scene
 
 
-def reference(maxh=0.01):
-    sim = scene.simulation(1, maxh)
+def reference(maxh=0.01, **options):
+    sim = scene.simulation(1, maxh, **options)
     return sim, sim.time
 
 
 def test_cutback_recovers_the_load_reversal():
-    """k = 20 ms: Newton cycles at the load reversal (t = 0.2 s) without cut-back; with it
-    the run reaches T, the failed steps are halved, and every record is in equilibrium."""
-    sim, _ = reference()
+    """k = 20 ms with full Newton steps: Newton cycles at the load reversal (t = 0.2 s)
+    without cut-back; with it the run reaches T, the failed steps are halved, and every
+    record is in equilibrium. With the step-length limit (the default) no cut-back is needed,
+    and its records are in equilibrium too."""
+    sim, _ = reference(limit_steps=False)
     with pytest.raises(ngc.NewtonError, match="did not converge"):
         sim.run(dt=0.02, T=0.3, max_cutbacks=0)
-    sim, t = reference()
+    limited, _ = reference()
+    limited.run(dt=0.02, T=0.3, max_cutbacks=0)
+    sim, t = reference(limit_steps=False)
     h = sim.run(dt=0.02, T=0.3)
     assert h.times[-1] == pytest.approx(0.3, abs=1e-12) and len(sim.cutbacks) >= 1
     assert len(h) - 1 > 15                                     # more records than nominal steps
     dts = np.diff(h.times)
     assert dts.min() < 0.02 - 1e-12 and np.all(dts > 0)
     assert np.isclose(dts, 0.02).sum() >= 10                   # recovery: back to k after the cut-back
-    for rec in h[1:]:
+    for rec in list(h[1:]) + list(limited.history[1:]):
         t.Set(rec.time)
         applied = scene.pressure(t)(sim.body.mesh(0.05, 0.02)) * scene.L1
         assert rec.reaction[1] + rec.contact.force[1] == pytest.approx(applied, abs=1e-6 * scene.PRESSURE * scene.L1)

@@ -78,23 +78,29 @@ def run_reference(steps=6, **kw):
 
 def test_predictor_changes_the_start_not_the_solution():
     """With the linear predictor Newton reaches the same states (to its tolerance) in the
-    reference scene's first steps, first contact included, and no more iterations."""
+    reference scene's first steps, first contact included; with full Newton steps in no
+    more iterations (with the step-length limit the predictor's own step is not limited, and
+    it costs iterations at first contact: docs/speed.md)."""
     plain, predicted = run_reference(predictor=False), run_reference(predictor=True)
     for a, b in zip(plain.history[1:], predicted.history[1:]):
         assert np.abs(a.state - b.state).max() < 1e-7 * np.abs(a.state).max()
         assert b.contact.force[1] == pytest.approx(a.contact.force[1], rel=1e-8, abs=1e-6)
+    plain, predicted = (run_reference(predictor=p, limit_steps=False) for p in (False, True))
     assert predicted.history.newton_iterations.sum() <= plain.history.newton_iterations.sum()
 
 
 def test_step_timings_split_the_wall_time():
-    """The Newton phases of each step fit inside its wall time (records included), and the
-    linear-solve phases are zero exactly when no linear solve was made."""
+    """The Newton phases of each step fit inside its wall time (records included); assembly
+    and solve are zero exactly when no linear solve was made, the factorisation exactly
+    when no factorisation was made (a kept one was reused)."""
     sim = run_reference(steps=3)
     for rec in sim.history:
         assert set(rec.timings) == {"residual", "assembly", "factorization", "solve", "other"}
         assert rec.timings["other"] >= 0 and rec.timings["residual"] > 0
-        solved = [rec.timings[p] > 0 for p in ("assembly", "factorization", "solve")]
-        assert solved == [rec.newton_iterations > 0] * 3
+        solved = [rec.timings[p] > 0 for p in ("assembly", "solve")]
+        assert solved == [rec.newton_iterations > 0] * 2
+        assert (rec.timings["factorization"] > 0) == (rec.factorizations > 0)
+    assert sum(rec.factorizations for rec in sim.history[1:]) < sum(rec.newton_iterations for rec in sim.history[1:])
 
 
 def test_realcompiled_contact_terms_agree():
@@ -114,7 +120,7 @@ def test_bare_scene_uses_cholesky_and_matches_umfpack():
         sim = scene.simulation(1, contact=scene.contact(bare=True), inverse=inverse)
         sim.run(2.5e-3, 0.03)
         steps.append(sim)
-    assert steps[0].solver == "sparsecholesky" and steps[0].history[-1].contact.contact_area > 0
+    assert "sparsecholesky" in steps[0].solver and steps[0].history[-1].contact.contact_area > 0
     for a, b in zip(steps[0].history, steps[1].history):
         assert np.abs(a.state - b.state).max() <= 1e-8 * np.abs(b.state).max()
 

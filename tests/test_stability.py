@@ -67,10 +67,12 @@ def nitsche():
 
 
 def test_theta_one_fails_for_tiny_gamma0_theta_minus_one_converges(nitsche):
-    """γ0 = 0.01: θ = 1 fails (Newton), θ = 0 converges to a force 47 % off, θ = −1 converges
-    but carries 21 % too little; θ = −1 converges for every γ0 tried. At γ0 = 100 all three
-    agree with the reference (θ = −1, γ0 = 1000) to 0.1 %."""
-    assert nitsche[1, 0.01]["status"] == "failed"
+    """γ0 = 0.01: θ = 1 gives no usable force (with full Newton steps it failed; with the
+    step-length limit it converges 31 % off), θ = 0 converges to a force 47 % off, θ = −1
+    converges but carries 21 % too little; θ = −1 converges for every γ0 tried. At γ0 = 100
+    all three agree with the reference (θ = −1, γ0 = 1000) to 0.1 %."""
+    low = nitsche[1, 0.01]
+    assert low["status"] == "failed" or (low["status"] == "wrong" and low["force_error"] > 0.2)
     assert nitsche[0, 0.01]["status"] == "wrong" and nitsche[0, 0.01]["force_error"] > 0.3
     assert all(nitsche[-1, g]["status"] != "failed" for g in (0.01, 1.0, 100.0))
     assert nitsche[-1, 0.01]["force_error"] > 0.1
@@ -139,10 +141,12 @@ def test_p1_locks_p2_does_not():
 
 # ------------------------------------------------------------------------------- coupling
 
-def test_strong_coupling_cycles_without_cutbacks():
+def test_strong_coupling_converges_without_cutbacks():
+    """k² = 0.9: with full Newton steps Newton cycled at first contact and needed cut-backs;
+    with the step-length limit it converges at the nominal step."""
     nominal, strong = strong_coupling.run(k2s=(0.9,), progress=False)
     assert nominal["k2"] == pytest.approx(0.234, abs=1e-3) and nominal["converged"]
-    assert not strong["converged"] and strong["recovered"] and strong["cutbacks"] >= 1
+    assert strong["converged"] and strong["cutbacks"] == 0
     assert strong["stiffening"] == pytest.approx(6.19, rel=1e-2)
     assert strong["cond"] > 3 * nominal["cond"]
 
@@ -176,7 +180,8 @@ def test_conductive_foundation_meeting_a_flat_face(conductance, truncation):
     Without conduction its bottom face floats at about −1.1e4 V, beyond the truncation
     L_φ = 1e3 V of the scene: where φ_L is saturated, the Newton Jacobian has no conduction
     term in φ, each step overshoots, and Newton cycles even with cut-backs. With L_φ = 1e6 V
-    it converges in 2 iterations, to φ ≈ φ_Γ on Γ3. If the first case starts converging,
+    it converges in 2 iterations, to φ ≈ φ_Γ on Γ3 (with the step-length limit after a first
+    try with shortened steps that cycles). If the first case starts converging,
     update docs/stability.md."""
     contact = reference.contact(adhesion=0.0, conductance=conductance, potential_truncation=truncation)
     sim = column.simulation(lambda t: -1e9 * t, contact, viscous=False, keep_states=False)
@@ -185,8 +190,11 @@ def test_conductive_foundation_meeting_a_flat_face(conductance, truncation):
             sim.run(dt=1.0, T=1.0, max_cutbacks=2)
         assert common.failure_kind(err.value.residuals).startswith("cycle")
         return
-    c = sim.run(dt=1.0, T=1.0, max_cutbacks=0)[-1].contact
+    record = sim.run(dt=1.0, T=1.0, max_cutbacks=0)[-1]
+    c = record.contact
     assert c.contact_area == pytest.approx(0.02)
+    if conductance:     # the shortened steps cycle; Newton's repeat with full steps converges
+        assert record.discarded_iterations == sim.newton.maxit and record.newton_iterations == 2
     if conductance:
         assert np.all(np.abs(c.potential - 10.0) < 1.0)
     else:

@@ -12,7 +12,7 @@ import ngsolve as ngs
 import pytest
 
 import ngcontact as ngc
-from ngcontact.linear_solver import DirectSolver
+from ngcontact.linear_solver import DirectSolver, KeptFactorization
 from ngcontact.scenes import reference
 
 DT = 2.5e-3
@@ -52,8 +52,9 @@ def test_failed_step_leaves_the_state_bitwise_and_the_retry_matches(contact):
         assert np.array_equal(hook.lam, multipliers)
     sim.newton.maxit = 50
     retried, uninterrupted = sim.step(DT), plain.step(DT)
-    assert retried.newton_iterations == uninterrupted.newton_iterations > 2
-    assert np.abs(retried.state - uninterrupted.state).max() <= 1e-12 * np.abs(uninterrupted.state).max()
+    assert retried.newton_iterations > 2 and uninterrupted.newton_iterations > 2
+    # the kept factorisation of GMRES is not part of the state: the same step to the tolerance
+    assert np.abs(retried.state - uninterrupted.state).max() <= 1e-8 * np.abs(uninterrupted.state).max()
     assert retried.contact.contact_area > 0 and retried.time == uninterrupted.time
 
 
@@ -79,7 +80,7 @@ def test_interrupted_step_is_rolled_back():
     again = reference.simulation(1, 0.01, predictor=True)
     for _ in range(FIRST_CONTACT + 1):
         again.step(DT)
-    assert np.abs(sim.step(DT).state - again.history[-1].state).max() <= 1e-12 * np.abs(again.history[-1].state).max()
+    assert np.abs(sim.step(DT).state - again.history[-1].state).max() <= 1e-8 * np.abs(again.history[-1].state).max()
 
 
 def test_cutbacks_reach_the_target_through_the_same_steps():
@@ -108,8 +109,12 @@ def test_a_body_shared_by_two_simulations_is_left_alone():
 
 
 def test_the_solver_reported_is_the_one_used():
-    assert reference.simulation(1, 0.01).solver == "umfpack"
-    assert reference.simulation(1, 0.01, contact=reference.contact(bare=True)).solver == "sparsecholesky"
+    assert reference.simulation(1, 0.01, reuse_factorization=False).solver == "umfpack"
+    kept = reference.simulation(1, 0.01)
+    assert "GMRES" in kept.solver and "sparsecholesky" in kept.solver and "symmetric part" in kept.solver
+    assert kept.newton.solver.symmetric and kept.newton.solver.direct.name == "sparsecholesky"
+    bare = reference.simulation(1, 0.01, contact=reference.contact(bare=True))
+    assert "sparsecholesky" in bare.solver and not bare.newton.solver.symmetric
     nodal = reference.simulation(1, 0.01, contact=reference.contact(bare=True, method="active_set"))
     assert "spsolve" in nodal.solver and nodal.solver == nodal.enforcement.newton_hook.solver
 
@@ -125,15 +130,51 @@ def test_factorisation_is_updated_in_place(name):
     r.FV().NumPy()[:] = np.random.default_rng(0).normal(size=len(r))
     system.AssembleLinearization(x)
     kept.factor(system.mat, free)
+    first = kept.inverse
     system.mat.AsVector().data *= 2.0                              # new values, same object
-    kept.factor(system.mat, free)
-    w, fresh = x.CreateVector(), DirectSolver(name)
-    kept.solve(r, w)
-    fresh.factor(system.mat, free)
-    w0 = x.CreateVector()
-    fresh.solve(r, w0)
-    assert kept.factorizations == 2 and kept._inverse is not None
+    w, w0 = x.CreateVector(), x.CreateVector()
+    kept.solve(system.mat, free, r, w)
+    fresh = DirectSolver(name)
+    fresh.solve(system.mat, free, r, w0)
+    assert kept.factorizations == 2 and kept.inverse is first      # updated, not replaced
     assert np.abs(w.FV().NumPy() - w0.FV().NumPy()).max() <= 1e-10 * np.abs(w0.FV().NumPy()).max()
+
+
+def test_kept_factorisation_solves_by_gmres_and_refactorises_when_it_pays():
+    """GMRES preconditioned by the factorisation of an earlier Jacobian reaches the solution
+    of the current one (to its tolerance, in Newton's norm), with no new factorisation while
+    the Jacobian changed only in its Γ3 terms; a new time step size makes a new one."""
+    sim = reference.simulation(1, 0.01)
+    sim.run(DT, (FIRST_CONTACT + 2) * DT)
+    solver, system, x, free = sim.newton.solver, sim.system, sim.gfu.vec, sim.X.FreeDofs()
+    r, w = x.CreateVector(), x.CreateVector()
+    system.Apply(x, r)
+    system.AssembleLinearization(x)
+    exact = (system.mat.Inverse(free, inverse="umfpack") * r).Evaluate().FV().NumPy()
+    before = solver.factorizations
+    solver.solve(system.mat, free, r, w, generation=system.generation, weights=sim.newton.norm.weights, tol=1e-10)
+    weights = sim.newton.norm.weights
+    error = np.sqrt(np.dot(weights * (w.FV().NumPy() - exact), w.FV().NumPy() - exact) / np.dot(weights * exact, exact))
+    assert error < 1e-8 and solver.factorizations == before and solver.krylov_iterations > 0
+    solver.solve(system.mat, free, r, w, generation=system.generation + 1, weights=weights, tol=1e-10)
+    assert solver.factorizations == before + 1
+
+
+def test_gmres_that_does_not_converge_falls_back_to_a_fresh_factorisation():
+    """With a budget of one GMRES iteration and a tolerance no single iteration reaches, the
+    kept solver refactorises, then solves with a factorisation of the matrix itself: the
+    result is UMFPACK's, and both failures are counted for the step's record."""
+    sim = reference.simulation(1, 0.01)
+    sim.run(DT, (FIRST_CONTACT + 1) * DT)
+    system, x, free = sim.system, sim.gfu.vec, sim.X.FreeDofs()
+    r, w = x.CreateVector(), x.CreateVector()
+    system.Apply(x, r)
+    system.AssembleLinearization(x)
+    exact = (system.mat.Inverse(free, inverse="umfpack") * r).Evaluate().FV().NumPy()
+    solver = KeptFactorization(DirectSolver("sparsecholesky"), symmetric=True, max_budget=1)
+    solver.solve(system.mat, free, r, w, generation=0, tol=1e-14)
+    assert solver.krylov_failures == 2 and solver.fallbacks == 1 and solver.factorizations == 3
+    assert np.abs(w.FV().NumPy() - exact).max() <= 1e-10 * np.abs(exact).max()
 
 
 def test_bad_step_input():

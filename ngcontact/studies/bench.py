@@ -9,6 +9,13 @@ one linearised solve at the final state in the same run:
 
   overhead = (time per step) / (mean Newton iterations × one linearised solve).
 
+``factorizations`` per step and ``krylov_per_newton`` (GMRES iterations per Newton
+iteration) show how often the kept factorisation (``linear_solver.KeptFactorization``) was
+made anew. ``compare=True`` (``--compare``) runs every case a second time on the old path
+(``OLD_PATH``: a factorisation at every Newton iteration, no step-length limit) and prints
+both rows with the ratio of their times per step and the largest difference of their final
+states (relative to the largest entry).
+
 ``python -m ngcontact bench --out DIR`` writes bench.csv, bench.json and time_per_step.png.
 Times are wall-clock seconds on the machine that runs it; nothing here asserts a time.
 """
@@ -28,9 +35,15 @@ from .common import fitted_slope, write_csv
 
 COLUMNS = ("dim", "order", "level", "ndof", "records", "newton_mean", "newton_max", "step_s",
            "assembly_s", "factorization_s", "solve_s", "residual_s", "other_s", "one_solve_s",
-           "overhead", "setup_s", "solver", "condense", "realcompile", "threads")
+           "overhead", "setup_s", "factorizations", "krylov_per_newton", "path", "speedup", "state_diff",
+           "solver", "condense", "realcompile", "threads")
 """Columns of bench.csv; times in s, per step except one_solve_s and setup_s; ``records``:
-the steps computed (cut-backs included)."""
+the steps computed (cut-backs included); ``factorizations``: per step; ``path``: "new" or
+"old" (``OLD_PATH``); ``speedup`` (old step_s / new step_s) and ``state_diff`` (max |x_old −
+x_new| / max |x_old| over the final state vectors, u and φ) on the new row of a comparison."""
+OLD_PATH = dict(reuse_factorization=False, limit_steps=False)
+"""The Simulation options of the path before issue 12: factorise at every Newton iteration,
+full Newton steps."""
 THREADS_FROM = 30_000
 """Below this many DOFs TaskManager made steps slower (docs/speed.md: the ds(skeleton=True)
 loops over all facets lose more to threading than assembly gains)."""
@@ -38,20 +51,29 @@ MAXH = {2: 0.005, 3: 0.01}
 """Coarsest mesh size per dimension, m (level ℓ: ℓ times ``mesh.Refine()``)."""
 
 
-def case(order, level, *, dim=2, steps=10, dt=2.5e-3, inverse=None, realcompile=None,
-         predictor=False, condense=None, threads=None, bare=False):
+def case(order, level, **options):
+    """One benchmark row (a dict with ``COLUMNS``); see ``measure``."""
+    return measure(order, level, **options)[0]
+
+
+def measure(order, level, *, dim=2, steps=10, dt=2.5e-3, inverse=None, realcompile=None,
+            predictor=False, condense=None, threads=None, bare=False, path="new"):
     """One benchmark row (a dict with ``COLUMNS``) for the reference scene at P``order`` on
     refinement ``level``: ``steps`` time steps of ``dt`` s. ``inverse``, ``realcompile``,
     ``predictor`` and ``condense`` go to Simulation; ``threads``: run under TaskManager
     (default: from ``THREADS_FROM`` DOFs); ``bare=True``: no glue, no conduction (symmetric
-    Jacobian with θ = 1: sparse Cholesky by default)."""
+    Jacobian with θ = 1: sparse Cholesky by default); ``path``: "new" (the defaults) or
+    "old" (``OLD_PATH``). Returns the row and the final state vector (numpy)."""
+    if path not in ("new", "old"):
+        raise ValueError(f"path must be 'new' or 'old', got {path!r}")
     start = wallclock.perf_counter()
     body = reference.body(order, MAXH[dim], refine=level, dim=dim)
     threads = body.ndof >= THREADS_FROM if threads is None else threads
     with ngs.TaskManager() if threads else nullcontext():
         sim = reference.simulation(order, MAXH[dim], level, dim, contact=reference.contact(bare=bare),
                                    inverse=inverse, keep_states=False, realcompile=realcompile,
-                                   predictor=predictor, condense=condense)
+                                   predictor=predictor, condense=condense,
+                                   **(OLD_PATH if path == "old" else {}))
         setup = wallclock.perf_counter() - start
         sim.run(dt, steps * dt)
         records = sim.history[1:]
@@ -59,13 +81,17 @@ def case(order, level, *, dim=2, steps=10, dt=2.5e-3, inverse=None, realcompile=
     iterations = np.array([r.newton_iterations for r in records])
     mean = {phase: float(np.mean([r.timings[phase] for r in records])) for phase in records[0].timings}
     step_s = float(np.mean([r.wall_s for r in records]))
-    return dict(dim=dim, order=order, level=level, ndof=body.ndof, records=len(records),
+    krylov = sum(r.krylov_iterations for r in records)
+    row = dict(dim=dim, order=order, level=level, ndof=body.ndof, records=len(records),
                 newton_mean=float(iterations.mean()), newton_max=int(iterations.max()), step_s=step_s,
                 **{f"{phase}_s": mean[phase] for phase in ("assembly", "factorization", "solve",
                                                            "residual", "other")},
                 one_solve_s=one_solve, overhead=step_s / (iterations.mean() * one_solve),
-                setup_s=setup, solver=sim.solver, condense=sim.condense, realcompile=sim.realcompile,
+                setup_s=setup, factorizations=float(np.mean([r.factorizations for r in records])),
+                krylov_per_newton=krylov / max(int(iterations.sum()), 1), path=path, speedup=None,
+                state_diff=None, solver=sim.solver, condense=sim.condense, realcompile=sim.realcompile,
                 threads=threads)
+    return row, sim.gfu.vec.FV().NumPy().copy()
 
 
 def one_linear_solve(sim, repeat=2):
@@ -97,10 +123,12 @@ def levels(order, dim, max_ndof):
     return found
 
 
-def run(out, *, orders=(1, 2, 3, 4), dim=2, max_ndof=1e6, steps=10, dt=2.5e-3, progress=True, **options):
+def run(out, *, orders=(1, 2, 3, 4), dim=2, max_ndof=1e6, steps=10, dt=2.5e-3, progress=True,
+        compare=False, **options):
     """All cases up to ``max_ndof``: prints the table as it goes, writes bench.csv,
     bench.json (rows and fitted exponents per order) and time_per_step.png into ``out``
-    after each case (long runs keep what they measured)."""
+    after each case (long runs keep what they measured). ``compare``: each case also on the
+    old path, right after the new one."""
     out = pathlib.Path(out)
     out.mkdir(parents=True, exist_ok=True)
     cases = [(order, level) for order in orders for level in levels(order, dim, max_ndof)]
@@ -108,8 +136,16 @@ def run(out, *, orders=(1, 2, 3, 4), dim=2, max_ndof=1e6, steps=10, dt=2.5e-3, p
     with bar(len(cases), "bench cases", progress, unit="run") as shown:
         shown.write(_header())
         for order, level in cases:
-            rows.append(case(order, level, dim=dim, steps=steps, dt=dt, **options))
-            shown.write(_line(rows[-1]))
+            new, state = measure(order, level, dim=dim, steps=steps, dt=dt, **options)
+            rows.append(new)
+            shown.write(_line(new))
+            if compare:
+                old, old_state = measure(order, level, dim=dim, steps=steps, dt=dt, **{**options, "path": "old"})
+                new["speedup"] = old["step_s"] / new["step_s"]
+                new["state_diff"] = float(np.abs(old_state - state).max() / np.abs(old_state).max())
+                rows.append(old)
+                shown.write(_line(old) + f"   old/new {new['speedup']:.2f}x, states differ by "
+                            f"{new['state_diff']:.1e}")
             shown.update()
             exponents = _write(out, rows, dim, steps, dt)
     print("time per step ~ ndof^a (fit over ndof >= 1e4): "
@@ -133,26 +169,28 @@ def merge(directories, out):
 
 
 def _write(out, rows, dim, steps, dt):
-    exponents = {int(order): growth_exponent([r["ndof"] for r in rows if r["order"] == order],
-                                             [r["step_s"] for r in rows if r["order"] == order])
+    new = [r for r in rows if r.get("path", "new") == "new"]
+    exponents = {int(order): growth_exponent([r["ndof"] for r in new if r["order"] == order],
+                                             [r["step_s"] for r in new if r["order"] == order])
                  for order in dict.fromkeys(r["order"] for r in rows)}
     write_csv(rows, out / "bench.csv", COLUMNS)
     (out / "bench.json").write_text(json.dumps(dict(dim=dim, steps=steps, dt=dt, rows=rows,
                                                     exponents=exponents), indent=1))
-    _plot(out / "time_per_step.png", rows, exponents, dim)
+    _plot(out / "time_per_step.png", new, exponents, dim)
     return exponents
 
 
 def _header():
     return (f"{'dim':>3} {'p':>2} {'lvl':>3} {'ndof':>9} {'newton':>11} {'step [s]':>9} {'assembly':>9} "
-            f"{'factor':>9} {'solve':>8} {'residual':>9} {'other':>8} {'1 solve':>8} {'ratio':>6}")
+            f"{'factor':>9} {'solve':>8} {'residual':>9} {'other':>8} {'1 solve':>8} {'ratio':>6} "
+            f"{'fact/st':>7} {'kry/it':>6} path")
 
 
 def _line(r):
     return (f"{r['dim']:3d} {r['order']:2d} {r['level']:3d} {r['ndof']:9d} {r['newton_mean']:6.2f} "
             f"({r['newton_max']:2d}) {r['step_s']:9.4f} {r['assembly_s']:9.4f} {r['factorization_s']:9.4f} "
             f"{r['solve_s']:8.4f} {r['residual_s']:9.4f} {r['other_s']:8.4f} {r['one_solve_s']:8.4f} "
-            f"{r['overhead']:6.2f}")
+            f"{r['overhead']:6.2f} {r['factorizations']:7.2f} {r['krylov_per_newton']:6.1f} {r['path']}")
 
 
 def _plot(path, rows, exponents, dim):

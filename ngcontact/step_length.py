@@ -1,0 +1,67 @@
+"""Newton's step length on Γ3: a correction does not carry open points deep into the foundation.
+
+The semismooth Newton step linearises the contact law at the iterate. From a state where part
+of Γ3 is open, it misses the contact that the step itself creates: where the body first meets
+the foundation it moves on freely and overshoots deep into it (on the reference scene, 14 mm
+of Γ3 at first contact, for a true contact zone of one facet). The next iterations enforce
+contact on the whole overshoot and release it a few facets at a time, so their number grows
+with the mesh (11 → 18 iterations from 576 to 121 851 DOFs, P1). The step is cut where it
+would carry an open point (u_ν < g) beyond a penetration δ = η max|Δu_ν|: then the contact
+law is linearised where contact begins, and the front is resolved in a few iterations
+whatever the mesh (docs/speed.md, "Newton iterations").
+
+Where a face meets the foundation flat and all at once (the soft column of the stability
+study), the shortened steps can make Newton cycle; ``Newton`` then repeats the solve with
+full steps, which converge there in two iterations.
+"""
+import ngsolve as ngs
+import numpy as np
+
+
+class StepLength:
+    """The step length α ∈ (0, 1] of a Newton correction x ← x − α w.
+
+    Parameters
+    ----------
+    side : ContactSide (Γ3 and its sample points, with the facet normals).
+    state : GridFunction (u, φ) of the iterate.
+    gap : the gap g (CoefficientFunction, m).
+    eta : δ = eta · max |Δu_ν| over Γ3, the penetration an open point may reach in one step.
+    max_cuts : the most corrections shortened in one Newton solve (later ones are full).
+        Two resolve the first contact of the reference scene (one does not: 18 iterations
+        at 30 879 DOFs, as without the limit); more change nothing there.
+
+    ``cuts`` counts the corrections that were shortened.
+    """
+
+    def __init__(self, side, state, gap, eta=1e-3, max_cuts=2):
+        if not 0 < eta < 1:
+            raise ValueError(f"eta must lie in (0, 1), got {eta}")
+        self.side, self.state, self.gap, self.eta, self.max_cuts = side, state, gap, eta, max_cuts
+        self._direction = ngs.GridFunction(state.space)
+        self.cuts = self._cuts_now = 0
+
+    def start(self):
+        """A Newton solve begins."""
+        self._cuts_now = 0
+
+    @property
+    def cut(self):
+        """Whether the current solve shortened a step."""
+        return self._cuts_now > 0
+
+    def __call__(self, w):
+        """α for the correction w (the step is x − α w)."""
+        if self._cuts_now >= self.max_cuts:
+            return 1.0
+        side = self.side
+        self._direction.vec.data = w
+        opening = side.normal_displacement(self.state.components[0]) - side.sample(self.gap)
+        change = -side.normal_displacement(self._direction.components[0])      # Δu_ν of −w
+        delta = self.eta * np.abs(change).max()
+        limited = (opening < 0) & (opening + change > delta)
+        if not limited.any():
+            return 1.0
+        self.cuts += 1
+        self._cuts_now += 1
+        return float(((delta - opening[limited]) / change[limited]).min())
