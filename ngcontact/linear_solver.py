@@ -81,9 +81,12 @@ class KeptFactorization:
     """w = A⁻¹ r by GMRES, preconditioned by the factorisation of an earlier matrix.
 
     The factorisation is made anew (``DirectSolver.factor``) when there is none, when
-    ``generation`` or the free DOFs changed, when the last solve used more than half of the
+    ``generation`` or the free DOFs changed, when the last solve needed more than half of the
     budget of GMRES iterations that one factorisation costs (measured: factorisation time /
-    time per GMRES iteration), or when GMRES does not reach ``tol`` within that budget
+    time per GMRES iteration) beyond what the first solve after the last factorisation needed
+    for the same accuracy (what a new one would need; per decade of ``tol``: with the
+    symmetric part that is never 1 iteration), or
+    when GMRES does not reach ``tol`` within that budget
     (``krylov_failures`` counts those solves). If
     GMRES does not converge even right after a factorisation, a factorisation of A itself
     (UMFPACK) solves, and ``fallbacks`` counts it.
@@ -103,7 +106,7 @@ class KeptFactorization:
         self.krylov_iterations = self.krylov_failures = self.fallbacks = 0
         self._generation = self._freedofs = self._symmetric_part = None
         self._factor_time = self._iteration_time = None
-        self._stale = True
+        self._stale, self._baseline = True, None
 
     @property
     def name(self):
@@ -134,7 +137,7 @@ class KeptFactorization:
             else:
                 self.direct.factor(matrix, freedofs)
         self._factor_time = wallclock.perf_counter() - start
-        self._stale = False
+        self._stale, self._baseline = False, None
 
     def _gmres(self, matrix, r, w, maxiter, weights, tol, timer):
         start = wallclock.perf_counter()
@@ -164,7 +167,12 @@ class KeptFactorization:
                 exact = matrix.Inverse(freedofs, inverse="umfpack")
             with timer("solve"):
                 w.data = exact * r
-        self._stale = iterations > budget / 2           # next time, a factorisation will pay
+            self._stale = True
+            return
+        decades = max(1.0, -np.log10(tol))                # GMRES iterations grow with the accuracy asked
+        if self._baseline is None:
+            self._baseline = iterations / decades
+        self._stale = iterations - self._baseline * decades > budget / 2   # next time, a factorisation pays
 
     def __repr__(self):
         return f"KeptFactorization({self.direct!r}, symmetric={self.symmetric})"

@@ -180,7 +180,7 @@ def test_conductive_foundation_meeting_a_flat_face(conductance, truncation):
     Without conduction its bottom face floats at about −1.1e4 V, beyond the truncation
     L_φ = 1e3 V of the scene: where φ_L is saturated, the Newton Jacobian has no conduction
     term in φ, each step overshoots, and Newton cycles even with cut-backs. With L_φ = 1e6 V
-    it converges in 2 iterations, to φ ≈ φ_Γ on Γ3 (with the step-length limit after a first
+    it converges in 2–3 iterations, to φ ≈ φ_Γ on Γ3 (with the step-length limit after a first
     try with shortened steps that cycles). If the first case starts converging,
     update docs/stability.md."""
     contact = reference.contact(adhesion=0.0, conductance=conductance, potential_truncation=truncation)
@@ -194,7 +194,7 @@ def test_conductive_foundation_meeting_a_flat_face(conductance, truncation):
     c = record.contact
     assert c.contact_area == pytest.approx(0.02)
     if conductance:     # the shortened steps cycle; Newton's repeat with full steps converges
-        assert record.discarded_iterations == sim.newton.maxit and record.newton_iterations == 2
+        assert record.discarded_iterations == sim.newton.maxit and record.newton_iterations <= 3
     if conductance:
         assert np.all(np.abs(c.potential - 10.0) < 1.0)
     else:
