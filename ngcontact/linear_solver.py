@@ -219,13 +219,10 @@ def gmres(matrix, preconditioner, r, w, weights, tol, maxiter):
         product.data = matrix * w
         work.data = preconditioner * product
         q = z.copy()
-        for i in range(k + 1):                                 # modified Gram-Schmidt, twice
-            H[i, k] = np.dot(weights * basis[i], q)
-            q -= H[i, k] * basis[i]
-        for i in range(k + 1):
-            c = np.dot(weights * basis[i], q)
-            H[i, k] += c
-            q -= c * basis[i]
+        for _ in range(2):                                     # classical Gram-Schmidt, twice
+            c = basis[:k + 1] @ (weights * q)
+            H[:k + 1, k] += c
+            q -= c @ basis[:k + 1]
         H[k + 1, k] = np.sqrt(np.dot(weights * q, q))
         for i in range(k):                                     # the earlier Givens rotations
             H[i, k], H[i + 1, k] = cs[i] * H[i, k] + sn[i] * H[i + 1, k], -sn[i] * H[i, k] + cs[i] * H[i + 1, k]
