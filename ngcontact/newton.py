@@ -33,7 +33,10 @@ ROUNDOFF = 10 * np.finfo(float).eps
 class NewtonError(RuntimeError):
     """Newton failed: says where (step, time, iteration) and gives the residual history.
 
-    ``history`` holds the steps computed before the failure (set by the simulation).
+    ``history`` holds the steps computed before the failure (set by the simulation);
+    ``factorizations``, ``krylov_iterations``, ``krylov_failures``: the linear solver's work
+    in the failed solve, ``linear_history`` the same per Newton iteration (dicts);
+    ``residuals_limited``: the residual history of a first try with shortened steps, if any.
     """
 
     def __init__(self, reason, *, iteration, residuals, step=None, time=None, hint=""):
@@ -41,6 +44,7 @@ class NewtonError(RuntimeError):
         self.step, self.time, self.history = step, time, None
         self.residuals_limited = None    # the history of a first try with shortened steps
         self.factorizations = self.krylov_iterations = self.krylov_failures = 0   # the linear solver's work
+        self.linear_history = []    # per Newton iteration: the linear solver's counts (LINEAR_COUNTS)
         where = f"step {step} (t = {time:.6g} s), " if step is not None else ""
         hist = ", ".join(f"{r:.3e}" for r in residuals)
         super().__init__(f"Newton {reason} at {where}iteration {iteration}; scaled residual "
@@ -214,7 +218,7 @@ class Newton:
     def _solve(self, step, time, timer, limit):
         timer = timer or untimed
         x, r, hook = self.gfu.vec, self.r, self.hook
-        residuals = []
+        residuals, linear = [], []
         counts = self._linear_counts()
         if hook is not None:
             hook.start()
@@ -228,8 +232,10 @@ class Newton:
             value, settled = hook.residual(x, r, self.norm) if hook is not None else (self.norm.dual(r), True)
             residuals.append(value)
             if not np.isfinite(value):
-                raise NewtonError("diverged (non-finite residual)", iteration=it, residuals=residuals,
-                                  step=step, time=time, hint="a smaller time step")
+                error = NewtonError("diverged (non-finite residual)", iteration=it, residuals=residuals,
+                                    step=step, time=time, hint="a smaller time step")
+                error.linear_history = linear
+                raise error
             if settled and self._converged(value, residuals[0], x):
                 if hook is not None:
                     hook.finish()
@@ -242,7 +248,9 @@ class Newton:
                 hook.correct(self.system, x, r, timer)
             else:
                 # inexact Newton: the correction needs the accuracy that brings ‖r‖ to the tolerance
+                before = self._linear_counts()
                 self.linear_solve(x, timer, tol=min(1e-3, max(1e-12, 0.1 * self.rtol * residuals[0] / value)))
+                linear.append(self._linear_counts(since=before))
                 alpha = self.step_length(self.w) if limit else 1.0
                 x.data -= alpha * self.w
         error = NewtonError(f"did not converge in {self.maxit} iterations", iteration=self.maxit,
@@ -251,6 +259,7 @@ class Newton:
                                  "or a larger maxit")
         for name, value in self._linear_counts(since=counts).items():
             setattr(error, name, value)
+        error.linear_history = linear
         raise error
 
     def _linear_counts(self, since=None):

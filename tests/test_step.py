@@ -177,6 +177,21 @@ def test_gmres_that_does_not_converge_falls_back_to_a_fresh_factorisation():
     assert np.abs(w.FV().NumPy() - exact).max() <= 1e-10 * np.abs(exact).max()
 
 
+def test_a_failed_solve_keeps_the_linear_solvers_history():
+    """maxit = 2 at first contact: the error gives, per Newton iteration, what the linear
+    solver did, summing to its totals."""
+    sim = reference.simulation(1, 0.01)
+    sim.run(DT, (FIRST_CONTACT - 1) * DT)
+    sim.newton.maxit = 2
+    with pytest.raises(ngc.NewtonError) as err:
+        sim.step(DT)
+    e = err.value
+    assert len(e.linear_history) == 2 and len(e.residuals) == 3
+    for name in ("factorizations", "krylov_iterations", "krylov_failures"):
+        assert sum(h[name] for h in e.linear_history) == getattr(e, name)
+    assert e.krylov_iterations >= 2 and all(h["krylov_iterations"] >= 1 for h in e.linear_history)
+
+
 def test_bad_step_input():
     sim = reference.simulation(1, 0.01)
     with pytest.raises(ValueError, match="time step dt must be > 0 s"):
