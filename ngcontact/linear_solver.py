@@ -85,9 +85,9 @@ class KeptFactorization:
     budget of GMRES iterations that one factorisation costs (measured: factorisation time /
     time per GMRES iteration) beyond what the first solve after the last factorisation needed
     for the same accuracy (what a new one would need; per decade of ``tol``: with the
-    symmetric part that is never 1 iteration), or
-    when GMRES does not reach ``tol`` within that budget
-    (``krylov_failures`` counts those solves). If
+    symmetric part that is never 1 iteration), or when GMRES with the kept factorisation does
+    not reach ``tol`` within that count plus the budget (``krylov_failures`` counts those
+    solves). If
     GMRES does not converge even right after a factorisation, a factorisation of A itself
     (UMFPACK) solves, and ``fallbacks`` counts it.
 
@@ -151,14 +151,19 @@ class KeptFactorization:
         """w = A⁻¹ r to the relative accuracy ``tol`` (default: the solver's ``tol``) in the
         ``weights`` norm of the preconditioned residual."""
         tol = self.tol if tol is None else tol
-        if self._stale or generation != self._generation or freedofs is not self._freedofs:
+        decades = max(1.0, -np.log10(tol))                # GMRES iterations grow with the accuracy asked
+        fresh = self._stale or generation != self._generation or freedofs is not self._freedofs
+        if fresh:
             self._generation, self._freedofs = generation, freedofs
             self._factor(matrix, freedofs, timer)
         budget = self.budget
-        converged, iterations = self._gmres(matrix, r, w, budget, weights, tol, timer)
-        if not converged:                               # a factorisation pays: make it
+        # a kept factorisation gets what a fresh one would need, plus what a factorisation costs
+        cap = self.max_budget if fresh else min(self.max_budget, int(np.ceil(self._baseline * decades)) + budget)
+        converged, iterations = self._gmres(matrix, r, w, cap, weights, tol, timer)
+        if not converged and not fresh:                 # a factorisation pays: make it
             self.krylov_failures += 1
             self._factor(matrix, freedofs, timer)
+            fresh = True
             converged, iterations = self._gmres(matrix, r, w, self.max_budget, weights, tol, timer)
         if not converged:                               # the preconditioner does not fit A
             self.krylov_failures += 1
@@ -169,8 +174,7 @@ class KeptFactorization:
                 w.data = exact * r
             self._stale = True
             return
-        decades = max(1.0, -np.log10(tol))                # GMRES iterations grow with the accuracy asked
-        if self._baseline is None:
+        if fresh:
             self._baseline = iterations / decades
         self._stale = iterations - self._baseline * decades > budget / 2   # next time, a factorisation pays
 
