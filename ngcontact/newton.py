@@ -170,7 +170,6 @@ class Newton:
         self.system, self.gfu, self.hook, self.step_length = system, gfu, hook, step_length
         self.solver = solver or DirectSolver("umfpack")
         self.rtol, self.maxit = rtol, int(maxit)
-        self.retries = 0
         space = gfu.space
         self.freedofs = freedofs if freedofs is not None else space.FreeDofs()
         self.norm = ResidualNorm(space, self.freedofs)
@@ -190,8 +189,9 @@ class Newton:
         """Iterate from the current ``gfu`` until converged; raise ``NewtonError`` otherwise.
         ``step`` and ``time`` (s) are for the error message; ``timer(phase)`` returns a
         context manager that times a phase (e.g. a ``Timings``). A solve whose shortened
-        steps did not converge is repeated from its start with full steps (``retries``
-        counts these); the error of a second failure gives both residual histories."""
+        steps did not converge is repeated from its start with full steps (the result's
+        ``discarded`` counts the first try's iterations); the error of a second failure
+        gives both residual histories."""
         if self.step_length is None:
             return self._solve(step, time, timer, limit=False)
         start = self.gfu.vec.CreateVector()
@@ -201,7 +201,6 @@ class Newton:
         except NewtonError as limited:
             if not getattr(self.step_length, "cut", True):
                 raise
-            self.retries += 1
             self.gfu.vec.data = start
             try:
                 result = self._solve(step, time, timer, limit=False)

@@ -31,7 +31,7 @@ class StepLength:
         Two resolve the first contact of the reference scene (one does not: 18 iterations
         at 30 879 DOFs, as without the limit); more change nothing there.
 
-    ``cuts`` counts the corrections that were shortened.
+    ``cuts``: the corrections shortened in the current solve.
     """
 
     def __init__(self, side, state, gap, eta=1e-3, max_cuts=2):
@@ -39,29 +39,30 @@ class StepLength:
             raise ValueError(f"eta must lie in (0, 1), got {eta}")
         self.side, self.state, self.gap, self.eta, self.max_cuts = side, state, gap, eta, max_cuts
         self._direction = ngs.GridFunction(state.space)
-        self.cuts = self._cuts_now = 0
+        self.cuts, self._gap = 0, None
 
     def start(self):
-        """A Newton solve begins."""
-        self._cuts_now = 0
+        """A Newton solve begins: the gap is sampled once for it (the time is fixed)."""
+        self.cuts, self._gap = 0, self.side.sample(self.gap)
 
     @property
     def cut(self):
         """Whether the current solve shortened a step."""
-        return self._cuts_now > 0
+        return self.cuts > 0
 
     def __call__(self, w):
         """α for the correction w (the step is x − α w)."""
-        if self._cuts_now >= self.max_cuts:
+        if self.cuts >= self.max_cuts:
             return 1.0
+        if self._gap is None:
+            self.start()
         side = self.side
         self._direction.vec.data = w
-        opening = side.normal_displacement(self.state.components[0]) - side.sample(self.gap)
+        opening = side.normal_displacement(self.state.components[0]) - self._gap
         change = -side.normal_displacement(self._direction.components[0])      # Δu_ν of −w
         delta = self.eta * np.abs(change).max()
         limited = (opening < 0) & (opening + change > delta)
         if not limited.any():
             return 1.0
         self.cuts += 1
-        self._cuts_now += 1
         return float(((delta - opening[limited]) / change[limited]).min())
