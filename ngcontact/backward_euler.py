@@ -32,17 +32,19 @@ class BackwardEuler:
     system : StepSystem.  newton : Newton on it, for ``state``.
     state : GridFunction (u, φ), the state x_n, changed in place.
     beta : BondingField, or None without a contact law.
+    normal : the contact normal of Γ3 (ν or an obstacle's n_o), for u_ν in the β update.
     predictor : start Newton from the linear extrapolation x_n + (dt/dt_n)(x_n − x_{n−1})
         instead of x_n (the default warm start).
     """
 
-    def __init__(self, system, newton, state, beta=None, predictor=False):
+    def __init__(self, system, newton, state, beta=None, predictor=False, normal=None):
         self.system, self.newton, self.state, self.beta = system, newton, state, beta
         self.hook = newton.hook
         self.predictor = predictor
         self.t = 0.0
         self._u_old = state.components[0].vec.CreateVector()
-        self._u_normal = state.components[0] * ngs.specialcf.normal(state.space.mesh.dim)
+        normal = ngs.specialcf.normal(state.space.mesh.dim) if normal is None else normal
+        self._u_normal = state.components[0] * normal
         self._last = None                                   # (x_{n−1}, dt_n) for the predictor
 
     def advance(self, dt, *, step=None, timer=None):

@@ -3,13 +3,16 @@
 Boundaries are named as in the Netgen mesh; a part may list several names joined by
 "|" (Netgen's regex syntax, e.g. ``"top|right"``).
 
-* mechanical: Γ1 ``clamped`` (u = 0), Γ3 ``contact_side``, Γ2 = the rest (tractions f2);
+* mechanical: Γ1 ``clamped`` (u = 0), ``supports`` (u or some of its components prescribed,
+  ``Loads.displacement``; symmetry planes and rollers), Γ3 ``contact_side``, Γ2 = the rest
+  (tractions f2; also on a support's free components);
 * electric:   Γa ``grounded`` (φ prescribed, 0 by default), Γb = the rest (charges qb),
   with Γ3 ⊂ Γb.
 """
 import ngsolve as ngs
 
 from .materials import Material
+from .supports import dirichlet_flags, parse as parse_supports
 
 
 def split_names(names):
@@ -24,7 +27,11 @@ class Body:
     ----------
     mesh : ngsolve.Mesh, 2D (plane strain, quantities per metre of depth) or 3D, in metres.
     material : Material.
-    clamped : str, boundary names of Γ1 (u = 0), nonempty.
+    clamped : str or None, boundary names of Γ1 (u = 0).
+    supports : dict or None, {boundaries: components} with components "all", "normal"
+        (u·ν = 0: symmetry plane, roller) or axes such as "x", "yz" (``ngcontact.supports``);
+        their values come from ``Loads.displacement`` (0 by default). Γ1 and the supports
+        together must be nonempty, and rigid motions they leave free must be held by contact.
     grounded : str, boundary names of Γa (φ prescribed), nonempty.
     contact_side : str or None, boundary names of Γ3; without a contact law
         (``Simulation(contact=...)``) it is traction-free and charge-free.
@@ -35,8 +42,8 @@ class Body:
     so that what one simulation sets on it (static condensation) does not reach another.
     """
 
-    def __init__(self, mesh, material, *, clamped, grounded, contact_side=None, order=1, order_phi=None,
-                 **renamed):
+    def __init__(self, mesh, material, *, clamped=None, grounded, contact_side=None, supports=None, order=1,
+                 order_phi=None, **renamed):
         if "contact" in renamed:
             raise TypeError("Body(contact=...) is now Body(contact_side=...): the boundary names of Γ3 "
                             "(contact= is the contact law, given to Simulation)")
@@ -62,18 +69,26 @@ class Body:
                 raise ValueError(f"{part}: boundary {missing} not in the mesh; its boundaries are "
                                  f"{sorted(existing)}")
             self.boundaries[part] = listed
-        for part in ("clamped", "grounded"):
-            if not self.boundaries[part]:
-                raise ValueError(f"{part} must name at least one boundary (meas > 0 is needed "
-                                 f"for a unique solution); the mesh has {sorted(existing)}")
-        for part in ("clamped", "grounded"):
+        self.supports = parse_supports(supports, mesh, split_names)
+        self.boundaries["supports"] = [n for s in self.supports for n in s.names]
+        if not self.boundaries["clamped"] and not self.supports:
+            raise ValueError("clamped or supports must name at least one boundary (a held boundary is "
+                             f"needed for a unique displacement); the mesh has {sorted(existing)}")
+        if not self.boundaries["grounded"]:
+            raise ValueError("grounded must name at least one boundary (meas > 0 is needed "
+                             f"for a unique potential); the mesh has {sorted(existing)}")
+        for part in ("clamped", "grounded", "supports"):
             both = set(self.boundaries[part]) & set(self.boundaries["contact_side"])
             if both:
                 raise ValueError(f"contact_side Γ3 must not overlap {part}: {sorted(both)}")
+        both = set(self.boundaries["clamped"]) & set(self.boundaries["supports"])
+        if both:
+            raise ValueError(f"supports must not overlap clamped Γ1 (u = 0 there already): {sorted(both)}")
         self.V, self.W, self.X = self._spaces()
 
     def _spaces(self):
-        V = ngs.VectorH1(self.mesh, order=self.order, dirichlet=self.region_names("clamped"))
+        V = ngs.VectorH1(self.mesh, order=self.order,
+                         **dirichlet_flags(self.boundaries["clamped"], self.supports, self.dim))
         W = ngs.H1(self.mesh, order=self.order_phi, dirichlet=self.region_names("grounded"))
         return V, W, V * W
 
@@ -86,14 +101,23 @@ class Body:
         return "|".join(self.boundaries[part])
 
     def region(self, part):
-        """The boundary region of a part ("clamped", "grounded" or "contact_side")."""
+        """The boundary region of a part ("clamped", "grounded", "contact_side" or "supports")."""
         return self.mesh.Boundaries(self.region_names(part))
 
     def free_names(self, excluded):
-        """Boundary names not in the listed parts: Γ2 = free_names(("clamped", "contact_side")),
+        """Boundary names not in the listed parts: Γ2 ⊂ free_names(("clamped", "contact_side")),
         Γb minus Γ3 = free_names(("grounded", "contact_side"))."""
         taken = {n for part in excluded for n in self.boundaries[part]}
         return [n for n in dict.fromkeys(self.mesh.GetBoundaries()) if n not in taken]
+
+    def support_of(self, key):
+        """The Support holding every boundary of ``key`` (``"a"`` or ``"a|b"``)."""
+        names = split_names(key) if isinstance(key, str) else []
+        for support in self.supports:
+            if names and set(names) <= set(support.names):
+                return support
+        raise ValueError(f"{key!r} is not a support of the body (a key within one of supports="
+                         f"{[s.key for s in self.supports]}); prescribed displacements need supports={{...}}")
 
     @property
     def ndof(self):

@@ -1,4 +1,4 @@
-"""Command line interface: ``python -m ngcontact demo | convergence | stability | bench``.
+"""Command line interface: ``python -m ngcontact demo | convergence | stability | hertz | bench``.
 
 It parses the arguments and calls ``demo.run`` or a study's command; nothing else.
 """
@@ -44,6 +44,13 @@ def parser():
     stab.add_argument("--out", metavar="DIR", default="stability", help="output directory")
     stab.add_argument("--quick", action="store_true", help="fewer runs per study (about a third)")
 
+    hertz = commands.add_parser("hertz", help="contact on a curved side against Hertz (half-disk on a "
+                                "plane), obstacle normal and body normal: hertz.csv, hertz.md, a chart")
+    hertz.add_argument("--out", metavar="DIR", default="hertz", help="output directory")
+    hertz.add_argument("--orders", metavar="P", type=int, nargs="+", default=[1, 2])
+    hertz.add_argument("--levels", metavar="N", type=int, default=4, help="nested meshes, h halving (default 4)")
+    hertz.add_argument("--dim", type=int, choices=(2, 3), default=2, help="half-disk (2D) or half-ball (3D)")
+
     bench = commands.add_parser("bench", help="time per step of the reference scene against one "
                                 "linear solve, orders x sizes: bench.csv and a chart")
     bench.add_argument("--out", metavar="DIR", default="bench", help="output directory")
@@ -88,6 +95,9 @@ def main(argv=None):
     elif args.command == "stability":
         from .studies import stability
         stability.command(args.out, args.quick)
+    elif args.command == "hertz":
+        from .studies import hertz
+        hertz.command(args.out, args.orders, args.levels, args.dim)
     elif args.merge:
         from .studies import bench
         bench.merge(args.merge, args.out)

@@ -5,6 +5,7 @@ import ngsolve as ngs
 
 from . import contact_laws as laws
 from .enforcement import METHODS
+from .obstacles import OBSTACLES
 
 
 @dataclass
@@ -12,8 +13,12 @@ class Contact:
     """Frictionless unilateral contact with a compliant layer, adhesion and a conductive
     foundation on Γ3. SI units; numbers or CoefficientFunctions where noted.
 
-    Signorini (2.8) with gap:
-        gap : g >= 0 in m, number or CoefficientFunction on Γ3.
+    Signorini (2.8) with gap, along the body's normal ν (the paper's form), or with an obstacle:
+        gap : g >= 0 in m, number or CoefficientFunction on Γ3 (may use the time Parameter;
+            checked on Γ3 at every step, with a tolerance of 1e-8 of the body's size).
+        obstacle : a rigid obstacle (``ngcontact.obstacles``: Plane, Cylinder, Sphere,
+            SignedDistance) giving the gap and the obstacle normal n_o, along which every
+            law of Γ3 then acts; None (default): the paper's form with ``gap``.
         compliance : c_ν in Pa/m of p(r) = c_ν [r]_+, or a function r ↦ CF (any Lipschitz p
             vanishing for r <= 0).
     Adhesion (2.8)-(2.9):
@@ -40,6 +45,7 @@ class Contact:
         penalty : > 0, the penalty factor: ε = penalty p² (stiffness)/h; penalty only.
     """
     gap: object = 0.0
+    obstacle: object = None
     compliance: object = 0.0
     adhesion: float = 0.0
     eps_a: float = 0.0
@@ -76,6 +82,16 @@ class Contact:
                 low, high = (0, float("inf")) if name == "gap" else (0, 1)
                 if not low <= value <= high:
                     raise ValueError(f"Contact.{name} must lie in [{low}, {high}], got {value}")
+        if self.obstacle is not None:
+            if not isinstance(self.obstacle, OBSTACLES):
+                raise TypeError("Contact.obstacle must be an ngcontact.obstacles Plane, Cylinder, Sphere or "
+                                f"SignedDistance, got {type(self.obstacle).__name__}")
+            if isinstance(self.gap, ngs.CoefficientFunction) or self.gap != 0:
+                raise ValueError("Contact: give either gap (the paper's form, along the body's normal) or "
+                                 "obstacle (the gap comes from it), not both")
+            if self.method == "active_set":
+                raise ValueError("Contact.method 'active_set' constrains u·ν at the nodes with the body's "
+                                 "normals: it does not take an obstacle; use 'nitsche' or 'penalty'")
         for name in ("compliance", "conductance"):
             if isinstance(getattr(self, name), ngs.CoefficientFunction):
                 raise TypeError(f"Contact.{name} must be a number >= 0 or a function r ↦ "

@@ -11,6 +11,23 @@ import ngsolve as ngs
 import numpy as np
 
 
+def element_boundary_layer(mesh, region):
+    """(dx, indicator) for integrals over the boundary ``region`` that need the volume
+    element's gradients and may be statically condensed: ``indicator * f * dx`` integrates
+    f over the element boundaries of the volume elements at ``region`` (dx with
+    ``element_boundary=True``), where the indicator (order-0 facet GridFunction) is 1 on the
+    facets of ``region`` and 0 elsewhere."""
+    elements = ngs.BitArray(mesh.ne)
+    elements.Clear()
+    for el in region.Elements():
+        for facet in (el.edges if mesh.dim == 2 else el.faces):
+            for volume in mesh[facet].elements:
+                elements.Set(volume.nr)
+    indicator = ngs.GridFunction(ngs.FacetFESpace(mesh, order=0), name="indicator")
+    indicator.Set(1.0, definedon=region)
+    return ngs.dx(element_boundary=True, definedonelements=elements), indicator
+
+
 class ContactSide:
     """Γ3 of a Body: facets, B^h, P_B, facet normals and points along Γ3."""
 
@@ -22,13 +39,14 @@ class ContactSide:
         self.ds = ngs.ds(skeleton=True, definedon=body.region("contact_side"))
         # the same integrals over the volume elements at Γ3 only: ∫ indicator · f on their
         # element boundaries (ds(skeleton=True) visits every facet of the mesh, 2 µs each)
-        at_gamma3 = ngs.BitArray(mesh.ne)
-        at_gamma3.Clear()
-        self.indicator = ngs.GridFunction(ngs.FacetFESpace(mesh, order=0), name="gamma3")
-        self.indicator.Set(1.0, definedon=body.region("contact_side"))
+        self.dx_at, self.indicator = element_boundary_layer(mesh, body.region("contact_side"))
         # P_B and the recorded integrals: exact for polynomials of degree 2p + 2 on a facet
         self._ds_exact = ngs.ds(skeleton=True, definedon=body.region("contact_side"),
                                 bonus_intorder=2 * body.order + 2)
+        # the quadrature of the residual's Γ3 terms (order 2p: NGSolve's default for a test
+        # function of order p), for the recorded contact pressure to integrate to the force
+        self._ds_residual = ngs.ds(skeleton=True, definedon=body.region("contact_side"),
+                                   bonus_intorder=2 * max(body.order, body.order_phi))
         facets = ngs.FacetFESpace(mesh, order=0)
         active = ngs.BitArray(facets.ndof)
         active.Clear()
@@ -36,10 +54,6 @@ class ContactSide:
         for el in elements:
             for d in facets.GetDofNrs(el):
                 active.Set(d)
-            for facet in (el.edges if self.dim == 2 else el.faces):
-                for volume in mesh[facet].elements:
-                    at_gamma3.Set(volume.nr)
-        self.dx_at = ngs.dx(element_boundary=True, definedonelements=at_gamma3)
         self.B = ngs.Compress(facets, active_dofs=active)
         self._mu = self.B.TestFunction()
         self.measure = self._integrate(ngs.CF(1.0))        # |facet| per dof of B^h
@@ -62,13 +76,20 @@ class ContactSide:
             weights = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [1 / 3] * 3,
                                 [.5, .5, 0], [0, .5, .5], [.5, 0, .5]])
         self.sample_points = np.einsum("sk,fkd->fsd", weights, self.facet_vertices)
-        self._mesh_points = mesh(*self.sample_points.reshape(-1, self.dim).T)   # located once
+        # located once, on the boundary elements of Γ3 (there ``specialcf.normal`` is the
+        # facet's normal, as in a gap written with it), 1e-9 inside each facet so that a
+        # vertex is found on its own facet
+        inside = self.sample_points + 1e-9 * (self.midpoints[:, None, :] - self.sample_points)
+        self._mesh_points = mesh(*inside.reshape(-1, self.dim).T, VOL_or_BND=ngs.BND)
 
-    def facet_integrals(self, cf):
+    def facet_integrals(self, cf, quadrature="exact"):
         """A function returning (∫_facet cf da for each facet of Γ3) when called: the
-        LinearForm is built once and reassembled at each call (cf may hold GridFunctions)."""
+        LinearForm is built once and reassembled at each call (cf may hold GridFunctions).
+        ``quadrature``: "exact" (degree 2p + 2 per facet) or "residual" (the rule of the
+        residual's Γ3 terms: a kinked integrand such as a penalty force is integrated as the
+        residual integrates it)."""
         lf = ngs.LinearForm(self.B)
-        lf += cf.Compile() * self._mu * self._ds_exact
+        lf += cf.Compile() * self._mu * (self._ds_exact if quadrature == "exact" else self._ds_residual)
 
         def assemble():
             lf.Assemble()
@@ -89,12 +110,15 @@ class ContactSide:
         return float(self._integrate(cf).sum())
 
     def sample(self, cf):
-        """cf at the sample points (facets × points per facet); cf must be continuous
-        (e.g. a displacement), since it is evaluated at volume points."""
+        """cf at the sample points (facets × points per facet), evaluated on each facet of
+        Γ3 (a facet's vertex with that facet's normal); no volume gradients."""
         values = cf(self._mesh_points)
         return values.reshape(self.sample_points.shape[:2] + (-1,)).squeeze(-1) if cf.dim == 1 else \
             values.reshape(self.sample_points.shape[:2] + (cf.dim,))
 
-    def normal_displacement(self, u):
-        """u·ν at the sample points, with the (straight) facets' outward normals."""
-        return np.einsum("fsd,fd->fs", self.sample(u), self.normals)
+    def normal_displacement(self, u, normal=None):
+        """u·ν at the sample points, with the (straight) facets' outward normals, or u·n_o
+        with ``normal`` n_o, an obstacle normal (a CoefficientFunction of position)."""
+        if normal is None:
+            return np.einsum("fsd,fd->fs", self.sample(u), self.normals)
+        return np.einsum("fsd,fsd->fs", self.sample(u), self.sample(normal))

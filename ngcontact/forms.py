@@ -55,22 +55,23 @@ def electric_displacement(T, u, phi):
     return matrix_cf(T.E) * strain(u) - matrix_cf(T.C) * ngs.grad(phi)
 
 
-def normal_stress(sigma, n):
-    """σ_ν = σν · ν from a Voigt stress vector and the unit normal n."""
+def normal_stress(sigma, n, direction=None):
+    """σ_ν = σν · ν from a Voigt stress vector and the unit normal n; with ``direction``
+    (an obstacle normal n_o) the traction's component σν · n_o."""
     s = sigma
     if n.dim == 2:
         S = ngs.CF((s[0], s[2], s[2], s[1]), dims=(2, 2))
     else:
         S = ngs.CF((s[0], s[5], s[4], s[5], s[1], s[3], s[4], s[3], s[2]), dims=(3, 3))
-    return n * (S * n)
+    return (n if direction is None else direction) * (S * n)
 
 
-def step_normal_stress(T, u, phi, inv_dt, u_old=None):
+def step_normal_stress(T, u, phi, inv_dt, u_old=None, direction=None):
     """σ_ν of a backward Euler step: ν·(F ε(u) + A ε(u − u_old)/dt + Eᵀ∇φ)ν (Pa), with
     1/dt given as ``inv_dt`` (1/s). ``u_old=None``: the variation σ_ν(v, ξ) in the test
-    functions, A ε(v)/dt included."""
+    functions, A ε(v)/dt included. ``direction``: the traction's component along it (n_o)."""
     rate = inv_dt * (strain(u) - strain(u_old)) if u_old is not None else inv_dt * strain(u)
-    return normal_stress(stress(T, u, phi, rate), ngs.specialcf.normal(u.dim))
+    return normal_stress(stress(T, u, phi, rate), ngs.specialcf.normal(u.dim), direction)
 
 
 def boundary_stiffness(body, inv_dt):
@@ -134,25 +135,63 @@ def adhesion_traction(contact, beta, u_normal):
     return contact.p(u_normal) - contact.adhesion * beta ** 2 * contact.R(u_normal)
 
 
-def charge_flux_density(contact, u, phi, gap, foundation_potential):
-    """ψ(u_ν − g) φ_L(φ − φ_Γ) = D·ν on Γ3 (2.7), C/m²: the charge flux out of the body."""
-    n = ngs.specialcf.normal(u.dim)
+def charge_flux_density(contact, u, phi, gap, foundation_potential, n):
+    """ψ(u_ν − g) φ_L(φ − φ_Γ) = D·ν on Γ3 (2.7), C/m²: the charge flux out of the body;
+    u_ν = u·n with n the contact normal (ν, or an obstacle's n_o)."""
     return contact.psi(u * n - gap) * contact.phi_L(phi - foundation_potential)
 
 
-def j_e(contact, u, phi, xi, gap, foundation_potential):
+def j_e(contact, u, phi, xi, gap, foundation_potential, n):
     """j_e(u, φ, ξ) (2.29), integrand on Γ3."""
-    return charge_flux_density(contact, u, phi, gap, foundation_potential) * xi
+    return charge_flux_density(contact, u, phi, gap, foundation_potential, n) * xi
 
 
-def contact_terms(contact, enforcement, beta, gap, foundation_potential, state, test):
+def contact_terms(contact, enforcement, beta, gap, foundation_potential, state, test, n):
     """The Γ3 part of R: j_a(β, u, v) + S(x; v, ξ) − j_e(u, φ, ξ), for the state
     x = (u, φ) (trial functions or GridFunctions) and test = (v, ξ); S is the
-    ``enforcement`` method's Signorini term, which may use the traction of j_a."""
+    ``enforcement`` method's Signorini term, which may use the traction of j_a. ``n`` is
+    the contact normal: the body's ν (``specialcf.normal``) or an obstacle's n_o, so that
+    u_ν = u·n and v_ν = v·n."""
     (u, phi), (v, xi) = state, test
-    n = ngs.specialcf.normal(u.dim)
     traction = adhesion_traction(contact, beta, u * n)
     terms = traction * (v * n) + enforcement.signorini(u, phi, v, xi, traction)     # j_a + S
     if contact.conducts:
-        terms = terms - j_e(contact, u, phi, xi, gap, foundation_potential)
+        terms = terms - j_e(contact, u, phi, xi, gap, foundation_potential, n)
     return terms
+
+
+# ------------------------------------------------------------------------ weak normal supports
+
+def weak_normal_support(T, order, trial, test, gamma0):
+    """The symmetric Nitsche terms of u·ν = 0 on a support (``supports``), integrands on its
+    ds in the trial (u, φ) and test (v, ξ) functions, as (elastic part, viscous part per
+    1/dt) for K_el and K_A (the viscous part None for an elastic material):
+
+      −σ_ν(u, φ) v_ν − σ_ν(v, ξ) u_ν + γ_s u_ν v_ν,   γ_s = gamma0 p² stiffness / h,
+
+    σ_ν of the step (its A ε(u)/dt part in the viscous term), so that the traction of the
+    support, −∫ σ_ν v_ν, is consistent and the whole stays symmetric."""
+    (u, phi), (v, xi) = trial, test
+    n, h = ngs.specialcf.normal(u.dim), ngs.specialcf.mesh_size
+    elastic_stiffness = T.stiffness(0.0)
+    gamma = gamma0 * order ** 2 / h
+    elastic = (-normal_stress(stress(T, u, phi), n) * (v * n) - normal_stress(stress(T, v, xi), n) * (u * n)
+               + gamma * elastic_stiffness * (u * n) * (v * n))
+    if not T.viscous:
+        return elastic, None
+    A = matrix_cf(T.A)
+    viscous = (-normal_stress(A * strain(u), n) * (v * n) - normal_stress(A * strain(v), n) * (u * n)
+               + gamma * (T.stiffness(1.0) - elastic_stiffness) * (u * n) * (v * n))
+    return elastic, viscous
+
+
+def support_multiplier(T, order, u, phi, u_old, inv_dt, gamma0):
+    """λ (Pa) of a weak normal support, read off its residual terms −∫ λ v_ν:
+    λ = σ_ν − γ_el u_ν − γ_A (u − u_old)_ν / dt → σ_ν; its traction is λ ν."""
+    n, h = ngs.specialcf.normal(u.dim), ngs.specialcf.mesh_size
+    gamma = gamma0 * order ** 2 / h
+    elastic_stiffness = T.stiffness(0.0)
+    lam = step_normal_stress(T, u, phi, inv_dt, u_old) - gamma * elastic_stiffness * (u * n)
+    if T.viscous:
+        lam = lam - gamma * (T.stiffness(1.0) - elastic_stiffness) * inv_dt * ((u - u_old) * n)
+    return lam

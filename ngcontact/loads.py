@@ -1,9 +1,9 @@
 """Data of (2.1)-(2.6): body force f0, tractions f2 on Γ2, charge density q0, surface
-charge qb on Γb, and the potential of the electrodes Γa.
+charge qb on Γb, the potential of the electrodes Γa, and the displacements of the supports.
 
 Every entry is a number, a tuple of numbers, or an ngsolve CoefficientFunction that may
 depend on the time ``Parameter`` handed to the simulation. Units: f0 in N/m³, f2 in Pa,
-q0 in C/m³, qb in C/m², potentials in V.
+q0 in C/m³, qb in C/m², potentials in V, displacements in m.
 """
 from dataclasses import dataclass, field
 
@@ -29,10 +29,14 @@ class Loads:
     q0: object = None
     qb: dict = field(default_factory=dict)
     potential: dict = field(default_factory=dict)
+    displacement: dict = field(default_factory=dict)
 
     def check(self, body):
-        """Each boundary key must lie on its part of ∂Ω: f2 on Γ2, qb on Γb \\ Γ3, potential on Γa."""
-        allowed = {"f2": body.free_names(("clamped", "contact_side")),
+        """Each boundary key must lie on its part of ∂Ω: f2 on Γ2 (and the supports that leave
+        components free), qb on Γb \\ Γ3, potential on Γa; each displacement key within one
+        support of ``body.supports`` (its value: one number per fixed component)."""
+        held = [n for s in body.supports if len(s.axes) == body.dim for n in s.names]
+        allowed = {"f2": [n for n in body.free_names(("clamped", "contact_side")) if n not in held],
                    "qb": body.free_names(("grounded", "contact_side")),
                    "potential": body.boundaries["grounded"]}
         for entry, names in allowed.items():
@@ -41,3 +45,11 @@ class Loads:
                 if wrong:
                     raise ValueError(f"Loads.{entry}: boundary {wrong} is not allowed; allowed "
                                      f"names are {names}")
+        for key, value in self.displacement.items():
+            support = body.support_of(key)
+            if support.normal and not (isinstance(value, (int, float)) and value == 0):
+                raise ValueError(f"Loads.displacement[{key!r}]: the normal support {support.key!r} is not "
+                                 "along an axis, where only u·ν = 0 is offered (weak, Nitsche); got "
+                                 f"{value!r}")
+            as_cf(value, support.size, f"Loads.displacement[{key!r}] (support {support.key!r}: "
+                                       f"{support.size} fixed component(s))")

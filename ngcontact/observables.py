@@ -13,20 +13,26 @@ import ngsolve as ngs
 import numpy as np
 
 from . import forms
+from .contact_side import element_boundary_layer
+from .supports import SLIP_GAMMA0
 from .records import ContactRecord, StepRecord
 
 
 @dataclass(frozen=True)
 class Gamma3:
     """Γ3 of a simulation: the ContactSide ``side``, the Contact data ``contact``, its
-    ``enforcement`` method, the BondingField ``beta``, and the ``gap`` g (m) and
-    ``foundation_potential`` φ_Γ (V) as CoefficientFunctions."""
+    ``enforcement`` method, the BondingField ``beta``, the ``gap`` g (m) and
+    ``foundation_potential`` φ_Γ (V) as CoefficientFunctions, and the contact ``normal``
+    (the body's ν, or an obstacle's n_o) with ``sampled_normal``: the obstacle normal to
+    sample at points, None for the facet normals."""
     side: object
     contact: object
     enforcement: object
     beta: object
     gap: object
     foundation_potential: object
+    normal: object
+    sampled_normal: object = None
 
 
 class Recorder:
@@ -43,6 +49,8 @@ class Recorder:
         self.body, self.state, self.system = body, state, system
         self.gamma3 = gamma3
         self._reaction, self._charge = self._boundary_tests()
+        self._held = self._held_tests()
+        self._weak = self._weak_supports()
         if gamma3 is not None:
             self._facet_fields = self._build_facet_fields()
             self._rigid_modes = self._build_rigid_modes()
@@ -54,10 +62,57 @@ class Recorder:
 
     def _boundary_tests(self):
         body, dim = self.body, self.body.dim
-        reaction = [self._test(0, ngs.CF(tuple(float(i == j) for j in range(dim))), body.region_names("clamped"))
-                    for i in range(dim)]
+        if body.boundaries["clamped"]:
+            reaction = [self._test(0, ngs.CF(tuple(float(i == j) for j in range(dim))),
+                                   body.region_names("clamped")) for i in range(dim)]
+        else:                                                    # no Γ1: no reaction there
+            reaction = [ngs.GridFunction(self.state.space).vec for _ in range(dim)]
         charge = {name: self._test(1, 1.0, name) for name in body.boundaries["grounded"]}
         return reaction, charge
+
+    def _held_tests(self):
+        """{name: [w_i]}: the test vectors e_i at the held DOFs of each boundary of Γ1 and of
+        the supports along axes, each DOF in the first boundary that holds it."""
+        body, dim = self.body, self.body.dim
+        held = ~np.array(list(body.V.FreeDofs()), dtype=bool)
+        taken = np.zeros(len(held), dtype=bool)
+        parts = [(name, range(dim)) for name in body.boundaries["clamped"]]
+        parts += [(name, s.axes) for s in body.supports if not s.normal for name in s.names]
+        tests = {}
+        for name, axes in parts:
+            tests[name] = []
+            for i in range(dim):
+                w = self._test(0, ngs.CF(tuple(float(i == j) for j in range(dim))), name)
+                values = w.FV().NumPy()[:len(held)]
+                values[~held | taken] = 0.0
+                if i not in axes:
+                    values[:] = 0.0
+                tests[name].append(w)
+            for w in tests[name]:
+                taken |= w.FV().NumPy()[:len(held)] != 0
+        return tests
+
+    def _weak_supports(self):
+        """{name: [∫ λ ν_i da]} of the weak normal supports, as functions of the state."""
+        body, weak = self.body, {}
+        u, phi = self.state.components
+        n = ngs.specialcf.normal(body.dim)
+        for support in body.supports:
+            if support.normal:
+                for name in support.names:
+                    dx, indicator = element_boundary_layer(body.mesh, body.mesh.Boundaries(name))
+                    lam = forms.support_multiplier(body.tensors, body.order, u, phi, self.system.u_old,
+                                                   self.system.inv_dt, SLIP_GAMMA0)
+                    weak[name] = [(indicator * lam * n[i]).Compile() * dx for i in range(body.dim)]
+        return weak
+
+    def boundary_reaction(self, residual):
+        """{name: ∫ σν da} of the held boundaries (``StepRecord.boundary_reaction``)."""
+        reactions = {name: np.array([ngs.InnerProduct(residual, w) for w in tests])
+                     for name, tests in self._held.items()}
+        for name, integrals in self._weak.items():
+            reactions[name] = np.array([ngs.Integrate(f, self.body.mesh) for f in integrals])
+        return reactions
 
     def _build_rigid_modes(self):
         modes = []
@@ -74,17 +129,19 @@ class Recorder:
         """Facet integrals over Γ3 of the recorded fields, built once."""
         g = self.gamma3
         u, phi = self.state.components
-        n = ngs.specialcf.normal(self.body.dim)
+        n = g.normal
         traction = forms.adhesion_traction(g.contact, g.beta.gf, u * n)
         lam = g.enforcement.multiplier(u, phi, traction)
         pressure = lam + traction                               # −σ_ν = λ_h + p − γ_ν β² R_ν
         opening = u * n - g.gap
         fields = dict(pressure=pressure, multiplier=lam, potential=phi,
                       charge_flux_density=forms.charge_flux_density(g.contact, u, phi, g.gap,
-                                                                    g.foundation_potential),
+                                                                    g.foundation_potential, n),
                       contact_area=ngs.IfPos(pressure, 1, 0),
                       complementarity=ngs.IfPos(lam * opening, lam * opening, -lam * opening))
-        return {name: g.side.facet_integrals(cf) for name, cf in fields.items()}
+        residual = ("pressure", "multiplier", "contact_area", "complementarity")   # as R_Γ3 integrates
+        return {name: g.side.facet_integrals(cf, "residual" if name in residual else "exact")
+                for name, cf in fields.items()}
 
     def record(self, n, time, result, *, keep_state):
         """The StepRecord of step n at ``time`` (s) from the converged NewtonResult;
@@ -95,6 +152,7 @@ class Recorder:
             factorizations=result.factorizations, krylov_iterations=result.krylov_iterations,
             krylov_failures=result.krylov_failures, discarded_iterations=result.discarded,
             wall_s=0.0, reaction=np.array([ngs.InnerProduct(r, w) for w in self._reaction]),
+            boundary_reaction=self.boundary_reaction(r),
             electrode_charge={name: -ngs.InnerProduct(r, w) for name, w in self._charge.items()},
             state=self.state.vec.FV().NumPy().copy() if keep_state else None,
             contact=self._contact_record() if self.gamma3 is not None else None)
@@ -115,6 +173,6 @@ class Recorder:
             **averages, contact_set=integrals["contact_area"] / side.measure,
             beta=g.beta.values.copy(), beta_unclipped=g.beta.unclipped.copy(),
             charge_flux=flux[-1], contact_area=integrals["contact_area"].sum(),
-            max_penetration=float((side.normal_displacement(u) - side.sample(g.gap)).max()),
+            max_penetration=float((side.normal_displacement(u, g.sampled_normal) - side.sample(g.gap)).max()),
             complementarity=integrals["complementarity"].sum(), force=np.array(flux[:-1]),
             beta_clipped=g.beta.clipped)

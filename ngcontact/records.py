@@ -12,7 +12,9 @@ import numpy as np
 @dataclass
 class ContactRecord:
     """Γ3 at one step. Arrays have one value per facet of Γ3 (``ContactSide.midpoints``):
-    the facet average P_B of the quantity.
+    the facet average P_B of the quantity. pressure, multiplier and contact_set are averaged
+    with the quadrature of the residual's Γ3 terms, so that the pressure integrates to the
+    normal contact force even where it is kinked inside a facet (penalty, a varying gap).
 
     pressure : −σ_ν = λ_h + p(u_ν) − γ_ν β² R_ν(u_ν), the normal pressure of the foundation
         on the body (Pa; negative where the glue pulls).
@@ -64,7 +66,11 @@ class StepRecord:
         did not converge and was repeated with full steps (``newton.Newton.solve``), else 0.
     wall_s : wall time of the step (s), records included; ``timings`` splits it into the
         Newton phases "residual", "assembly", "factorization", "solve" and "other" (s).
-    reaction : ∫_Γ1 σν da, the force of the support on the body (N; N/m in 2D).
+    reaction : ∫_Γ1 σν da, the force of the clamped boundary on the body (N; N/m in 2D).
+    boundary_reaction : {name: ∫ σν da} for each boundary of Γ1 and of the supports, the
+        force it exerts on the body (N; N/m in 2D) in its held components (0 in the free
+        ones); a vertex shared by two of them counts for the first (Γ1, then the supports
+        in order), so that they add up.
     electrode_charge : {name: Q}, the charge each named part of Γa carries,
         Q = −∫ D·ν da (C; C/m in 2D).
     state : copy of the (u, φ) coefficient vector (with ``keep_states``), else None.
@@ -84,6 +90,7 @@ class StepRecord:
     krylov_iterations: int = 0
     krylov_failures: int = 0
     discarded_iterations: int = 0
+    boundary_reaction: dict = field(default_factory=dict)
 
 
 class History(list):
@@ -104,6 +111,10 @@ class History(list):
     def contact_column(self, name):
         """A field of the ContactRecords at every step, stacked (steps × ...)."""
         return np.array([getattr(r.contact, name) for r in self])
+
+    def boundary_reactions(self, name):
+        """The reaction of the held boundary ``name`` at every step (steps × dim; N, N/m in 2D)."""
+        return np.array([r.boundary_reaction[name] for r in self])
 
     def electrode_charges(self, name):
         """The charge on the electrode ``name`` at every step (C; C/m in 2D)."""

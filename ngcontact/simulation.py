@@ -42,7 +42,8 @@ class Simulation:
         "umfpack", "pardiso"); default: "sparsecholesky" where the step Jacobian is symmetric
         (no contact, or ``Contact.symmetric``), else, with ``reuse_factorization``, the
         sparse Cholesky factorisation of its symmetric part as GMRES's preconditioner, and
-        "umfpack" without. The nodal constraint (``method="active_set"``) solves its saddle
+        "umfpack" without, and for Nitsche's θ = −1 (its skew Γ3 part makes GMRES slower
+        than factorising at every iteration). The nodal constraint (``method="active_set"``) solves its saddle
         point systems itself. ``solver`` says what is used.
     rtol, maxit : Newton tolerance (relative) and iteration limit per step.
     keep_states : keep a copy of (u, φ) of every step in the history.
@@ -62,7 +63,7 @@ class Simulation:
     reuse_factorization : solve the Newton corrections by GMRES preconditioned with the
         factorisation of an earlier Jacobian of the same time step size, factorising again
         only when that pays (``linear_solver.KeptFactorization``); False: factorise at every
-        Newton iteration.
+        Newton iteration (also the default for Nitsche's θ = −1, see ``inverse``).
 
     The state after the last step: ``t`` (s), ``u``, ``phi`` (components of ``gfu``), the
     bonding field ``beta`` (``beta.values``), and ``history``, one StepRecord per step.
@@ -90,7 +91,10 @@ class Simulation:
         self.gamma3 = self._contact_side(contact) if contact is not None else None
         symmetric = contact is None or contact.symmetric
         self._inverse = inverse or ("sparsecholesky" if symmetric else "umfpack")
-        if not reuse_factorization:
+        skew = contact is not None and contact.method == "nitsche" and contact.theta == -1
+        if not reuse_factorization or (inverse is None and skew):
+            # θ = −1: GMRES needs 7 iterations with the symmetric part, UMFPACK at every
+            # iteration is faster (docs/speed.md, "Symmetric preconditioning by θ")
             solver = DirectSolver(self._inverse)
         elif inverse is None and not symmetric:   # LDLᵀ of the symmetric part: the skew part lives on Γ3
             solver = KeptFactorization(DirectSolver("sparsecholesky"), symmetric=True)
@@ -99,11 +103,12 @@ class Simulation:
         hook = self.gamma3.enforcement.newton_hook if contact is not None else None
         limit = None
         if contact is not None and hook is None and limit_steps:
-            limit = StepLength(self.gamma3.side, self.gfu, self.gamma3.gap)
+            limit = StepLength(self.gamma3.side, self.gfu, self.gamma3.gap, normal=self.gamma3.sampled_normal)
         self.newton = Newton(self.system, self.gfu, solver=solver, rtol=rtol, maxit=maxit, hook=hook,
                              step_length=limit)
         self.scheme = BackwardEuler(self.system, self.newton, self.gfu,
-                                    self.gamma3.beta if contact is not None else None, predictor)
+                                    self.gamma3.beta if contact is not None else None, predictor,
+                                    self.gamma3.normal if contact is not None else None)
         self.recorder = Recorder(body, self.gfu, self.system, self.gamma3)
         self.history = History()
         self.cutbacks = []
@@ -113,18 +118,47 @@ class Simulation:
         """Γ3: B^h, the bonding field, the enforcement method and the Γ3 terms of the residual."""
         body = self.body
         side = ContactSide(body)
-        gap = as_cf(contact.gap, 1, "Contact.gap")
-        if side.sample(gap).min() < 0:
-            raise ValueError(f"Contact.gap must be >= 0 on Γ3, its minimum is {side.sample(gap).min():.3g} m")
+        if contact.obstacle is not None:
+            gap, normal = contact.obstacle.fields(body.dim)
+            sampled_normal = normal
+        else:
+            gap, normal, sampled_normal = as_cf(contact.gap, 1, "Contact.gap"), ngs.specialcf.normal(body.dim), None
         foundation_potential = as_cf(contact.foundation_potential, 1, "Contact.foundation_potential")
+        gamma3 = Gamma3(side, contact, None, None, gap, foundation_potential, normal, sampled_normal)
+        self.time.Set(0.0)
+        self._check_gap(gamma3, 0.0)
+        if sampled_normal is not None:
+            length = np.linalg.norm(side.sample(normal), axis=-1)
+            if np.abs(length - 1).max() > 1e-8:
+                raise ValueError("Contact.obstacle: its normal must be a unit vector field on Γ3; |n_o| ranges "
+                                 f"over [{length.min():.6g}, {length.max():.6g}]")
         beta = BondingField(side, contact)
         enforcement = METHODS[contact.method](body, contact, side, gap=gap, u_old=self.system.u_old,
-                                              inv_dt=self.system.inv_dt)
+                                              inv_dt=self.system.inv_dt, normal=normal)
 
         def terms(state, test):
-            return forms.contact_terms(contact, enforcement, beta.gf, gap, foundation_potential, state, test)
+            return forms.contact_terms(contact, enforcement, beta.gf, gap, foundation_potential, state, test,
+                                       normal)
         self.system.add_boundary_terms(terms, side, realcompile=self.realcompile)
-        return Gamma3(side, contact, enforcement, beta, gap, foundation_potential)
+        return Gamma3(side, contact, enforcement, beta, gap, foundation_potential, normal, sampled_normal)
+
+    def _check_gap(self, gamma3, t):
+        """The gap must be >= 0 on Γ3 (to 1e-8 of the body's size) at time t (the time
+        Parameter set to it): on the facets, with the facet normals (a gap written with
+        ``specialcf.normal`` is zero inside elements), and at the sample points. With an
+        obstacle this is its intersection with the body, checked at t = 0 only: a moving
+        obstacle may then be driven into the body."""
+        side, gap = gamma3.side, gamma3.gap
+        points = self.body.mesh.ngmesh.Points()
+        coordinates = np.array([p.p[:self.body.dim] for p in points])
+        tolerance = 1e-8 * np.linalg.norm(coordinates.max(axis=0) - coordinates.min(axis=0))
+        negative = max(side.project(ngs.IfPos(-gap, -gap, 0.0)).max(),
+                       0.0 if gamma3.sampled_normal is None else -side.sample(gap).min())
+        if negative > tolerance:
+            what = ("Contact.obstacle intersects the body at t = 0" if gamma3.contact.obstacle is not None
+                    else f"Contact.gap must be >= 0 on Γ3 at t = {t:.6g} s")
+            raise ValueError(f"{what}: the gap reaches {-negative:.3g} m (tolerance {tolerance:.2g} m, 1e-8 of "
+                             "the body's size)")
 
     # the parts of Γ3 users read
     side = property(lambda self: self.gamma3.side, doc="The ContactSide Γ3.")
@@ -147,26 +181,42 @@ class Simulation:
         if u0 is not None:
             u0 = as_cf(u0, self.body.dim, "u0")
             mesh, square = self.body.mesh, ngs.InnerProduct(u0, u0)
-            on_gamma1 = ngs.Integrate(square * ngs.ds(self.body.region("clamped")), mesh)
-            if on_gamma1 > 1e-20 * (1 + ngs.Integrate(square, mesh)):
-                raise ValueError("u0 must vanish on the clamped boundary Γ1 "
-                                 f"({self.body.region_names('clamped')!r})")
+            if self.body.boundaries["clamped"]:
+                on_gamma1 = ngs.Integrate(square * ngs.ds(self.body.region("clamped")), mesh)
+                if on_gamma1 > 1e-20 * (1 + ngs.Integrate(square, mesh)):
+                    raise ValueError("u0 must vanish on the clamped boundary Γ1 "
+                                     f"({self.body.region_names('clamped')!r})")
             if self.contact is not None:
-                excess = (self.side.normal_displacement(u0) - self.side.sample(self.gap)).max()
+                excess = (self.side.normal_displacement(u0, self.gamma3.sampled_normal)
+                          - self.side.sample(self.gap)).max()
                 if excess > 1e-12 * (1 + np.abs(self.side.sample(u0)).max()):
                     raise ValueError(f"u0 must be admissible, u0_ν <= g on Γ3; it exceeds g by {excess:.3g} m")
             self.u.Set(u0)
             clamped = ~np.array(list(self.body.V.FreeDofs()), dtype=bool)
+            given = self.u.vec.FV().NumPy()[clamped].copy()
             self.u.vec.FV().NumPy()[clamped] = 0.0
+        else:
+            given = np.zeros(self.body.V.ndof - self.body.V.FreeDofs().NumSet())
         start, timings = wallclock.perf_counter(), Timings()
         # φ0 with u = u0 held: the potential's free DOFs only, with the terms of a step of 1 s
         self.system.begin_step(0.0, 1.0, self.u.vec, self.gfu)
+        self._check_supports_at_start(given)
         phi_only = ngs.BitArray(self.X.FreeDofs())
         phi_only[self.X.Range(0)] = False
         newton = Newton(self.system.uncondensed, self.gfu, solver=DirectSolver(self._inverse),
                         freedofs=phi_only, rtol=self.newton.rtol, maxit=self.newton.maxit)
         result = newton.solve(step=0, time=0.0, timer=timings)
         self.history.append(self._record(0, result, start, timings))
+
+    def _check_supports_at_start(self, given):
+        """u0 (0 if not given) must equal the supports' prescribed displacements at t = 0."""
+        held = ~np.array(list(self.body.V.FreeDofs()), dtype=bool)
+        prescribed = self.u.vec.FV().NumPy()[held]
+        scale = max(np.abs(prescribed).max(initial=0.0), np.abs(given).max(initial=0.0))
+        if self.body.supports and np.abs(prescribed - given).max(initial=0.0) > 1e-8 * scale + 1e-14:
+            raise ValueError("u0 must equal Loads.displacement on the supports at t = 0; they differ by "
+                             f"up to {np.abs(prescribed - given).max():.3g} m: start the prescribed "
+                             "displacements from 0 or pass a matching u0")
 
     def _record(self, n, result, start, timings):
         """The StepRecord of step n, with its wall time since ``start`` split into ``timings``."""
@@ -187,6 +237,10 @@ class Simulation:
         start = wallclock.perf_counter()
         saved, timings = self.scheme.checkpoint(), Timings()
         try:
+            if self.contact is not None and self.contact.obstacle is None and \
+                    isinstance(self.contact.gap, ngs.CoefficientFunction):
+                self.time.Set(self.t + dt)                  # the gap at t_n, before the solve
+                self._check_gap(self.gamma3, self.t + dt)
             result = self.scheme.advance(dt, step=n, timer=timings)
             record = self._record(n, result, start, timings)
         except BaseException:

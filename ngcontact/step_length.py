@@ -26,6 +26,7 @@ class StepLength:
     side : ContactSide (Γ3 and its sample points, with the facet normals).
     state : GridFunction (u, φ) of the iterate.
     gap : the gap g (CoefficientFunction, m).
+    normal : an obstacle normal n_o (CoefficientFunction), or None for the facet normals ν.
     eta : δ = eta · max |Δu_ν| over Γ3, the penetration an open point may reach in one step.
     max_cuts : the most corrections shortened in one Newton solve (later ones are full).
         Two resolve the first contact of the reference scene (one does not: 18 iterations
@@ -34,10 +35,11 @@ class StepLength:
     ``cuts``: the corrections shortened in the current solve.
     """
 
-    def __init__(self, side, state, gap, eta=1e-3, max_cuts=2):
+    def __init__(self, side, state, gap, eta=1e-3, max_cuts=2, normal=None):
         if not 0 < eta < 1:
             raise ValueError(f"eta must lie in (0, 1), got {eta}")
         self.side, self.state, self.gap, self.eta, self.max_cuts = side, state, gap, eta, max_cuts
+        self.normal = normal
         self._direction = ngs.GridFunction(state.space)
         self.cuts, self._gap = 0, None
 
@@ -58,8 +60,8 @@ class StepLength:
             self.start()
         side = self.side
         self._direction.vec.data = w
-        opening = side.normal_displacement(self.state.components[0]) - self._gap
-        change = -side.normal_displacement(self._direction.components[0])      # Δu_ν of −w
+        opening = side.normal_displacement(self.state.components[0], self.normal) - self._gap
+        change = -side.normal_displacement(self._direction.components[0], self.normal)   # Δu_ν of −w
         delta = self.eta * np.abs(change).max()
         limited = (opening < 0) & (opening + change > delta)
         if not limited.any():

@@ -28,7 +28,9 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import forms
+from .contact_side import element_boundary_layer
 from .loads import as_cf
+from .supports import SLIP_GAMMA0
 
 
 def has_interior_dofs(space):
@@ -83,6 +85,11 @@ class StepSystem:
         if T.viscous:
             self.K_A = ngs.BilinearForm(X, symmetric=False)
             self.K_A += forms.a(T, trial[0], test[0]) * ngs.dx
+        weak_supports = self._weak_supports(trial, test)
+        for elastic, viscous, dx in weak_supports:
+            self.K_el += elastic * dx
+            if viscous is not None:
+                self.K_A += viscous * dx
         for form in (self.K_el, self.K_A):
             if form is not None:
                 form.Assemble()
@@ -92,6 +99,8 @@ class StepSystem:
             if T.viscous:
                 bulk = bulk + self.inv_dt * forms.a(T, trial[0], test[0])
             self._K_condensed += bulk * ngs.dx
+            for elastic, viscous, dx in weak_supports:
+                self._K_condensed += (elastic if viscous is None else elastic + self.inv_dt * viscous) * dx
             self._schur = None
         self.f = ngs.LinearForm(X)
         for integral in forms.f(body, loads, test):
@@ -107,24 +116,46 @@ class StepSystem:
         self._dt, self._linearized = None, False
         self._positions = {}
         self.generation = 0                                    # counts the changes of K
+        # the Dirichlet DOFs of V: all of them, and those of Γ1 (u = 0)
+        self._held = ~np.array(list(body.V.FreeDofs()), dtype=bool)
+        clamped = ngs.VectorH1(body.mesh, order=body.order, dirichlet=body.region_names("clamped"))
+        self._clamped = ~np.array(list(clamped.FreeDofs()), dtype=bool)
 
     # ----------------------------------------------------------------------- building
+    def _weak_supports(self, trial, test):
+        """(elastic, viscous, dx) of the Nitsche terms of each weak normal support
+        (``forms.weak_normal_support``), on the element boundaries at the support."""
+        terms = []
+        for support in self.body.supports:
+            if support.normal:
+                dx, indicator = element_boundary_layer(self.body.mesh, self.body.mesh.Boundaries(
+                    "|".join(support.names)))
+                elastic, viscous = forms.weak_normal_support(self.body.tensors, self.body.order, trial, test,
+                                                             SLIP_GAMMA0)
+                terms.append((indicator * elastic, None if viscous is None else indicator * viscous, dx))
+        return terms
+
     def add_boundary_terms(self, terms, side, realcompile=False):
         """Add ∫_Γ3 terms(state, test) da to R: ``terms((u, φ), (v, ξ))`` is the integrand
         (linear in the test functions) for the state (u, φ); ``side`` the ContactSide.
 
         R_Γ3 comes from a LinearForm over ``side.ds`` (ds(skeleton=True)) in a copy of the
-        state; its Jacobian from a BilinearForm in the trial functions over the element
-        boundaries of the volume elements at Γ3 only (``side.dx_at``, the integrand times
-        the Γ3 indicator), whose matrix holds just their couplings: its linearisation does
-        not visit every facet of the mesh (P1, 121 851 DOFs: 0.084 s against 0.33 s)."""
+        state; its Jacobian from a BilinearForm in the trial functions. With ``realcompile``
+        that form integrates over the element boundaries of the volume elements at Γ3 only
+        (``side.dx_at``, the integrand times the Γ3 indicator), which does not visit every
+        facet of the mesh (P1, 121 851 DOFs: 0.084 s against 0.33 s); without machine code
+        the integrand's evaluation on all facets of those elements costs more than the visit
+        (P1, 576 DOFs: 0.042 s against 0.017 s per Newton iteration), so it stays on ``side.ds``."""
         if self.boundary is None:
             self.boundary = ngs.BilinearForm(self.X, symmetric=False)
             self.state = ngs.GridFunction(self.X)
             self._boundary_linear = ngs.LinearForm(self.X)
         test = self.X.TestFunction()
-        integrand = side.indicator * terms(self.X.TrialFunction(), test)
-        self.boundary += _compiled(integrand, realcompile) * side.dx_at
+        integrand = terms(self.X.TrialFunction(), test)
+        if realcompile:
+            self.boundary += _compiled(side.indicator * integrand, True) * side.dx_at
+        else:
+            self.boundary += integrand.Compile() * side.ds
         self._boundary_linear += terms(self.state.components, test).Compile() * side.ds
 
     # ----------------------------------------------------------------------- one step
@@ -151,10 +182,27 @@ class StepSystem:
         if self.K_A is not None:
             self._x_old.components[0].vec.data = self.u_old.vec
             self._constant.data += self.inv_dt.Get() * (self.K_A.mat * self._x_old.vec)
+        self._set_displacements(state.components[0])
         phi = state.components[1]                              # φ on Γa (0 where not given)
         for names, value in self.loads.potential.items():
             phi.Set(as_cf(value, 1, f"potential[{names!r}]"), ngs.BND,
                     definedon=self.body.mesh.Boundaries(names))
+
+    def _set_displacements(self, u):
+        """u on the supports at t_n: 0, then ``Loads.displacement`` (u·ν along an axis: that
+        component times ν_i); Γ1 last, so that u = 0 at a vertex Γ1 shares with a support."""
+        if not self.body.supports:
+            return
+        values = u.vec.FV().NumPy()
+        values[self._held] = 0.0
+        for key, value in self.loads.displacement.items():
+            support = self.body.support_of(key)
+            cf = as_cf(value, support.size, f"Loads.displacement[{key!r}]")
+            region = self.body.mesh.Boundaries(key)
+            for j, axis in enumerate(support.axes):
+                u.components[axis].Set(support.sign * (cf[j] if support.size > 1 else cf), ngs.BND,
+                                       definedon=region)
+        values[self._clamped] = 0.0
 
     # ----------------------------------------------------------------------- BilinearForm protocol
     def Apply(self, x, r):

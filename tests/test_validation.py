@@ -55,7 +55,7 @@ def mesh():
 @pytest.mark.parametrize("kwargs, match", [
     (dict(clamped="side"), r"clamped: boundary \['side'\] not in the mesh"),
     (dict(grounded="top|lid"), r"grounded: boundary \['lid'\] not in the mesh"),
-    (dict(clamped=""), "clamped must name at least one boundary"),
+    (dict(clamped=""), "clamped or supports must name at least one boundary"),
     (dict(grounded=None), "grounded must name at least one boundary"),
     (dict(contact_side="left"), "contact_side Γ3 must not overlap clamped"),
     (dict(contact_side="top"), "contact_side Γ3 must not overlap grounded"),

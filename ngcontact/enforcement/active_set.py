@@ -7,7 +7,8 @@ penetration at the nodes) by a primal–dual active set method, a semismooth New
 [J B_Aᵀ; B_A 0] on the active nodes A = {λ_i + c((Bx)_i − g_i) > 0}, with c the Newton
 scale of the u block. The Γ3 residual keeps only j_a (p and the glue) and the conduction
 term: S = 0. λ_i are nodal forces; the recorded pressure is the P1 field with nodal values
-λ_i / w_i, w_i = ∫_Γ3 φ_i da.
+λ_i / w_i, w_i = ∫_Γ3 φ_i da; at a node of Γ3 held by a support (no multiplier: its share
+of the contact force is in the reaction) it takes the mean of its free neighbours on Γ3.
 
 ``NodalConstraint`` is the enforcement method; its ``newton_hook``, ``PrimalDualActiveSet``,
 takes part in the one Newton loop (``newton.Hook``): it adds Bᵀλ to the residual, measures
@@ -25,7 +26,7 @@ class NodalConstraint:
 
     condensable = False                    # the saddle point systems take the full Jacobian
 
-    def __init__(self, body, contact, side, *, gap, u_old, inv_dt):
+    def __init__(self, body, contact, side, *, gap, u_old, inv_dt, normal):
         if body.order != 1:
             raise ValueError(f"Contact.method 'active_set' is the paper's P1 scheme: it needs "
                              f"Body order 1, got {body.order}")
@@ -63,13 +64,21 @@ class PrimalDualActiveSet:
                 n, w = nodes.get(nr, (np.zeros(dim), 0.0))
                 nodes[nr] = (n + normal * length, w + length / dim)
         self.nodes = [nr for nr in sorted(nodes) if all(free[c * nv + nr] for c in range(dim))]
+        # held nodes of Γ3 and the positions (in self.nodes) of their free neighbours on Γ3
+        position = {nr: i for i, nr in enumerate(self.nodes)}
+        neighbours = {}
+        for numbers in side.facet_vertex_numbers:
+            for nr in numbers:
+                if nr not in position:
+                    neighbours.setdefault(nr, set()).update(position[m] for m in numbers if m in position)
+        self.held = [(nr, sorted(ids)) for nr, ids in neighbours.items() if ids]
         normals = np.array([nodes[nr][0] / np.linalg.norm(nodes[nr][0]) for nr in self.nodes])
         self.weights = np.array([nodes[nr][1] for nr in self.nodes])
         rows = np.repeat(np.arange(len(self.nodes)), dim)
         cols = np.array([c * nv + nr for nr in self.nodes for c in range(dim)])
         self.B = sp.csr_matrix((normals.ravel(), (rows, cols)), shape=(len(self.nodes), body.X.ndof))
         points = np.array([mesh.vertices[nr].point for nr in self.nodes])
-        self.g = np.array([gap(mesh(*p)) for p in points]).ravel()
+        self.g = np.array([gap(mesh(*p, VOL_or_BND=ngs.BND)) for p in points]).ravel()   # on Γ3
         self.lam = np.zeros(len(self.nodes))
         self.pressure = pressure
         self.forces = ngs.GridFunction(body.X).vec
@@ -112,6 +121,8 @@ class PrimalDualActiveSet:
         values = self.pressure.vec.FV().NumPy()
         values[:] = 0.0
         values[self.nodes] = self.lam / self.weights
+        for nr, ids in self.held:
+            values[nr] = values[[self.nodes[i] for i in ids]].mean()
 
     def save(self):
         return self.lam.copy()

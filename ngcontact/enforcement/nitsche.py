@@ -24,10 +24,10 @@ class Nitsche:
     newton_hook = None
     condensable = True
 
-    def __init__(self, body, contact, side, *, gap, u_old, inv_dt):
+    def __init__(self, body, contact, side, *, gap, u_old, inv_dt, normal):
         self.tensors, self.theta, self.gap = body.tensors, contact.theta, gap
         self.u_old, self.inv_dt = u_old, inv_dt
-        self.n = ngs.specialcf.normal(body.dim)
+        self.n = normal
         self.gamma = contact.gamma0 * boundary_stiffness(body, inv_dt)
 
     @classmethod
@@ -37,7 +37,7 @@ class Nitsche:
 
     def sigma_n(self, u, phi):
         """σ_ν of the step at (u, φ), Pa."""
-        return step_normal_stress(self.tensors, u, phi, self.inv_dt, self.u_old)
+        return step_normal_stress(self.tensors, u, phi, self.inv_dt, self.u_old, self.n)
 
     def P(self, u, phi, traction):
         """P = σ̃_ν − γ (u_ν − g); [P]_- = min(P, 0) is the Nitsche contact stress."""
@@ -50,7 +50,7 @@ class Nitsche:
         negative_part = ngs.IfPos(P, 0, P)
         terms = -negative_part * (v * self.n)
         if theta != 0:
-            variation = step_normal_stress(self.tensors, v, xi, self.inv_dt)
+            variation = step_normal_stress(self.tensors, v, xi, self.inv_dt, direction=self.n)
             terms = terms + theta / gamma * (negative_part - effective) * variation
         return terms
 

@@ -18,9 +18,9 @@ class Penalty:
     newton_hook = None
     condensable = True
 
-    def __init__(self, body, contact, side, *, gap, u_old, inv_dt):
+    def __init__(self, body, contact, side, *, gap, u_old, inv_dt, normal):
         self.gap = gap
-        self.n = ngs.specialcf.normal(body.dim)
+        self.n = normal
         self.epsilon = contact.penalty * boundary_stiffness(body, inv_dt)
 
     @classmethod

@@ -1,0 +1,104 @@
+"""Rigid obstacles: the foundation given as a geometry (``Contact(obstacle=...)``).
+
+An obstacle gives, at each point x of Γ3 (reference configuration), the gap g(x) (m, the
+distance to the obstacle, >= 0 where the body is clear of it) and the obstacle normal n_o(x),
+a unit vector pointing from the body into the obstacle (on a flat Γ3 lying on a plane
+obstacle n_o = ν, the body's outward normal). Then the normal displacement is u_n = u·n_o,
+the normal stress σ_n = n_o·σν, and Signorini u_n ≤ g, the compliant layer p(u_n), the glue
+γ_ν β² R_ν(u_n) and the conduction law ψ(u_n − g) act along n_o (docs/model.md, with ν
+replaced by n_o). The paper's form, the body's ν with a given gap, is what a flat Γ3 on a
+plane reduces to; on a curved Γ3 at P1, ν jumps at every vertex and its Nitsche multiplier
+oscillates inside each facet, while n_o is smooth (docs/curved_contact.md).
+
+Points, centres and distances may be CoefficientFunctions of the time Parameter (an
+indenter driven into the body: g < 0 ahead of it is then the prescribed approach). At t = 0
+the obstacle must not intersect the body beyond a tolerance (``Simulation`` checks it).
+"""
+import ngsolve as ngs
+import numpy as np
+
+from .loads import as_cf
+
+
+def _position(dim):
+    return ngs.CF((ngs.x, ngs.y, ngs.z)[:dim])
+
+
+def _vector(value, dim, name):
+    cf = as_cf(value, None, name)
+    if cf.dim != dim:
+        raise ValueError(f"{name} must have {dim} components in {dim}D, got {cf.dim}")
+    return cf
+
+
+class Plane:
+    """The half-space obstacle {(x − point)·normal <= 0}.
+
+    point : a point of the plane (m), a tuple or a CoefficientFunction (may move in time).
+    normal : the plane's normal pointing out of the obstacle towards the body (any length,
+        constant, normalised here).
+    Gap g = (x − point)·normal/|normal|, obstacle normal n_o = −normal/|normal|.
+    """
+
+    def __init__(self, point, normal):
+        self.point = point
+        normal = np.asarray(normal, dtype=float)
+        if normal.ndim != 1 or not np.all(np.isfinite(normal)) or not np.linalg.norm(normal) > 0:
+            raise ValueError(f"Plane: normal must be a nonzero finite vector, got {normal.tolist()}")
+        self.unit = normal / np.linalg.norm(normal)
+
+    def fields(self, dim):
+        """(gap g, obstacle normal n_o) as CoefficientFunctions in ``dim`` D."""
+        if len(self.unit) != dim:
+            raise ValueError(f"Plane: normal must have {dim} components in {dim}D, got {len(self.unit)}")
+        m = ngs.CF(tuple(self.unit))
+        return (_position(dim) - _vector(self.point, dim, "Plane: point")) * m, -m
+
+    def __repr__(self):
+        return f"Plane(point={self.point}, normal={self.unit.tolist()})"
+
+
+class Ball:
+    """A rigid disk (2D, a cylinder seen end-on) or ball (3D) of ``radius`` (m) about ``center``
+    (m, tuple or CoefficientFunction, may move in time); the body lies outside it.
+    Gap g = |x − c| − R, obstacle normal n_o = (c − x)/|x − c|."""
+
+    def __init__(self, center, radius):
+        if not (isinstance(radius, (int, float)) and np.isfinite(radius) and radius > 0):
+            raise ValueError(f"{type(self).__name__}: radius must be a finite number > 0 m, got {radius!r}")
+        self.center, self.radius = center, float(radius)
+
+    def fields(self, dim):
+        d = _position(dim) - _vector(self.center, dim, f"{type(self).__name__}: center")
+        distance = ngs.sqrt(d * d)
+        return distance - self.radius, -d / distance
+
+    def __repr__(self):
+        return f"{type(self).__name__}(center={self.center}, radius={self.radius})"
+
+
+class Cylinder(Ball):
+    """The 2D rigid cylinder (a disk in the plane of the plate), as ``Ball``."""
+
+
+class Sphere(Ball):
+    """The 3D rigid ball, as ``Ball``."""
+
+
+class SignedDistance:
+    """An obstacle given by the user: ``distance`` g(x) (m, a scalar CoefficientFunction of
+    position and time, >= 0 outside the obstacle) and ``normal`` n_o(x), a unit vector field
+    pointing into the obstacle (checked on Γ3 by ``Simulation``)."""
+
+    def __init__(self, distance, normal):
+        self.distance, self.normal = distance, normal
+
+    def fields(self, dim):
+        return as_cf(self.distance, 1, "SignedDistance: distance"), _vector(self.normal, dim,
+                                                                            "SignedDistance: normal")
+
+    def __repr__(self):
+        return "SignedDistance(...)"
+
+
+OBSTACLES = (Plane, Ball, SignedDistance)

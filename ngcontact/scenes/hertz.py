@@ -1,0 +1,117 @@
+"""Hertz contact on a curved Γ3: an elastic half-disk (2D, plane strain) or half-ball (3D)
+pressed onto a rigid plane, with the closed forms it is checked against.
+
+Body {|x − (0, R)| <= R, y <= R} (2D; in 3D the half-ball about (0, 0, R) with z <= R), its
+lowest point on the plane y = 0 (z = 0), the flat top ("top") pushed down by d (a support
+with prescribed displacement, ``Loads.displacement``), the curved side ("contact") on the
+plane obstacle ``obstacles.Plane`` (or, ``normal="body"``, the paper's form with the body's
+normal ν and the gap measured along it). Isotropic, elastic, no piezoelectric coupling.
+
+Hertz, for the measured contact force F (per unit depth in 2D), E* = E/(1 − ν²):
+  2D (cylinder on a plane): a = sqrt(4 F R/(π E*)), p(x) = p0 sqrt(1 − x²/a²), p0 = 2F/(π a);
+  3D (sphere on a plane):   a = (3 F R/(4 E*))^(1/3), p(r) = p0 sqrt(1 − r²/a²), p0 = 3F/(2π a²).
+They hold for a/R small (the half-disk is not a half-plane: at a/R ≈ 0.1 they are met to
+about 1 %, docs/curved_contact.md).
+"""
+import math
+
+import ngsolve as ngs
+import numpy as np
+from netgen.meshing import MeshingParameters
+from netgen.occ import Box, Circle, OCCGeometry, Pnt, Rectangle, Sphere, Y, Z
+
+import ngcontact as ngc
+from ngcontact.obstacles import Plane
+
+E, NU, R = 1.0, 0.3, 1.0
+E_STAR = E / (1 - NU ** 2)
+
+
+def material():
+    """Isotropic elastic material E = 1 Pa, ν = 0.3 (the peer's), no coupling."""
+    return ngc.Material.isotropic(E, NU, permittivity=1.0, name="hertz")
+
+
+def mesh(dim=2, h_contact=0.02, refine=0, curve=1):
+    """The half-disk (half-ball) with mesh size h_contact (m) near the contact point over
+    |x| < 0.25 R, coarser away, ``refine`` uniform refinements (nested, boundary points on the
+    circle) and ``mesh.Curve(curve)``."""
+    if dim == 2:
+        shape = Circle(Pnt(0, R), R).Face() * Rectangle(2 * R, R).Face().Move((-R, 0, 0))
+        shape.edges.Max(Y).name = "top"
+        for edge in shape.edges:
+            if edge.name != "top":
+                edge.name = "contact"
+    else:
+        shape = Sphere(Pnt(0, 0, R), R) * Box(Pnt(-R, -R, 0), Pnt(R, R, R))
+        shape.faces.Max(Z).name = "top"
+        for face in shape.faces:
+            if face.name != "top":
+                face.name = "contact"
+    parameters = MeshingParameters(maxh=10 * h_contact if dim == 2 else 0.4 * R)
+    for x in np.linspace(-0.25 * R, 0.25 * R, 26):
+        if dim == 2:
+            parameters.RestrictH(x, R - math.sqrt(R * R - x * x), 0, h_contact)
+        else:
+            for y in np.linspace(-0.25 * R, 0.25 * R, 26):
+                if x * x + y * y <= (0.25 * R) ** 2:
+                    parameters.RestrictH(x, y, R - math.sqrt(R * R - x * x - y * y), h_contact)
+    m = ngs.Mesh(OCCGeometry(shape, dim=dim).GenerateMesh(mp=parameters))
+    for _ in range(refine):
+        m.Refine()
+    if curve > 1:
+        m.Curve(curve)
+    return m
+
+
+def simulation(order=1, h_contact=0.02, refine=0, dim=2, depth=None, normal="obstacle", gamma0=10.0, **options):
+    """The Hertz scene as a Simulation (one step t: 0 -> 1 brings the top down by ``depth``,
+    default 0.02 R in 2D, 0.005 R in 3D); ``normal``: "obstacle" (n_o of the plane) or "body"
+    (the paper's form: ν and the gap y/(−ν_y) along it)."""
+    depth = (0.02 if dim == 2 else 0.005) * R if depth is None else depth
+    m = mesh(dim, h_contact, refine, curve=order)
+    body = ngc.Body(m, material(), grounded="top", supports={"top": "all"}, contact_side="contact", order=order)
+    t = ngs.Parameter(0.0)
+    down = tuple([0.0] * (dim - 1) + [-depth * t])
+    up = tuple([0.0] * (dim - 1) + [1.0])
+    if normal == "obstacle":
+        contact = ngc.Contact(obstacle=Plane(tuple([0.0] * dim), up), gamma0=gamma0)
+    elif normal == "body":
+        n = ngs.specialcf.normal(dim)
+        height = ngs.y if dim == 2 else ngs.z
+        contact = ngc.Contact(gap=height / ngs.IfPos(-n[dim - 1], -n[dim - 1], 1.0), gamma0=gamma0)
+    else:
+        raise ValueError(f"normal must be 'obstacle' or 'body', got {normal!r}")
+    return ngc.Simulation(body, ngc.Loads(displacement={"top": down}), contact=contact, time=t, **options)
+
+
+def closed_form(force, dim=2):
+    """(a, p0) of Hertz for the contact force ``force`` (N/m in 2D, N in 3D)."""
+    if dim == 2:
+        a = math.sqrt(4 * force * R / (math.pi * E_STAR))
+        return a, 2 * force / (math.pi * a)
+    a = (3 * force * R / (4 * E_STAR)) ** (1 / 3)
+    return a, 3 * force / (2 * math.pi * a * a)
+
+
+def errors(sim):
+    """Accuracy of a solved Hertz simulation against the closed form for its own force:
+    dict(force, a, a_h, p0, p0_h, pressure_L2) with a_h the half-width (radius) of the
+    contact zone {λ_h > 0} (from its measure), p0_h the largest facet average of λ_h and
+    pressure_L2 = ‖λ_h − p‖/‖p‖ on Γ3 (λ_h the enforcement's multiplier at the residual's
+    points, integrated with 2p + 2 extra orders per facet)."""
+    dim = sim.body.dim
+    record = sim.history[-1].contact
+    force = float(record.force[dim - 1])
+    a, p0 = closed_form(force, dim)
+    u, phi = sim.u, sim.phi
+    traction = ngs.CF(0.0)
+    lam = sim.enforcement.multiplier(u, phi, traction)
+    r2 = ngs.x * ngs.x if dim == 2 else ngs.x * ngs.x + ngs.y * ngs.y
+    exact = p0 * ngs.sqrt(ngs.IfPos(1 - r2 / (a * a), 1 - r2 / (a * a), 0.0))
+    difference = sim.side.integrate((lam - exact) ** 2)
+    norm = sim.side.integrate(exact ** 2)
+    area = record.contact_area
+    a_h = area / 2 if dim == 2 else math.sqrt(area / math.pi)
+    return dict(force=force, a=a, a_h=a_h, p0=p0, p0_h=float(record.multiplier.max()),
+                pressure_L2=math.sqrt(difference / norm))

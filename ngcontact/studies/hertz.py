@@ -1,0 +1,104 @@
+"""Contact on a curved side against Hertz: the half-disk (half-ball) of ``scenes.hertz``
+pressed onto a plane, with the obstacle normal n_o and with the body's normal ν (the
+paper's form), orders × nested meshes.
+
+Each case is one quasi-static step (the top brought down by d); the errors are those of
+``scenes.hertz.errors``: contact half-width a_h/a − 1, peak pressure p0_h/p0 − 1 and the
+pressure L2 error on Γ3, with the rate between successive levels (h halves). Writes
+``hertz.csv``, ``hertz.md`` (the tables) and ``hertz_pressure.png`` (λ_h along Γ3 against
+Hertz on the finest mesh of each order, both normals).
+"""
+import math
+import time
+
+import ngsolve as ngs
+import numpy as np
+
+from ..progress import bar
+from ..scenes import hertz
+from .common import table, writable_directory, write_csv
+
+COLUMNS = ["dim", "order", "normal", "level", "ndof", "newton", "force", "a", "width_error", "peak_error",
+           "pressure_L2", "rate_L2", "seconds"]
+
+
+def case(order, level, normal, dim=2):
+    """One solved case as (row, simulation)."""
+    t0 = time.perf_counter()
+    sim = hertz.simulation(order, refine=level, dim=dim, normal=normal, keep_states=False)
+    with ngs.TaskManager():
+        sim.run(1.0, 1.0)
+    e = hertz.errors(sim)
+    row = dict(dim=dim, order=order, normal=normal, level=level, ndof=sim.X.ndof,
+               newton=sim.history[-1].newton_iterations, force=e["force"], a=e["a"],
+               width_error=e["a_h"] / e["a"] - 1, peak_error=e["p0_h"] / e["p0"] - 1,
+               pressure_L2=e["pressure_L2"], rate_L2=math.nan, seconds=time.perf_counter() - t0)
+    return row, sim
+
+
+def run(out, orders=(1, 2), levels=4, dim=2, progress=True):
+    """Every order × level × normal; returns the rows (also written to ``out``)."""
+    out = writable_directory(out)
+    if int(levels) != levels or levels < 1:
+        raise ValueError(f"levels must be an integer >= 1, got {levels}")
+    rows, finest = [], {}
+    cases = [(p, n, k) for p in orders for n in ("obstacle", "body") for k in range(levels)]
+    with bar(len(cases), "Hertz cases", progress) as shown:
+        for order, normal, level in cases:
+            row, sim = case(order, level, normal, dim)
+            if level > 0:
+                previous = rows[-1]
+                row["rate_L2"] = math.log2(previous["pressure_L2"] / row["pressure_L2"])
+            rows.append(row)
+            if level == levels - 1:
+                finest[order, normal] = _profile(sim)
+            shown.update(1)
+    write_csv(rows, out / "hertz.csv", COLUMNS)
+    text = table(rows, COLUMNS)
+    (out / "hertz.md").write_text("```\n" + text + "\n```\n")
+    print(text)
+    _plot(finest, out / "hertz_pressure.png")
+    return rows
+
+
+def _profile(sim):
+    """(x, λ_h(x), Hertz p(x)) along Γ3 near the contact zone, λ_h at 9 points per facet."""
+    e = hertz.errors(sim)
+    side, mesh = sim.side, sim.body.mesh
+    lam = sim.enforcement.multiplier(sim.u, sim.phi, ngs.CF(0.0))
+    s = np.linspace(0.02, 0.98, 9)
+    points = np.einsum("sk,fkd->fsd", np.stack([1 - s, s], axis=1), side.facet_vertices)
+    keep = np.abs(points[..., 0]).max(axis=1) < 2 * e["a"]
+    points = points[keep].reshape(-1, 2)
+    # λ_h needs the volume element's stress and the facet's normal: evaluate on the boundary
+    # element with the volume element's fields (BoundaryFromVolumeCF)
+    values = ngs.BoundaryFromVolumeCF(lam)(mesh(points[:, 0], points[:, 1], VOL_or_BND=ngs.BND)).ravel()
+    order = np.argsort(points[:, 0])
+    x = points[order, 0]
+    exact = e["p0"] * np.sqrt(np.clip(1 - (x / e["a"]) ** 2, 0, None))
+    return x, values[order], exact
+
+
+def _plot(profiles, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    orders = sorted({p for p, _ in profiles})
+    fig, axes = plt.subplots(1, len(orders), figsize=(5.5 * len(orders), 4), squeeze=False)
+    for ax, order in zip(axes[0], orders):
+        for normal, width in (("body", 0.8), ("obstacle", 1.6)):
+            x, lam, exact = profiles[order, normal]
+            ax.plot(x, lam, lw=width, label=f"λ_h, {normal} normal")
+        ax.plot(x, exact, "k--", lw=1.5, label="Hertz")
+        ax.set_title(f"P{order}, finest mesh")
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("contact pressure (Pa)")
+        ax.legend(fontsize=8, loc="upper right")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def command(out, orders, levels, dim):
+    """``python -m ngcontact hertz``."""
+    run(out, orders, levels, dim)

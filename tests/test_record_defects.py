@@ -1,0 +1,37 @@
+"""Records that must agree with the residual: the pressure of the penalty method where the
+gap varies along a facet, and the nodal pressure next to a clamped node (issue 13 defects)."""
+import ngsolve as ngs
+import numpy as np
+
+import ngcontact as ngc
+from ngcontact.scenes import reference
+
+
+def test_penalty_pressure_integrates_to_the_contact_force():
+    """A gap that varies along each facet (a wavy foundation) under the penalty method: the
+    recorded facet pressures, integrated over Γ3, give the normal contact force of the
+    residual (they are integrated with the residual's own quadrature)."""
+    t = ngs.Parameter(0.0)
+    gap = 1e-5 * (1 + ngs.sin(2 * np.pi * ngs.x / 0.003))
+    sim = ngc.Simulation(reference.body(), reference.loads(t), time=t,
+                         contact=ngc.Contact(gap=gap, method="penalty", penalty=100.0))
+    sim.run(2.5e-3, 0.05)
+    record = sim.history[-1].contact
+    assert record.contact_area > 0.003                                # touching over a length
+    integrated = float(np.dot(record.pressure, sim.side.measure))
+    assert abs(integrated - record.force[1]) < 1e-8 * abs(record.force[1])
+
+
+def test_active_set_pressure_next_to_a_clamped_node():
+    """The plate clamped on the left, lying on the foundation (gap 0) under a uniform
+    pressure: the facet of Γ3 at the clamped corner reads the pressure of its neighbour
+    (before: half of it, the clamped node having no multiplier)."""
+    t = ngs.Parameter(0.0)
+    body = reference.body()
+    sim = ngc.Simulation(body, ngc.Loads(f2={"top": (0.0, -1e6 * t)}), time=t,
+                         contact=ngc.Contact(gap=0.0, method="active_set"))
+    sim.run(0.5, 1.0)
+    pressure, midpoints = sim.history[-1].contact.pressure, sim.side.midpoints
+    order = np.argsort(midpoints[:, 0])
+    first, second = pressure[order[0]], pressure[order[1]]
+    assert second > 0 and 0.8 < first / second < 1.25
