@@ -32,7 +32,9 @@ class Body:
         (u·ν = 0: symmetry plane, roller) or axes such as "x", "yz" (``ngcontact.supports``);
         their values come from ``Loads.displacement`` (0 by default). Γ1 and the supports
         together must be nonempty, and rigid motions they leave free must be held by contact.
-    grounded : str, boundary names of Γa (φ prescribed), nonempty.
+    grounded : str, boundary names of Γa (φ prescribed); nonempty for a piezoelectric
+        material, optional (None) for one without coupling, whose simulations then solve for
+        u alone unless the scene has an electric part (``Simulation.model``).
     contact_side : str or None, boundary names of Γ3; without a contact law
         (``Simulation(contact=...)``) it is traction-free and charge-free.
     order : int >= 1, polynomial order of u (1 = the paper's P1 space (4.1)).
@@ -42,7 +44,7 @@ class Body:
     so that what one simulation sets on it (static condensation) does not reach another.
     """
 
-    def __init__(self, mesh, material, *, clamped=None, grounded, contact_side=None, supports=None, order=1,
+    def __init__(self, mesh, material, *, clamped=None, grounded=None, contact_side=None, supports=None, order=1,
                  order_phi=None, **renamed):
         if "contact" in renamed:
             raise TypeError("Body(contact=...) is now Body(contact_side=...): the boundary names of Γ3 "
@@ -74,7 +76,7 @@ class Body:
         if not self.boundaries["clamped"] and not self.supports:
             raise ValueError("clamped or supports must name at least one boundary (a held boundary is "
                              f"needed for a unique displacement); the mesh has {sorted(existing)}")
-        if not self.boundaries["grounded"]:
+        if not self.boundaries["grounded"] and self.coupled:
             raise ValueError("grounded must name at least one boundary (meas > 0 is needed "
                              f"for a unique potential); the mesh has {sorted(existing)}")
         for part in ("clamped", "grounded", "supports"):
@@ -109,6 +111,11 @@ class Body:
         Γb minus Γ3 = free_names(("grounded", "contact_side"))."""
         taken = {n for part in excluded for n in self.boundaries[part]}
         return [n for n in dict.fromkeys(self.mesh.GetBoundaries()) if n not in taken]
+
+    @property
+    def coupled(self):
+        """True if the material couples u and φ (a nonzero piezoelectric tensor E)."""
+        return bool(abs(self.tensors.E).max(initial=0.0) > 0)
 
     def support_of(self, key):
         """The Support holding every boundary of ``key`` (``"a"`` or ``"a|b"``)."""

@@ -19,7 +19,7 @@ from .contact_side import ContactSide
 from .enforcement import METHODS
 from .linear_solver import DirectSolver, KeptFactorization
 from .loads import Loads, as_cf
-from .newton import Newton, NewtonError, ResidualNorm, Timings
+from .newton import Newton, NewtonError, NewtonResult, ResidualNorm, Timings
 from .observables import Gamma3, Recorder
 from .step_length import StepLength
 from .progress import bar
@@ -60,6 +60,10 @@ class Simulation:
         the foundation (``step_length``): Newton's iterations at first contact then no longer
         grow with the mesh. Nitsche and penalty (the nodal constraint makes its own
         corrections).
+    electric : solve for φ: None (default) when the scene has an electric part (piezoelectric
+        coupling, conduction on Γ3, charges or electrode potentials), else u alone (φ = 0 is
+        not an unknown: its DOFs are left out of every solve); True keeps φ; False with an
+        electric part raises. ``model`` says which.
     reuse_factorization : solve the Newton corrections by GMRES preconditioned with the
         factorisation of an earlier Jacobian of the same time step size, factorising again
         only when that pays (``linear_solver.KeptFactorization``); False: factorise at every
@@ -71,13 +75,18 @@ class Simulation:
 
     def __init__(self, body, loads=None, *, contact=None, time=None, u0=None, inverse=None,
                  rtol=1e-10, maxit=50, keep_states=True, predictor=False, condense=None, realcompile=None,
-                 limit_steps=True, reuse_factorization=True):
+                 limit_steps=True, reuse_factorization=True, electric=None):
         self.body = body
         self.loads = loads or Loads()
         self.loads.check(body)
         self.time = time if time is not None else ngs.Parameter(0.0)
         self.contact, self.keep_states = contact, keep_states
         self.X = body.space()
+        self.electric, self._electric_parts = self._electric_part(electric)
+        if not self.electric:                    # φ = 0: its DOFs are in no solve
+            for dof in range(self.X.Range(1).start, self.X.Range(1).stop):
+                self.X.SetCouplingType(dof, ngs.COUPLING_TYPE.UNUSED_DOF)
+            self.X.FinalizeUpdate()
         self.gfu = ngs.GridFunction(self.X, name="state")
         self.u, self.phi = self.gfu.components
         if realcompile is None:         # where it paid in docs/speed.md (the 3D Γ3 terms cost far more)
@@ -113,6 +122,34 @@ class Simulation:
         self.history = History()
         self.cutbacks = []
         self._start(u0)
+
+    def _electric_part(self, electric):
+        """(whether φ is solved for, the electric parts of the scene), checked."""
+        loads, parts = self.loads, []
+        if self.body.coupled:
+            parts.append("piezoelectric coupling")
+        if self.contact is not None and self.contact.conducts:
+            parts.append("conduction on Γ3")
+        potentials = [v for v in loads.potential.values() if isinstance(v, ngs.CoefficientFunction) or
+                      np.any(np.asarray(v, dtype=float) != 0)]
+        if loads.q0 is not None or loads.qb or potentials:
+            parts.append("charges or electrode potentials")
+        if electric not in (None, True, False):
+            raise ValueError(f"electric must be None, True or False, got {electric!r}")
+        if electric is False and parts:
+            raise ValueError(f"electric=False, but the scene has {', '.join(parts)}: φ must be solved for")
+        solve = bool(parts) if electric is None else electric
+        if solve and not self.body.boundaries["grounded"]:
+            raise ValueError("Body.grounded must name at least one boundary: the scene solves for φ "
+                             f"({', '.join(parts) or 'electric=True'})")
+        return solve, parts
+
+    @property
+    def model(self):
+        """Which unknowns this simulation solves, and why."""
+        if self.electric:
+            return f"u and φ ({', '.join(self._electric_parts) or 'electric=True'})"
+        return "u alone (no piezoelectric coupling, no conduction on Γ3, no electric loads: φ = 0)"
 
     def _contact_side(self, contact):
         """Γ3: B^h, the bonding field, the enforcement method and the Γ3 terms of the residual."""
@@ -160,6 +197,11 @@ class Simulation:
             raise ValueError(f"{what}: the gap reaches {-negative:.3g} m (tolerance {tolerance:.2g} m, 1e-8 of "
                              "the body's size)")
 
+    def __repr__(self):
+        contact = "none" if self.contact is None else self.contact.method
+        return (f"Simulation(t = {self.t:g} s, {len(self.history)} records; solves {self.model}; "
+                f"contact: {contact}; linear solver: {self.solver})")
+
     # the parts of Γ3 users read
     side = property(lambda self: self.gamma3.side, doc="The ContactSide Γ3.")
     beta = property(lambda self: self.gamma3.beta, doc="The BondingField β (``beta.values``).")
@@ -203,9 +245,14 @@ class Simulation:
         self._check_supports_at_start(given)
         phi_only = ngs.BitArray(self.X.FreeDofs())
         phi_only[self.X.Range(0)] = False
-        newton = Newton(self.system.uncondensed, self.gfu, solver=DirectSolver(self._inverse),
-                        freedofs=phi_only, rtol=self.newton.rtol, maxit=self.newton.maxit)
-        result = newton.solve(step=0, time=0.0, timer=timings)
+        if self.electric:
+            newton = Newton(self.system.uncondensed, self.gfu, solver=DirectSolver(self._inverse),
+                            freedofs=phi_only, rtol=self.newton.rtol, maxit=self.newton.maxit)
+            result = newton.solve(step=0, time=0.0, timer=timings)
+        else:                                    # nothing to solve: φ0 = 0
+            residual = self.gfu.vec.CreateVector()
+            self.system.Apply(self.gfu.vec, residual)
+            result = NewtonResult(0, [0.0], residual)
         self.history.append(self._record(0, result, start, timings))
 
     def _check_supports_at_start(self, given):

@@ -145,3 +145,37 @@ def test_bad_supports_are_named():
         ngc.Simulation(turned, ngc.Loads(displacement={"left": 1e-3}))
     with pytest.raises(ValueError, match="u0 must equal Loads.displacement on the supports at t = 0"):
         ngc.Simulation(held, ngc.Loads(displacement={"left": 1e-3}))
+
+
+def test_a_scene_without_electric_part_solves_u_alone():
+    """An elastic body without coupling, conduction or electric loads: φ is no unknown (its
+    DOFs are in no solve), the displacement equals that of the same scene with φ kept to
+    round-off, and the simulation says which model it solves; any electric part brings φ
+    back, and asking for u alone then is an error."""
+    mesh, R = square(30), rotation(30)
+    loads = ngc.Loads(f2={"right": tuple(-P * R @ [1.0, 0.0])})
+
+    def run(electric, grounded="top"):
+        body = ngc.Body(mesh, ELASTIC, grounded=grounded, supports={"left": "normal", "bottom": "normal"}, order=2)
+        sim = ngc.Simulation(body, loads, electric=electric)
+        sim.run(1.0, 1.0)
+        return sim
+    alone, kept = run(None, grounded=None), run(True)
+    assert alone.model.startswith("u alone") and kept.model.startswith("u and φ")
+    free = alone.X.FreeDofs()
+    assert all(not free[d] for d in range(alone.X.Range(1).start, alone.X.Range(1).stop))
+    assert free.NumSet() == alone.body.V.FreeDofs().NumSet()
+    nu = alone.body.V.ndof
+    assert np.abs(alone.gfu.vec.FV().NumPy()[:nu] - kept.gfu.vec.FV().NumPy()[:nu]).max() < \
+        1e-12 * np.abs(kept.gfu.vec.FV().NumPy()[:nu]).max()
+    assert "u alone" in repr(alone)
+    piezo = ngc.Body(mesh, ngc.pzt5a(), grounded="top", supports={"left": "normal", "bottom": "normal"})
+    assert ngc.Simulation(piezo, loads).model == "u and φ (piezoelectric coupling)"
+    elastic = ngc.Body(mesh, ELASTIC, supports={"left": "normal", "bottom": "normal"})
+    with pytest.raises(ValueError, match="electric=False, but the scene has piezoelectric coupling"):
+        ngc.Simulation(piezo, loads, electric=False)
+    with pytest.raises(ValueError, match=r"Body.grounded must name at least one boundary: the scene solves for φ "
+                                         r"\(charges or electrode potentials\)"):
+        ngc.Simulation(elastic, ngc.Loads(qb={"top": 1e-3}))
+    with pytest.raises(ValueError, match="grounded must name at least one boundary"):
+        ngc.Body(mesh, ngc.pzt5a(), supports={"left": "normal"})

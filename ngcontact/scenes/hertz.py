@@ -32,10 +32,11 @@ def material():
     return ngc.Material.isotropic(E, NU, permittivity=1.0, name="hertz")
 
 
-def mesh(dim=2, h_contact=0.02, refine=0, curve=1):
+def mesh(dim=2, h_contact=None, refine=0, curve=1):
     """The half-disk (half-ball) with mesh size h_contact (m) near the contact point over
-    |x| < 0.25 R, coarser away, ``refine`` uniform refinements (nested, boundary points on the
-    circle) and ``mesh.Curve(curve)``."""
+    |x| < 0.25 R (default 0.02 R in 2D, 0.04 R in 3D), coarser away, ``refine`` uniform
+    refinements (nested, boundary points on the circle or sphere) and ``mesh.Curve(curve)``."""
+    h_contact = (0.02 if dim == 2 else 0.04) * R if h_contact is None else h_contact
     if dim == 2:
         shape = Circle(Pnt(0, R), R).Face() * Rectangle(2 * R, R).Face().Move((-R, 0, 0))
         shape.edges.Max(Y).name = "top"
@@ -64,11 +65,11 @@ def mesh(dim=2, h_contact=0.02, refine=0, curve=1):
     return m
 
 
-def simulation(order=1, h_contact=0.02, refine=0, dim=2, depth=None, normal="obstacle", gamma0=10.0, **options):
+def simulation(order=1, h_contact=None, refine=0, dim=2, depth=None, normal="obstacle", gamma0=10.0, **options):
     """The Hertz scene as a Simulation (one step t: 0 -> 1 brings the top down by ``depth``,
-    default 0.02 R in 2D, 0.005 R in 3D); ``normal``: "obstacle" (n_o of the plane) or "body"
+    default 0.02 R in 2D, 0.01 R in 3D; mesh size ``h_contact`` as in ``mesh``); ``normal``: "obstacle" (n_o of the plane) or "body"
     (the paper's form: ν and the gap y/(−ν_y) along it)."""
-    depth = (0.02 if dim == 2 else 0.005) * R if depth is None else depth
+    depth = (0.02 if dim == 2 else 0.01) * R if depth is None else depth
     m = mesh(dim, h_contact, refine, curve=order)
     body = ngc.Body(m, material(), grounded="top", supports={"top": "all"}, contact_side="contact", order=order)
     t = ngs.Parameter(0.0)

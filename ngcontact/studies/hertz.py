@@ -62,21 +62,29 @@ def run(out, orders=(1, 2), levels=4, dim=2, progress=True):
 
 
 def _profile(sim):
-    """(x, λ_h(x), Hertz p(x)) along Γ3 near the contact zone, λ_h at 9 points per facet."""
+    """(r, λ_h(r), Hertz p(r)) on Γ3 near the contact zone: in 2D r = x at 9 points per facet,
+    in 3D r = |(x, y)| at 7 points per triangle (vertices moved 2 % inwards, edge midpoints,
+    centroid)."""
     e = hertz.errors(sim)
-    side, mesh = sim.side, sim.body.mesh
+    side, mesh, dim = sim.side, sim.body.mesh, sim.body.dim
     lam = sim.enforcement.multiplier(sim.u, sim.phi, ngs.CF(0.0))
-    s = np.linspace(0.02, 0.98, 9)
-    points = np.einsum("sk,fkd->fsd", np.stack([1 - s, s], axis=1), side.facet_vertices)
-    keep = np.abs(points[..., 0]).max(axis=1) < 2 * e["a"]
-    points = points[keep].reshape(-1, 2)
+    if dim == 2:
+        s = np.linspace(0.02, 0.98, 9)
+        weights = np.stack([1 - s, s], axis=1)
+    else:
+        weights = np.array([[.96, .02, .02], [.02, .96, .02], [.02, .02, .96], [.5, .5, 0], [0, .5, .5],
+                            [.5, 0, .5], [1 / 3, 1 / 3, 1 / 3]])
+    points = np.einsum("sk,fkd->fsd", weights, side.facet_vertices)
+    radius = np.linalg.norm(points[..., :dim - 1], axis=-1)
+    points = points[radius.max(axis=1) < 2 * e["a"]].reshape(-1, dim)
     # λ_h needs the volume element's stress and the facet's normal: evaluate on the boundary
     # element with the volume element's fields (BoundaryFromVolumeCF)
-    values = ngs.BoundaryFromVolumeCF(lam)(mesh(points[:, 0], points[:, 1], VOL_or_BND=ngs.BND)).ravel()
-    order = np.argsort(points[:, 0])
-    x = points[order, 0]
-    exact = e["p0"] * np.sqrt(np.clip(1 - (x / e["a"]) ** 2, 0, None))
-    return x, values[order], exact
+    values = ngs.BoundaryFromVolumeCF(lam)(mesh(*points.T, VOL_or_BND=ngs.BND)).ravel()
+    r = points[:, 0] if dim == 2 else np.linalg.norm(points[:, :2], axis=1)
+    order = np.argsort(r)
+    r = r[order]
+    exact = e["p0"] * np.sqrt(np.clip(1 - (r / e["a"]) ** 2, 0, None))
+    return r, values[order], exact
 
 
 def _plot(profiles, path):
@@ -88,10 +96,11 @@ def _plot(profiles, path):
     for ax, order in zip(axes[0], orders):
         for normal, width in (("body", 0.8), ("obstacle", 1.6)):
             x, lam, exact = profiles[order, normal]
-            ax.plot(x, lam, lw=width, label=f"λ_h, {normal} normal")
+            ax.plot(x, lam, lw=width, label=f"λ_h, {normal} normal",
+                    **({} if x.min() < 0 else dict(marker=".", ls="none", ms=2)))
         ax.plot(x, exact, "k--", lw=1.5, label="Hertz")
         ax.set_title(f"P{order}, finest mesh")
-        ax.set_xlabel("x (m)")
+        ax.set_xlabel("x (m)" if x.min() < 0 else "distance from the axis r (m)")
         ax.set_ylabel("contact pressure (Pa)")
         ax.legend(fontsize=8, loc="upper right")
     fig.tight_layout()
