@@ -16,6 +16,7 @@ from . import forms
 from .adhesion import BondingField
 from .backward_euler import BackwardEuler
 from .contact_side import ContactSide
+from .electric_part import electric_parts, solves_potential
 from .enforcement import METHODS
 from .linear_solver import DirectSolver, KeptFactorization
 from .loads import Loads, as_cf
@@ -82,11 +83,8 @@ class Simulation:
         self.time = time if time is not None else ngs.Parameter(0.0)
         self.contact, self.keep_states = contact, keep_states
         self.X = body.space()
-        self.electric, self._electric_parts = self._electric_part(electric)
-        if not self.electric:                    # φ = 0: its DOFs are in no solve
-            for dof in range(self.X.Range(1).start, self.X.Range(1).stop):
-                self.X.SetCouplingType(dof, ngs.COUPLING_TYPE.UNUSED_DOF)
-            self.X.FinalizeUpdate()
+        self._electric_parts = electric_parts(body, self.loads, contact)
+        self.electric = solves_potential(electric, self._electric_parts, body)
         self.gfu = ngs.GridFunction(self.X, name="state")
         self.u, self.phi = self.gfu.components
         if realcompile is None:         # where it paid in docs/speed.md (the 3D Γ3 terms cost far more)
@@ -97,6 +95,13 @@ class Simulation:
             self.condense = False
         kept = body.region("contact_side") if contact is not None else None
         self.system = StepSystem(body, self.loads, self.X, self.time, condense=self.condense, kept=kept)
+        if not self.electric:
+            # φ = 0: its DOFs leave the free sets in place (after the step system's last
+            # FinalizeUpdate, which would reset them; UNUSED coupling types would break
+            # static condensation); condensed interior φ DOFs stay 0 (no coupling, no charge)
+            for free in (self.X.FreeDofs(), self.X.FreeDofs(coupling=True)):
+                for dof in range(self.X.Range(1).start, self.X.Range(1).stop):
+                    free.Clear(dof)
         self.gamma3 = self._contact_side(contact) if contact is not None else None
         symmetric = contact is None or contact.symmetric
         self._inverse = inverse or ("sparsecholesky" if symmetric else "umfpack")
@@ -122,27 +127,6 @@ class Simulation:
         self.history = History()
         self.cutbacks = []
         self._start(u0)
-
-    def _electric_part(self, electric):
-        """(whether φ is solved for, the electric parts of the scene), checked."""
-        loads, parts = self.loads, []
-        if self.body.coupled:
-            parts.append("piezoelectric coupling")
-        if self.contact is not None and self.contact.conducts:
-            parts.append("conduction on Γ3")
-        potentials = [v for v in loads.potential.values() if isinstance(v, ngs.CoefficientFunction) or
-                      np.any(np.asarray(v, dtype=float) != 0)]
-        if loads.q0 is not None or loads.qb or potentials:
-            parts.append("charges or electrode potentials")
-        if electric not in (None, True, False):
-            raise ValueError(f"electric must be None, True or False, got {electric!r}")
-        if electric is False and parts:
-            raise ValueError(f"electric=False, but the scene has {', '.join(parts)}: φ must be solved for")
-        solve = bool(parts) if electric is None else electric
-        if solve and not self.body.boundaries["grounded"]:
-            raise ValueError("Body.grounded must name at least one boundary: the scene solves for φ "
-                             f"({', '.join(parts) or 'electric=True'})")
-        return solve, parts
 
     @property
     def model(self):

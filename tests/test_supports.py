@@ -179,3 +179,20 @@ def test_a_scene_without_electric_part_solves_u_alone():
         ngc.Simulation(elastic, ngc.Loads(qb={"top": 1e-3}))
     with pytest.raises(ValueError, match="grounded must name at least one boundary"):
         ngc.Body(mesh, ngc.pzt5a(), supports={"left": "normal"})
+
+
+def test_two_electrodes_each_carry_their_charge():
+    """A dielectric square between two electrodes at 0 V (bottom) and V(t) (top), the sides
+    charge-free: a parallel-plate capacitor, Q_top = ε V L / H = −Q_bottom per metre of depth
+    (the field is uniform, so P1 is exact)."""
+    eps, L, volts = 1e-9, 1.0, 100.0
+    t = ngs.Parameter(0.0)
+    body = ngc.Body(square(), ngc.Material.isotropic(E, NU, permittivity=eps), clamped="left",
+                    grounded="top|bottom")
+    sim = ngc.Simulation(body, ngc.Loads(potential={"top": volts * t}), time=t)
+    assert sim.model == "u and φ (charges or electrode potentials)"
+    sim.run(0.5, 1.0)
+    for record in sim.history:
+        charge = eps * volts * record.time * L / L
+        assert record.electrode_charge["top"] == pytest.approx(charge, rel=1e-9, abs=1e-20)
+        assert record.electrode_charge["bottom"] == pytest.approx(-charge, rel=1e-9, abs=1e-20)
