@@ -65,6 +65,17 @@ class ContactSide:
             self.facet_vertex_numbers[order[facets.GetDofNrs(el)[0]]] = [v.nr for v in el.vertices]
         self.facet_vertices = points[self.facet_vertex_numbers]
         self.midpoints = self.facet_vertices.mean(axis=1)
+        # the Gauss points of the residual's order 2p on each facet (B^h's order)
+        rule = ngs.IntegrationRule(ngs.SEGM if self.dim == 2 else ngs.TRIG, 2 * max(body.order, body.order_phi))
+        nq = len(rule.points)
+        index = np.zeros((self.B.ndof, nq), dtype=int)
+        for el in elements:
+            index[order[facets.GetDofNrs(el)[0]]] = el.nr * nq + np.arange(nq)
+        self._gauss = mesh.MapToAllElements(rule, ngs.BND)[index.ravel()]
+        self.gauss_points = np.stack([c(self._gauss).ravel() for c in (ngs.x, ngs.y, ngs.z)[:self.dim]],
+                                     axis=-1).reshape(self.B.ndof, nq, self.dim)
+        weights = np.array(rule.weights)
+        self.gauss_weights = np.outer(self.measure, weights / weights.sum())   # m (m² in 3D) per point
         n = ngs.specialcf.normal(self.dim)
         self.normals = np.array([self.project(n[i]) for i in range(self.dim)]).T
         # sample points: 2p + 1 equidistant points per edge in 2D; vertices, centroid and
@@ -108,6 +119,11 @@ class ContactSide:
         integrals of a LinearForm: ``Integrate`` over ``ds(skeleton=True)`` does not take
         GridFunction gradients from the volume element.)"""
         return float(self._integrate(cf).sum())
+
+    def at_gauss_points(self, cf):
+        """cf at ``gauss_points`` (facets × points), with the volume element's fields (stresses,
+        so that a Nitsche multiplier can be evaluated) and the facet's normal."""
+        return ngs.BoundaryFromVolumeCF(cf)(self._gauss).reshape(self.gauss_points.shape[:2])
 
     def sample(self, cf):
         """cf at the sample points (facets × points per facet), evaluated on each facet of

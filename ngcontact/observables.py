@@ -140,6 +140,7 @@ class Recorder:
                       contact_area=ngs.IfPos(pressure, 1, 0),
                       complementarity=ngs.IfPos(lam * opening, lam * opening, -lam * opening))
         residual = ("pressure", "multiplier", "contact_area", "complementarity")   # as R_Γ3 integrates
+        self._multiplier = lam
         return {name: g.side.facet_integrals(cf, "residual" if name in residual else "exact")
                 for name, cf in fields.items()}
 
@@ -175,4 +176,5 @@ class Recorder:
             charge_flux=flux[-1], contact_area=integrals["contact_area"].sum(),
             max_penetration=float((side.normal_displacement(u, g.sampled_normal) - side.sample(g.gap)).max()),
             complementarity=integrals["complementarity"].sum(), force=np.array(flux[:-1]),
+            multiplier_points=side.at_gauss_points(self._multiplier),
             beta_clipped=g.beta.clipped)

@@ -36,6 +36,9 @@ class ContactRecord:
     force : ∫_Γ3 σν da, the force of the foundation on the body (N; N/m in 2D), from the
         residual's Γ3 terms, so that it balances the reaction and the loads to the Newton
         tolerance.
+    multiplier_points : λ_h itself at the Gauss points of the residual's order on each facet
+        (facets × points, Pa; the points are ``ContactSide.gauss_points``, their weights
+        ``gauss_weights``): what a facet average hides, such as a sawtooth inside facets.
     """
     pressure: np.ndarray
     multiplier: np.ndarray
@@ -50,6 +53,7 @@ class ContactRecord:
     complementarity: float
     force: np.ndarray
     beta_clipped: int
+    multiplier_points: np.ndarray = None
 
 
 @dataclass
