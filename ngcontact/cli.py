@@ -21,6 +21,8 @@ def parser():
                       help="number of time steps over the load history, 0 to 0.5 s (default 200)")
     demo.add_argument("--theta", type=int, default=1, choices=(1, 0, -1), help="Nitsche variant")
     demo.add_argument("--gamma0", type=float, default=10.0, help="Nitsche parameter γ0 (default 10)")
+    demo.add_argument("--resume", action="store_true",
+                      help="continue the run interrupted in OUT/run (same settings) instead of starting again")
 
     conv = commands.add_parser("convergence", help="order-convergence study against (4.12): "
                                "errors.csv and charts")
@@ -88,7 +90,7 @@ def main(argv=None):
     if args.command == "demo":
         from . import demo
         demo.run(order=args.order, out=args.out, maxh=args.maxh, steps=args.steps, theta=args.theta,
-                 gamma0=args.gamma0)
+                 gamma0=args.gamma0, resume=args.resume)
     elif args.command == "convergence":
         from .studies import convergence
         convergence.command(args.orders, args.levels, args.case, args.smoothness, args.dt_halvings, args.out)

@@ -1,6 +1,7 @@
 """The demo: the reference scene run through its whole load history, a line per step, then
 summary.json and charts (``python -m ngcontact demo``)."""
 import json
+import shutil
 import time as wallclock
 from contextlib import nullcontext
 
@@ -18,9 +19,11 @@ HEADER = (f"{'step':>5} {'t [s]':>7} {'newton':>6} {'contact [mm]':>12} {'p_max 
           f"{'beta_min':>8} {'charge flux [C/m]':>17}")
 
 
-def run(order=1, out="results", maxh=0.005, steps=200, theta=1, gamma0=10.0):
+def run(order=1, out="results", maxh=0.005, steps=200, theta=1, gamma0=10.0, resume=False):
     """Run the reference scene (``scenes.reference``) over its load history in ``steps``
-    time steps, print a line per step, write summary.json and charts into ``out``.
+    time steps, print a line per step, write summary.json and charts into ``out``. Every
+    step is streamed into ``out/run`` as it is computed (``ngcontact.results``); ``resume``
+    continues a run interrupted there (same settings) instead of starting again.
 
     Parameters
     ----------
@@ -41,27 +44,31 @@ def run(order=1, out="results", maxh=0.005, steps=200, theta=1, gamma0=10.0):
     """
     if int(steps) != steps or steps < 1:
         raise ValueError(f"steps must be an integer >= 1, got {steps}")
+    if resume not in (True, False):
+        raise ValueError(f"resume must be True or False, got {resume!r}")
     out = writable_directory(out)
     sim = reference.simulation(order, maxh, contact=reference.contact(theta, gamma0))
     body, mesh = sim.body, sim.body.mesh
     tip = mesh(reference.L1, 0.0)
-    pressure = reference.pressure(sim.time)
     print(f"{body}, solver {sim.solver}\n{HEADER}")
-    rows = []
+    if resume:
+        if not (out / "run" / "run.json").exists():
+            raise ValueError(f"resume: {str(out / 'run')!r} holds no run to continue; run without --resume")
+        sim.resume(out / "run")
+        print(f"resumed at step {len(sim.history) - 1}, t = {sim.t:.4f} s")
+    elif (out / "run").exists():
+        shutil.rmtree(out / "run")                   # a new run replaces the old one
 
     def report(rec):
         c = rec.contact
-        rows.append(dict(times=rec.time, load=pressure(tip), newton_iterations=int(rec.newton_iterations),
-                         contact_length=c.contact_area, max_pressure=max(c.pressure.max(), 0.0),
-                         charge_flux=c.charge_flux, tip_deflection=sim.u(tip)[1],
-                         reaction_y=float(rec.reaction[1]), contact_force_y=float(c.force[1]),
-                         max_penetration=c.max_penetration))
         write(f"{rec.step:5d} {rec.time:7.4f} {rec.newton_iterations:6d} {1e3 * c.contact_area:12.3f} "
-              f"{1e-6 * rows[-1]['max_pressure']:11.3f} {c.beta.min():8.4f} {c.charge_flux:+17.4e}")
+              f"{1e-6 * max(c.pressure.max(), 0.0):11.3f} {c.beta.min():8.4f} {c.charge_flux:+17.4e}")
     start = wallclock.perf_counter()
+    T = reference.LOAD_HISTORY[-1][0]
     with ngs.TaskManager() if body.ndof >= THREADS_FROM else nullcontext():
-        history = sim.run(reference.LOAD_HISTORY[-1][0] / steps, reference.LOAD_HISTORY[-1][0], on_step=report)
+        history = sim.run(T / steps, T, on_step=report, out=out / "run")
     wall = wallclock.perf_counter() - start
+    rows = [_row(sim, n, rec, tip) for n, rec in enumerate(history) if n > 0]
     columns = {key: [row[key] for row in rows] for key in rows[0]}
     max_penetration = max(columns.pop("max_penetration"))
     peak = 1 + int(np.argmax(columns["contact_length"]))
@@ -77,6 +84,17 @@ def run(order=1, out="results", maxh=0.005, steps=200, theta=1, gamma0=10.0):
     print(f"{len(rows)} steps, ndof {body.ndof}, {sum(columns['newton_iterations'])} Newton iterations, "
           f"wall {wall:.2f} s; results in {out}")
     return summary
+
+
+def _row(sim, n, rec, tip):
+    """The summary's values of step n (record ``rec``), from the record and its kept state."""
+    c = rec.contact
+    load = reference.PRESSURE * float(np.interp(rec.time, *zip(*reference.LOAD_HISTORY)))
+    return dict(times=rec.time, load=load, newton_iterations=int(rec.newton_iterations),
+                contact_length=c.contact_area, max_pressure=max(c.pressure.max(), 0.0),
+                charge_flux=c.charge_flux, tip_deflection=sim.state(n).components[0](tip)[1],
+                reaction_y=float(rec.reaction[1]), contact_force_y=float(c.force[1]),
+                max_penetration=c.max_penetration)
 
 
 def _plot_overview(path, columns, history):

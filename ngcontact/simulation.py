@@ -12,8 +12,9 @@ import ngsolve as ngs
 import numpy as np
 import scipy.sparse as sp
 
-from . import forms
+from . import forms, results
 from .adhesion import BondingField
+from .admissible import check_gap, check_supports_at_start
 from .backward_euler import BackwardEuler
 from .contact_side import ContactSide
 from .electric_part import electric_parts, solves_potential
@@ -147,7 +148,7 @@ class Simulation:
         foundation_potential = as_cf(contact.foundation_potential, 1, "Contact.foundation_potential")
         gamma3 = Gamma3(side, contact, None, None, gap, foundation_potential, normal, sampled_normal)
         self.time.Set(0.0)
-        self._check_gap(gamma3, 0.0)
+        check_gap(self.body, gamma3, 0.0)
         if sampled_normal is not None:
             length = np.linalg.norm(side.sample(normal), axis=-1)
             if np.abs(length - 1).max() > 1e-8:
@@ -162,24 +163,6 @@ class Simulation:
                                        normal)
         self.system.add_boundary_terms(terms, side, realcompile=self.realcompile)
         return Gamma3(side, contact, enforcement, beta, gap, foundation_potential, normal, sampled_normal)
-
-    def _check_gap(self, gamma3, t):
-        """The gap must be >= 0 on Γ3 (to 1e-8 of the body's size) at time t (the time
-        Parameter set to it): on the facets, with the facet normals (a gap written with
-        ``specialcf.normal`` is zero inside elements), and at the sample points. With an
-        obstacle this is its intersection with the body, checked at t = 0 only: a moving
-        obstacle may then be driven into the body."""
-        side, gap = gamma3.side, gamma3.gap
-        points = self.body.mesh.ngmesh.Points()
-        coordinates = np.array([p.p[:self.body.dim] for p in points])
-        tolerance = 1e-8 * np.linalg.norm(coordinates.max(axis=0) - coordinates.min(axis=0))
-        negative = max(side.project(ngs.IfPos(-gap, -gap, 0.0)).max(),
-                       0.0 if gamma3.sampled_normal is None else -side.sample(gap).min())
-        if negative > tolerance:
-            what = ("Contact.obstacle intersects the body at t = 0" if gamma3.contact.obstacle is not None
-                    else f"Contact.gap must be >= 0 on Γ3 at t = {t:.6g} s")
-            raise ValueError(f"{what}: the gap reaches {-negative:.3g} m (tolerance {tolerance:.2g} m, 1e-8 of "
-                             "the body's size)")
 
     def __repr__(self):
         contact = "none" if self.contact is None else self.contact.method
@@ -226,7 +209,7 @@ class Simulation:
         start, timings = wallclock.perf_counter(), Timings()
         # φ0 with u = u0 held: the potential's free DOFs only, with the terms of a step of 1 s
         self.system.begin_step(0.0, 1.0, self.u.vec, self.gfu)
-        self._check_supports_at_start(given)
+        check_supports_at_start(self.body, self.u, given)
         phi_only = ngs.BitArray(self.X.FreeDofs())
         phi_only[self.X.Range(0)] = False
         if self.electric:
@@ -238,16 +221,6 @@ class Simulation:
             self.system.Apply(self.gfu.vec, residual)
             result = NewtonResult(0, [0.0], residual)
         self.history.append(self._record(0, result, start, timings))
-
-    def _check_supports_at_start(self, given):
-        """u0 (0 if not given) must equal the supports' prescribed displacements at t = 0."""
-        held = ~np.array(list(self.body.V.FreeDofs()), dtype=bool)
-        prescribed = self.u.vec.FV().NumPy()[held]
-        scale = max(np.abs(prescribed).max(initial=0.0), np.abs(given).max(initial=0.0))
-        if self.body.supports and np.abs(prescribed - given).max(initial=0.0) > 1e-8 * scale + 1e-14:
-            raise ValueError("u0 must equal Loads.displacement on the supports at t = 0; they differ by "
-                             f"up to {np.abs(prescribed - given).max():.3g} m: start the prescribed "
-                             "displacements from 0 or pass a matching u0")
 
     def _record(self, n, result, start, timings):
         """The StepRecord of step n, with its wall time since ``start`` split into ``timings``."""
@@ -271,7 +244,7 @@ class Simulation:
             if self.contact is not None and self.contact.obstacle is None and \
                     isinstance(self.contact.gap, ngs.CoefficientFunction):
                 self.time.Set(self.t + dt)                  # the gap at t_n, before the solve
-                self._check_gap(self.gamma3, self.t + dt)
+                check_gap(self.body, self.gamma3, self.t + dt)
             result = self.scheme.advance(dt, step=n, timer=timings)
             record = self._record(n, result, start, timings)
         except BaseException:
@@ -312,7 +285,7 @@ class Simulation:
             on_step(record)
         return [record]
 
-    def run(self, dt, T, *, max_cutbacks=6, progress=False, vtk=None, on_step=None):
+    def run(self, dt, T, *, max_cutbacks=6, progress=False, vtk=None, on_step=None, out=None):
         """Step from the current time to T (s) with nominal steps dt (s); returns the History.
 
         max_cutbacks : the cut-back policy of ``advance`` for each nominal step (the next
@@ -321,6 +294,9 @@ class Simulation:
         vtk : file name stem for NGSolve's VTKOutput of u and φ (one file per step), or None.
         on_step : called with each new StepRecord, right after its step (cut-back steps
             included).
+        out : a directory to stream every step into as it is computed (``results``: records,
+            restart state, ParaView series); after ``resume(out)``, the same dt and T continue
+            the interrupted run on its own nominal steps.
         If a step fails even at the smallest cut-back, the NewtonError is raised with
         ``error.history`` holding every step computed so far (also in ``history``).
         """
@@ -329,9 +305,15 @@ class Simulation:
         if not T > self.t:
             raise ValueError(f"final time T must be > the current time {self.t} s, got {T}")
         _check_cutbacks(max_cutbacks)
-        start = self.t
+        resumed = getattr(self, "_resumed", None)
+        start = resumed["start"] if resumed and (resumed["dt"], resumed["T"]) == (dt, T) else self.t
         steps = int(np.ceil((T - start) / dt - 1e-9))
         callbacks = [on_step] if on_step else []
+        if out is not None:
+            stream = results.Stream(self, out, dt, T, start)
+            if resumed is None:
+                stream(self.history[-1])                 # the state the run starts from
+            callbacks.insert(0, stream)
         if vtk:
             writer = ngs.VTKOutput(self.body.mesh, coefs=[self.u, self.phi], names=["displacement", "potential"],
                                    filename=str(vtk), subdivision=max(self.body.order, self.body.order_phi) - 1)
@@ -343,14 +325,26 @@ class Simulation:
                 callback(record)
         with bar(steps, "time steps", progress) as shown:
             for i in range(steps):
+                target = start + (T - start) * (i + 1) / steps
+                if target <= self.t * (1 + 1e-12):      # reached before a resume
+                    shown.update(1)
+                    continue
                 try:
-                    records = self.advance(start + (T - start) * (i + 1) / steps, max_cutbacks, after)
+                    records = self.advance(target, max_cutbacks, after)
                 except NewtonError as err:
                     err.history = self.history
                     raise
                 shown.set_postfix_str(f"t = {self.t:.4g} s, newton {records[-1].newton_iterations}")
                 shown.update(1)
         return self.history
+
+    def resume(self, directory):
+        """Continue a run streamed into ``directory`` (``run(..., out=directory)``) that was
+        interrupted: its last step on disk becomes this simulation's state and history (the
+        simulation must be of the same scene, freshly built). Then ``run(dt, T, out=directory)``
+        with the run's dt and T computes the rest. Returns self."""
+        results.restore(self, directory)
+        return self
 
     # ----------------------------------------------------------------------- reading the state
     def state(self, n):

@@ -1,0 +1,37 @@
+"""Admissible data: the gap on Γ3 (or an obstacle) and the supports' values at t = 0.
+
+Checked before any step is solved, each failure a ValueError naming the parameter, the value
+and the tolerance.
+"""
+import ngsolve as ngs
+import numpy as np
+
+
+def check_gap(body, gamma3, t):
+    """The gap must be >= 0 on Γ3 (to 1e-8 of the body's size) at time t (the time Parameter
+    set to it): on the facets, with the facet normals (a gap written with
+    ``specialcf.normal`` is zero inside elements), and at the sample points. With an obstacle
+    this is its intersection with the body, checked at t = 0 only: a moving obstacle may then
+    be driven into the body."""
+    side, gap = gamma3.side, gamma3.gap
+    coordinates = np.array([p.p[:body.dim] for p in body.mesh.ngmesh.Points()])
+    tolerance = 1e-8 * np.linalg.norm(coordinates.max(axis=0) - coordinates.min(axis=0))
+    negative = max(side.project(ngs.IfPos(-gap, -gap, 0.0)).max(),
+                   0.0 if gamma3.sampled_normal is None else -side.sample(gap).min())
+    if negative > tolerance:
+        what = ("Contact.obstacle intersects the body at t = 0" if gamma3.contact.obstacle is not None
+                else f"Contact.gap must be >= 0 on Γ3 at t = {t:.6g} s")
+        raise ValueError(f"{what}: the gap reaches {-negative:.3g} m (tolerance {tolerance:.2g} m, 1e-8 of "
+                         "the body's size)")
+
+
+def check_supports_at_start(body, u, given):
+    """u0 (``given`` at the held DOFs, 0 if not given) must equal the supports' prescribed
+    displacements at t = 0, which ``u`` holds."""
+    held = ~np.array(list(body.V.FreeDofs()), dtype=bool)
+    prescribed = u.vec.FV().NumPy()[held]
+    scale = max(np.abs(prescribed).max(initial=0.0), np.abs(given).max(initial=0.0))
+    if body.supports and np.abs(prescribed - given).max(initial=0.0) > 1e-8 * scale + 1e-14:
+        raise ValueError("u0 must equal Loads.displacement on the supports at t = 0; they differ by "
+                         f"up to {np.abs(prescribed - given).max():.3g} m: start the prescribed "
+                         "displacements from 0 or pass a matching u0")
