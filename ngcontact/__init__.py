@@ -6,6 +6,7 @@ boundaries), ``ngcontact.scenes`` (ready scenes and manufactured solutions) and
 ``ngcontact.contact_laws`` (the laws p, R_ν, φ_L, ψ) are public modules too.
 """
 from . import contact_laws
+from .admissible import PhysicsWarning
 from .body import Body
 from .contact import Contact
 from .enforcement import METHODS
@@ -17,4 +18,4 @@ from .simulation import Simulation
 from .webgui import save_html
 
 __all__ = ["Body", "Contact", "Loads", "Material", "Simulation", "History", "StepRecord", "ContactRecord",
-           "NewtonError", "METHODS", "EPS0", "academic", "pzt5a", "batio3", "save_html", "contact_laws"]
+           "NewtonError", "PhysicsWarning", "METHODS", "EPS0", "academic", "pzt5a", "batio3", "save_html", "contact_laws"]

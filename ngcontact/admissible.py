@@ -35,3 +35,37 @@ def check_supports_at_start(body, u, given):
         raise ValueError("u0 must equal Loads.displacement on the supports at t = 0; they differ by "
                          f"up to {np.abs(prescribed - given).max():.3g} m: start the prescribed "
                          "displacements from 0 or pass a matching u0")
+
+
+class PhysicsWarning(UserWarning):
+    """A computed step that makes no physical sense for the model (``flags``)."""
+
+
+PENETRATION_LIMIT = 0.1      # of the smallest facet of Γ3
+DISPLACEMENT_LIMIT = 0.05    # of the body's size (small strain)
+
+
+def flags(body, record, u, side=None):
+    """What in a computed step makes no physical sense for the model, as messages naming the
+    step, the quantity, its value and the threshold: penetration into the foundation beyond
+    ``PENETRATION_LIMIT`` of the smallest facet of Γ3 (the contact law is not met), a
+    displacement beyond ``DISPLACEMENT_LIMIT`` of the body's size (the small-strain model
+    does not hold), non-finite fields."""
+    found = []
+    values = u.vec.FV().NumPy()
+    if not np.all(np.isfinite(values)):
+        found.append(f"step {record.step}: the displacement has NaN or inf entries")
+        return found
+    coordinates = np.array([p.p[:body.dim] for p in body.mesh.ngmesh.Points()])
+    size = np.linalg.norm(coordinates.max(axis=0) - coordinates.min(axis=0))
+    largest = np.abs(values).max(initial=0.0)
+    if largest > DISPLACEMENT_LIMIT * size:
+        found.append(f"step {record.step} (t = {record.time:.6g} s): displacement {largest:.3g} m exceeds "
+                     f"{DISPLACEMENT_LIMIT:g} of the body's size {size:.3g} m: the small-strain model does not hold")
+    if record.contact is not None and side is not None:
+        facet = side.measure.min() ** (1 / (body.dim - 1))
+        if record.contact.max_penetration > PENETRATION_LIMIT * facet:
+            found.append(f"step {record.step} (t = {record.time:.6g} s): penetration {record.contact.max_penetration:.3g}"
+                         f" m exceeds {PENETRATION_LIMIT:g} of the smallest facet of Γ3 ({facet:.3g} m): the "
+                         "contact law is not met (a larger γ0 or penalty, or a finer mesh)")
+    return found

@@ -11,6 +11,7 @@ Boundaries are named as in the Netgen mesh; a part may list several names joined
 """
 import ngsolve as ngs
 
+from .checks import integer
 from .materials import Material
 from .supports import dirichlet_flags, parse as parse_supports
 
@@ -55,8 +56,7 @@ class Body:
             raise TypeError(f"material must be an ngcontact.Material, got {type(material).__name__}")
         order_phi = order if order_phi is None else order_phi
         for name, p in (("order", order), ("order_phi", order_phi)):
-            if int(p) != p or p < 1:
-                raise ValueError(f"{name} must be an integer >= 1, got {p}")
+            integer(name, p, 1)
         self.mesh = mesh
         self.dim = mesh.dim
         self.material = material
@@ -65,6 +65,8 @@ class Body:
         existing = set(mesh.GetBoundaries())
         self.boundaries = {}
         for part, names in (("clamped", clamped), ("grounded", grounded), ("contact_side", contact_side)):
+            if names is not None and not isinstance(names, str):
+                raise TypeError(f"{part} must name boundaries in a string ('left' or 'left|top'), got {names!r}")
             listed = split_names(names)
             missing = [n for n in listed if n not in existing]
             if missing:

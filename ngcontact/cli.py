@@ -3,6 +3,7 @@
 It parses the arguments and calls ``demo.run`` or a study's command; nothing else.
 """
 import argparse
+import sys
 
 
 def parser():
@@ -63,7 +64,7 @@ def parser():
     bench.add_argument("--steps", metavar="N", type=int, default=10,
                        help="time steps per case (default 10: first contact and its spreading)")
     bench.add_argument("--dt", metavar="DT", type=float, default=2.5e-3, help="time step, s")
-    bench.add_argument("--inverse", choices=("umfpack", "pardiso", "sparsecholesky"),
+    bench.add_argument("--inverse", choices=("umfpack", "sparsecholesky"),
                        help="direct solver (default: sparsecholesky if symmetric, else umfpack)")
     bench.add_argument("--realcompile", choices=("auto", "yes", "no"), default="auto",
                        help="compile the Γ3 integrand to machine code (auto: ndof >= 50 000 in 2D, 2 000 in 3D)")
@@ -84,8 +85,19 @@ def parser():
 
 
 def main(argv=None):
-    """Entry point of ``python -m ngcontact`` and of the ``ngcontact`` script."""
+    """Entry point of ``python -m ngcontact`` and of the ``ngcontact`` script. Bad input
+    (a ValueError or TypeError naming the parameter) prints that one line and exits with
+    status 2, as argparse does for its own errors."""
     args = parser().parse_args(argv)
+    try:
+        _dispatch(args)
+    except (ValueError, TypeError) as err:
+        print(f"ngcontact {args.command}: error: {err}", file=sys.stderr)
+        sys.exit(2)
+
+
+def _dispatch(args):
+    """Call the command's function."""
     choice = dict(auto=None, yes=True, no=False)
     if args.command == "demo":
         from . import demo

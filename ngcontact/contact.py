@@ -4,6 +4,7 @@ from dataclasses import dataclass
 import ngsolve as ngs
 
 from . import contact_laws as laws
+from .checks import number
 from .enforcement import METHODS
 from .obstacles import OBSTACLES
 
@@ -65,23 +66,26 @@ class Contact:
         if self.method not in METHODS:
             raise ValueError(f"Contact.method must be one of {', '.join(map(repr, METHODS))}, "
                              f"got {self.method!r}")
-        if not self.penalty > 0:
-            raise ValueError(f"Contact.penalty must be > 0, got {self.penalty}")
-        if self.theta not in (1, 0, -1):
-            raise ValueError(f"Contact.theta must be 1, 0 or -1, got {self.theta}")
-        if not self.gamma0 > 0:
-            raise ValueError(f"Contact.gamma0 (Nitsche parameter) must be > 0, got {self.gamma0}")
+        number("Contact.penalty", self.penalty, 0, low_open=True)
+        if isinstance(self.theta, bool) or self.theta not in (1, 0, -1):
+            raise ValueError(f"Contact.theta must be 1, 0 or -1, got {self.theta!r}")
+        number("Contact.gamma0 (Nitsche parameter)", self.gamma0, 0, low_open=True)
+        number("Contact.bond_length", self.bond_length, 0, low_open=True, unit="m")
+        number("Contact.ramp_width", self.ramp_width, 0, low_open=True, unit="m")
+        number("Contact.potential_truncation", self.potential_truncation, 0, low_open=True, unit="V")
+        for name in ("compliance", "conductance"):
+            if not callable(getattr(self, name)) and not isinstance(getattr(self, name), ngs.CoefficientFunction):
+                number(f"Contact.{name}", getattr(self, name), 0)
+        if not isinstance(self.foundation_potential, ngs.CoefficientFunction):
+            number("Contact.foundation_potential", self.foundation_potential, unit="V")
         if self.beta_update not in ("explicit", "implicit"):
             raise ValueError(f"Contact.beta_update must be 'explicit' or 'implicit', got {self.beta_update!r}")
         for name in ("adhesion", "eps_a"):
-            if not getattr(self, name) >= 0:
-                raise ValueError(f"Contact.{name} must be >= 0, got {getattr(self, name)}")
-        for name in ("gap", "beta0"):
-            value = getattr(self, name)
-            if not isinstance(value, ngs.CoefficientFunction):
-                low, high = (0, float("inf")) if name == "gap" else (0, 1)
-                if not low <= value <= high:
-                    raise ValueError(f"Contact.{name} must lie in [{low}, {high}], got {value}")
+            number(f"Contact.{name}", getattr(self, name), 0)
+        if not isinstance(self.gap, ngs.CoefficientFunction):
+            number("Contact.gap", self.gap, 0, unit="m")
+        if not isinstance(self.beta0, ngs.CoefficientFunction):
+            number("Contact.beta0", self.beta0, 0, 1)
         if self.obstacle is not None:
             if not isinstance(self.obstacle, OBSTACLES):
                 raise TypeError("Contact.obstacle must be an ngcontact.obstacles Plane, Cylinder, Sphere or "
@@ -101,6 +105,18 @@ class Contact:
         self.phi_L = laws.potential_truncation(self.potential_truncation)
         self.psi = self.conductance if callable(self.conductance) else \
             laws.conductance_ramp(self.conductance, self.ramp_width)
+
+    def coefficients(self):
+        """(name, CoefficientFunction) of its data, for the checks of ``Simulation``."""
+        named = [("Contact.gap", self.gap), ("Contact.foundation_potential", self.foundation_potential),
+                 ("Contact.beta0", self.beta0)]
+        obstacle = self.obstacle
+        for attribute in ("point", "center", "distance", "normal"):
+            value = getattr(obstacle, attribute, None) if obstacle is not None else None
+            if value is not None:
+                named += [(f"Contact.obstacle.{attribute}", v)
+                          for v in (value if isinstance(value, (tuple, list)) else [value])]
+        return [(n, v) for n, v in named if isinstance(v, ngs.CoefficientFunction)]
 
     @property
     def conducts(self):

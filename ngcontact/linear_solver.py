@@ -22,10 +22,13 @@ terms, e.g. a new time step size; ``weights`` per DOF for GMRES's inner product)
 import time as wallclock
 from contextlib import nullcontext
 
+import ngsolve.config
 import numpy as np
 
-NAMES = ("sparsecholesky", "umfpack", "pardiso")
-"""The direct solvers (NGSolve's ``inverse=`` names)."""
+
+NAMES = ("sparsecholesky", "umfpack") + (("pardiso",) if ngsolve.config.USE_PARDISO else ())
+"""The direct solvers of this NGSolve build (``inverse=`` names; "pardiso" only where NGSolve
+was built with MKL, which the PyPI wheel is not)."""
 
 
 def untimed(phase):

@@ -8,12 +8,19 @@ q0 in C/m³, qb in C/m², potentials in V, displacements in m.
 from dataclasses import dataclass, field
 
 import ngsolve as ngs
+import numpy as np
 
 from .body import split_names
+from .checks import number
 
 
 def as_cf(value, dim=None, name="value"):
     """A number / tuple / CoefficientFunction as a CoefficientFunction of ``dim`` components."""
+    if not isinstance(value, ngs.CoefficientFunction):
+        items = value if isinstance(value, (tuple, list)) else (value,)
+        for item in items:
+            if not isinstance(item, ngs.CoefficientFunction):
+                number(name, item)
     cf = value if isinstance(value, ngs.CoefficientFunction) else ngs.CF(
         tuple(value) if isinstance(value, (tuple, list)) else value)
     if dim is not None and cf.dim != dim:
@@ -30,6 +37,32 @@ class Loads:
     qb: dict = field(default_factory=dict)
     potential: dict = field(default_factory=dict)
     displacement: dict = field(default_factory=dict)
+
+    def coefficients(self):
+        """(name, value) of every entry, for the checks of ``Simulation``."""
+        named = [("Loads.f0", self.f0), ("Loads.q0", self.q0)]
+        for entry in ("f2", "qb", "potential", "displacement"):
+            named += [(f"Loads.{entry}[{key!r}]", value) for key, value in getattr(self, entry).items()]
+        out = []
+        for name, value in named:
+            values = value if isinstance(value, (tuple, list)) else [value]
+            out += [(name, v) for v in values if isinstance(v, ngs.CoefficientFunction)]
+        return out
+
+    def nonfinite(self, body):
+        """The name of the first entry that is not finite on its region at the current value of
+        the time Parameter, or None."""
+        mesh = body.mesh
+        entries = [("f0", self.f0, ngs.dx), ("q0", self.q0, ngs.dx)]
+        for entry in ("f2", "qb", "potential", "displacement"):
+            entries += [(f"{entry}[{key!r}]", value, ngs.ds(mesh.Boundaries(key)))
+                        for key, value in getattr(self, entry).items()]
+        for name, value, measure in entries:
+            if value is not None:
+                cf = as_cf(value, None, f"Loads.{name}")
+                if not np.isfinite(ngs.Integrate(ngs.InnerProduct(cf, cf) * measure, mesh)):
+                    return f"Loads.{name}"
+        return None
 
     def check(self, body):
         """Each boundary key must lie on its part of ∂Ω: f2 on Γ2 (and the supports that leave

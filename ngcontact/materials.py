@@ -22,6 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .checks import number
+
 EPS0 = 8.8541878128e-12
 """Vacuum permittivity ε0 in F/m."""
 
@@ -140,6 +142,12 @@ class Material:
         """Isotropic elasticity (Young's modulus E in Pa, Poisson ratio nu), isotropic
         permittivity (F/m), transversely isotropic piezo coupling (C/m²), and isotropic
         viscosity A ε = 2 viscosity ε + bulk_viscosity tr(ε) I (Pa·s)."""
+        E, nu = number("E", E, 0, low_open=True, unit="Pa"), number("nu", nu, -1, 0.5, low_open=True, high_open=True)
+        permittivity = number("permittivity", permittivity, 0, low_open=True, unit="F/m")
+        for key, value in dict(e31=e31, e33=e33, e15=e15).items():
+            number(key, value, unit="C/m²")
+        for key, value in dict(viscosity=viscosity, bulk_viscosity=bulk_viscosity).items():
+            number(key, value, 0, unit="Pa·s")
         return cls(c=isotropic_stiffness(E, nu), e=transversely_isotropic_piezo(e31, e33, e15),
                    eps=permittivity * np.eye(3),
                    eta=lame_stiffness(bulk_viscosity, viscosity, "bulk_viscosity", "viscosity"),
@@ -147,8 +155,7 @@ class Material:
 
     def with_viscosity(self, relaxation_time):
         """The same material with proportional (Kelvin-Voigt) viscosity A = τ F, τ in s."""
-        if not relaxation_time >= 0:
-            raise ValueError(f"relaxation_time must be >= 0 s, got {relaxation_time}")
+        relaxation_time = number("relaxation_time", relaxation_time, 0, unit="s")
         return Material(self.c, self.e, self.eps, relaxation_time * self.c, self.poling, self.name)
 
     def tensors(self, dim):
@@ -227,7 +234,7 @@ def academic(relaxation_time=0.0):
     """
     c = lame_stiffness(105e9, 45e9)
     return Material(c, transversely_isotropic_piezo(-0.61, 1.14, -0.59),
-                    np.diag([8.3, 8.3, 8.8]) * EPS0, relaxation_time * c, name="academic")
+                    np.diag([8.3, 8.3, 8.8]) * EPS0, number("relaxation_time", relaxation_time, 0, unit="s") * c, name="academic")
 
 
 def pzt5a(relaxation_time=0.0):
@@ -242,7 +249,7 @@ def pzt5a(relaxation_time=0.0):
     """
     c = transversely_isotropic_stiffness(121e9, 75.4e9, 75.2e9, 111e9, 21.1e9, 22.6e9)
     return Material(c, transversely_isotropic_piezo(-5.4, 15.8, 12.3),
-                    np.diag([916.0, 916.0, 830.0]) * EPS0, relaxation_time * c, name="PZT-5A")
+                    np.diag([916.0, 916.0, 830.0]) * EPS0, number("relaxation_time", relaxation_time, 0, unit="s") * c, name="PZT-5A")
 
 
 def batio3(relaxation_time=0.0):
@@ -256,4 +263,4 @@ def batio3(relaxation_time=0.0):
     """
     c = transversely_isotropic_stiffness(166e9, 77e9, 78e9, 162e9, 43e9)
     return Material(c, transversely_isotropic_piezo(-4.4, 18.6, 11.6),
-                    np.diag([11.2e-9, 11.2e-9, 12.6e-9]), relaxation_time * c, name="BaTiO3")
+                    np.diag([11.2e-9, 11.2e-9, 12.6e-9]), number("relaxation_time", relaxation_time, 0, unit="s") * c, name="BaTiO3")

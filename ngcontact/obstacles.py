@@ -17,6 +17,7 @@ the obstacle must not intersect the body beyond a tolerance (``Simulation`` chec
 import ngsolve as ngs
 import numpy as np
 
+from .checks import number
 from .loads import as_cf
 
 
@@ -42,7 +43,10 @@ class Plane:
 
     def __init__(self, point, normal):
         self.point = point
-        normal = np.asarray(normal, dtype=float)
+        try:
+            normal = np.asarray(normal, dtype=float)
+        except (TypeError, ValueError):
+            raise TypeError(f"Plane: normal must be a vector of numbers, got {normal!r}") from None
         if normal.ndim != 1 or not np.all(np.isfinite(normal)) or not np.linalg.norm(normal) > 0:
             raise ValueError(f"Plane: normal must be a nonzero finite vector, got {normal.tolist()}")
         self.unit = normal / np.linalg.norm(normal)
@@ -64,9 +68,8 @@ class Ball:
     Gap g = |x − c| − R, obstacle normal n_o = (c − x)/|x − c|."""
 
     def __init__(self, center, radius):
-        if not (isinstance(radius, (int, float)) and np.isfinite(radius) and radius > 0):
-            raise ValueError(f"{type(self).__name__}: radius must be a finite number > 0 m, got {radius!r}")
-        self.center, self.radius = center, float(radius)
+        self.center = center
+        self.radius = number(f"{type(self).__name__}: radius", radius, 0, low_open=True, unit="m")
 
     def fields(self, dim):
         d = _position(dim) - _vector(self.center, dim, f"{type(self).__name__}: center")

@@ -7,6 +7,7 @@ transactional step, ``advance(t)`` reaches a time with cut-backs where Newton fa
 ``run(dt, T)`` steps to a final time.
 """
 import time as wallclock
+import warnings
 
 import ngsolve as ngs
 import numpy as np
@@ -14,8 +15,9 @@ import scipy.sparse as sp
 
 from . import forms, results
 from .adhesion import BondingField
-from .admissible import check_gap, check_supports_at_start
+from .admissible import PhysicsWarning, check_gap, check_supports_at_start, flags
 from .backward_euler import BackwardEuler
+from .checks import integer, number, uses_only
 from .contact_side import ContactSide
 from .electric_part import electric_parts, solves_potential
 from .enforcement import METHODS
@@ -27,6 +29,9 @@ from .step_length import StepLength
 from .progress import bar
 from .records import History
 from .system import StepSystem, has_interior_dofs
+
+
+MAX_STEPS = 1_000_000        # nominal steps of one run(): more is a mistyped dt, not a plan
 
 
 class Simulation:
@@ -66,6 +71,10 @@ class Simulation:
         coupling, conduction on Γ3, charges or electrode potentials), else u alone (φ = 0 is
         not an unknown: its DOFs are left out of every solve); True keeps φ; False with an
         electric part raises. ``model`` says which.
+    physical_checks : warn (``PhysicsWarning``, listed in ``flags``) of steps that make no
+        physical sense: penetration beyond 0.1 of a facet of Γ3, displacements beyond 0.05 of
+        the body's size (``admissible.flags``); False for scale-free tests (manufactured
+        solutions of unit size).
     reuse_factorization : solve the Newton corrections by GMRES preconditioned with the
         factorisation of an earlier Jacobian of the same time step size, factorising again
         only when that pays (``linear_solver.KeptFactorization``); False: factorise at every
@@ -77,11 +86,14 @@ class Simulation:
 
     def __init__(self, body, loads=None, *, contact=None, time=None, u0=None, inverse=None,
                  rtol=1e-10, maxit=50, keep_states=True, predictor=False, condense=None, realcompile=None,
-                 limit_steps=True, reuse_factorization=True, electric=None):
+                 limit_steps=True, reuse_factorization=True, electric=None, physical_checks=True):
         self.body = body
         self.loads = loads or Loads()
         self.loads.check(body)
         self.time = time if time is not None else ngs.Parameter(0.0)
+        number("rtol", rtol, 0, 1, low_open=True, high_open=True)
+        integer("maxit", maxit, 1)
+        uses_only(self.time, self.loads.coefficients() + (contact.coefficients() if contact is not None else []))
         self.contact, self.keep_states = contact, keep_states
         self.X = body.space()
         self._electric_parts = electric_parts(body, self.loads, contact)
@@ -127,6 +139,8 @@ class Simulation:
         self.recorder = Recorder(body, self.gfu, self.system, self.gamma3)
         self.history = History()
         self.cutbacks = []
+        self.flags = []                          # messages of steps that make no physical sense
+        self.physical_checks = bool(physical_checks)
         self._start(u0)
 
     @property
@@ -251,6 +265,11 @@ class Simulation:
             self.scheme.restore(saved)
             raise
         self.history.append(record)
+        found = flags(self.body, record, self.u, self.gamma3.side if self.gamma3 else None) \
+            if self.physical_checks else []
+        for message in found:
+            self.flags.append(message)
+            warnings.warn(message, PhysicsWarning, stacklevel=2)
         return record
 
     def advance(self, target, max_cutbacks=6, on_step=None):
@@ -300,11 +319,13 @@ class Simulation:
         If a step fails even at the smallest cut-back, the NewtonError is raised with
         ``error.history`` holding every step computed so far (also in ``history``).
         """
-        if not dt > 0:
-            raise ValueError(f"time step dt must be > 0 s, got {dt}")
+        dt, T = number("time step dt", dt, 0, low_open=True, unit="s"), number("final time T", T, unit="s")
         if not T > self.t:
             raise ValueError(f"final time T must be > the current time {self.t} s, got {T}")
         _check_cutbacks(max_cutbacks)
+        if (T - self.t) / dt > MAX_STEPS:
+            raise ValueError(f"time step dt = {dt:g} s gives {(T - self.t) / dt:.3g} steps to T = {T:g} s; at "
+                             f"most {MAX_STEPS:,} steps per run (a larger dt, or several runs)")
         resumed = getattr(self, "_resumed", None)
         start = resumed["start"] if resumed and (resumed["dt"], resumed["T"]) == (dt, T) else self.t
         steps = int(np.ceil((T - start) / dt - 1e-9))

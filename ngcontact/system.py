@@ -178,6 +178,9 @@ class StepSystem:
             self.generation += 1
         self.u_old.vec.data = u_old
         self.f.Assemble()
+        if not np.all(np.isfinite(self.f.vec.FV().NumPy())):
+            culprit = self.loads.nonfinite(self.body) or "a load"
+            raise ValueError(f"{culprit} is not finite at t = {t:.6g} s (NaN or inf)")
         self._constant.data = self.f.vec
         if self.K_A is not None:
             self._x_old.components[0].vec.data = self.u_old.vec

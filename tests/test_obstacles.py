@@ -102,7 +102,7 @@ def test_bad_obstacles_and_gaps_are_named():
         ngc.Contact(obstacle=obstacles.Plane((0, 0), (0, 1)), method="active_set")
     with pytest.raises(ValueError, match="Plane: normal must be a nonzero finite vector"):
         obstacles.Plane((0, 0), (0, 0))
-    with pytest.raises(ValueError, match="radius must be a finite number > 0"):
+    with pytest.raises(ValueError, match="radius must be a finite number > 0 m"):
         obstacles.Cylinder((0, 0), -1.0)
     with pytest.raises(ValueError, match="Plane: normal must have 2 components"):
         ngc.Simulation(body, loads, time=t, contact=ngc.Contact(obstacle=obstacles.Plane((0, 0, 0), (0, 0, 1))))

@@ -37,17 +37,15 @@ def test_cutback_recovers_the_load_reversal():
 
 
 def test_unrecoverable_step_reports_the_attempts_and_keeps_the_steps():
-    """A load that turns non-finite after t = 0.25 s cannot be stepped over: the error names
-    the step and the time steps tried; every step up to 0.25 s is kept."""
-    t = ngs.Parameter(0)
-    body = ngc.Body(scene.body().mesh, ngc.pzt5a(), clamped="left", grounded="top", contact_side="bottom")
-    bad = ngs.IfPos(t - 0.25, 1e300 * 1e300, 1e6)
-    sim = ngc.Simulation(body, ngc.Loads(f2={"top": (0, -bad)}), time=t)
-    with pytest.raises(ngc.NewtonError, match=r"Time steps tried for step \d+ .*dt = 0.05, 0.025") as err:
-        sim.run(dt=0.1, T=1, max_cutbacks=2)
-    times = err.value.history.times
-    assert times[-1] == pytest.approx(0.25) and len(err.value.history) == len(sim.history)
-    assert np.allclose(sim.u.vec.FV().NumPy(), sim.history[-1].state[:body.V.ndof])
+    """Newton limited to two iterations cannot pass the first contact (the active set
+    changes) at any step size: the error names the step and the time steps tried; every step
+    before it is kept, and the state is the last kept step's."""
+    sim = scene.simulation(1, maxit=2)
+    with pytest.raises(ngc.NewtonError, match=r"Time steps tried for step \d+ \(t -> [0-9.]+ s\): "
+                                             r"dt = 0.00125, 0.000625 s") as err:
+        sim.run(dt=2.5e-3, T=0.05, max_cutbacks=2)
+    assert len(err.value.history) == len(sim.history) >= 3
+    assert np.allclose(sim.u.vec.FV().NumPy(), sim.history[-1].state[:sim.body.V.ndof])
 
 
 def test_cutback_argument_checked():

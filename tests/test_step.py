@@ -101,10 +101,11 @@ def test_a_body_shared_by_two_simulations_is_left_alone():
     """Static condensation marks DOFs on the simulation's own space, not on the Body's."""
     body = reference.body(3, 0.01)
     coupling = body.X.FreeDofs(coupling=True).NumSet()
-    condensed = ngc.Simulation(body, reference.loads(ngs.Parameter(0)), contact=reference.contact())
+    t = ngs.Parameter(0)
+    condensed = ngc.Simulation(body, reference.loads(t), contact=reference.contact(), time=t)
     assert condensed.condense and condensed.X.FreeDofs(coupling=True).NumSet() > coupling
     assert body.X.FreeDofs(coupling=True).NumSet() == coupling
-    plain = ngc.Simulation(body, reference.loads(ngs.Parameter(0)), condense=False)
+    plain = ngc.Simulation(body, reference.loads(t), condense=False, time=t)
     assert not plain.condense and plain.X.FreeDofs(coupling=True).NumSet() == coupling
 
 

@@ -33,9 +33,9 @@ def test_material_accepts_zero_viscosity_and_rejects_out_of_plane_poling():
 
 
 @pytest.mark.parametrize("kwargs, match", [
-    (dict(E=-1.0, nu=0.3), "Young's modulus E must be > 0"),
-    (dict(E=1.0, nu=0.5), r"Poisson ratio nu must lie in \(-1, 0.5\)"),
-    (dict(E=1.0, nu=0.3, viscosity=-1.0), "viscosity must be >= 0"),
+    (dict(E=-1.0, nu=0.3), "E must be a finite number > 0 Pa"),
+    (dict(E=1.0, nu=0.5), r"nu must be a finite number in \(-1, 0.5\)"),
+    (dict(E=1.0, nu=0.3, viscosity=-1.0), "viscosity must be a finite number >= 0 Pa·s"),
 ])
 def test_isotropic_rejected(kwargs, match):
     with pytest.raises(ValueError, match=match):
@@ -43,7 +43,7 @@ def test_isotropic_rejected(kwargs, match):
 
 
 def test_relaxation_time_rejected():
-    with pytest.raises(ValueError, match="relaxation_time must be >= 0"):
+    with pytest.raises(ValueError, match="relaxation_time must be a finite number >= 0 s, got -1.0"):
         ngc.pzt5a().with_viscosity(-1.0)
 
 
@@ -64,7 +64,7 @@ def mesh():
 ])
 def test_body_rejected(mesh, kwargs, match):
     args = {**dict(clamped="left", grounded="top", contact_side="bottom"), **kwargs}
-    with pytest.raises(ValueError, match=match):
+    with pytest.raises((ValueError, TypeError), match=match):
         ngc.Body(mesh, ngc.pzt5a(), **args)
 
 
@@ -86,11 +86,11 @@ def test_time_data_and_initial_state_rejected(mesh):
     with pytest.raises(ValueError, match="u0 must vanish on the clamped boundary"):
         ngc.Simulation(body, u0=(1e-6, 0))
     sim = ngc.Simulation(body)
-    with pytest.raises(ValueError, match="time step dt must be > 0"):
+    with pytest.raises(ValueError, match="time step dt must be a finite number > 0 s, got 0.0"):
         sim.run(dt=0, T=1)
     with pytest.raises(ValueError, match="final time T must be >"):
         sim.run(dt=0.1, T=0)
-    with pytest.raises(ValueError, match="rtol must be > 0"):
+    with pytest.raises(ValueError, match=r"rtol must be a finite number in \(0, 1\), got 0.0"):
         ngc.Simulation(body, rtol=0)
 
 
@@ -104,15 +104,16 @@ def test_geometry_rejected(make, match):
 
 
 def test_failed_step_says_where_and_keeps_the_computed_steps(mesh):
-    """A load that turns non-finite at t = 0.25 s: steps 1-2 are kept, step 3 is named."""
+    """A load that turns non-finite at t = 0.25 s is named at the step that meets it (not
+    reported as a Newton failure after cut-backs); steps 1-2 are kept."""
     t = ngs.Parameter(0)
     body = ngc.Body(mesh, ngc.pzt5a(), clamped="left", grounded="top", contact_side="bottom")
     bad = ngs.IfPos(t - 0.25, 1e300 * 1e300, 1e6)
     sim = ngc.Simulation(body, ngc.Loads(f2={"top": (0, -bad)}), time=t)
-    with pytest.raises(ngc.NewtonError, match=r"step 3 \(t = 0.3 s\), iteration 0") as err:
-        sim.run(dt=0.1, T=1, max_cutbacks=0)
-    assert [r.step for r in err.value.history] == [0, 1, 2]
-    assert err.value.history[2].reaction[1] == pytest.approx(1e6 * 0.1, rel=1e-9)
+    with pytest.raises(ValueError, match=r"Loads.f2\['top'\] is not finite at t = 0.3 s"):
+        sim.run(dt=0.1, T=1)
+    assert [r.step for r in sim.history] == [0, 1, 2] and sim.cutbacks == []
+    assert sim.history[2].reaction[1] == pytest.approx(1e6 * 0.1, rel=1e-9)
 
 
 def test_newton_error_reports_residual_history():
