@@ -53,6 +53,7 @@ def parser():
     hertz.add_argument("--orders", metavar="P", type=int, nargs="+", default=[1, 2])
     hertz.add_argument("--levels", metavar="N", type=int, default=4, help="nested meshes, h halving (default 4)")
     hertz.add_argument("--dim", type=int, choices=(2, 3), default=2, help="half-disk (2D) or half-ball (3D)")
+    hertz.add_argument("--resume", action="store_true", help="skip the cases already in OUT/cases.json")
 
     bench = commands.add_parser("bench", help="time per step of the reference scene against one "
                                 "linear solve, orders x sizes: bench.csv and a chart")
@@ -79,6 +80,8 @@ def parser():
                             "factorisation at every Newton iteration, full steps")
     bench.add_argument("--compare", action="store_true",
                        help="run each case on both paths, one after the other: time ratio and state difference")
+    bench.add_argument("--resume", action="store_true",
+                       help="keep the cases already in OUT/bench.json (same dim, steps, dt) and measure the rest")
     bench.add_argument("--merge", metavar="DIR", nargs="+",
                        help="join the tables of earlier runs into --out instead of running")
     return main_parser
@@ -111,7 +114,7 @@ def _dispatch(args):
         stability.command(args.out, args.quick)
     elif args.command == "hertz":
         from .studies import hertz
-        hertz.command(args.out, args.orders, args.levels, args.dim)
+        hertz.command(args.out, args.orders, args.levels, args.dim, args.resume)
     elif args.merge:
         from .studies import bench
         bench.merge(args.merge, args.out)
@@ -120,4 +123,4 @@ def _dispatch(args):
         bench.run(args.out, orders=args.orders, dim=args.dim, max_ndof=args.max_ndof, steps=args.steps,
                   dt=args.dt, inverse=args.inverse, predictor=args.predictor,
                   realcompile=choice[args.realcompile], threads=choice[args.threads], bare=args.bare,
-                  path=args.path, compare=args.compare)
+                  path=args.path, compare=args.compare, resume=args.resume)

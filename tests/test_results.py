@@ -106,3 +106,24 @@ def test_the_demo_resumes(tmp_path):
     a, b = (json.loads((tmp_path / d / "summary.json").read_text()) for d in "ab")
     for key in ("times", "contact_length", "tip_deflection", "charge_flux", "beta_min"):
         assert np.allclose(a[key], b[key], rtol=1e-9, atol=1e-15), key
+
+
+def test_studies_skip_the_cases_on_disk(tmp_path):
+    """``hertz --resume`` and ``bench --resume`` keep the cases already measured (a marked
+    value in the file survives) and compute only the missing ones."""
+    from ngcontact.studies import bench, hertz
+    hertz.run(tmp_path / "h", orders=(1,), levels=1, progress=False)
+    cases = json.loads((tmp_path / "h" / "cases.json").read_text())
+    cases["2D P1 obstacle L0"]["row"]["newton"] = -7                 # a mark: not recomputed
+    (tmp_path / "h" / "cases.json").write_text(json.dumps(cases))
+    rows = hertz.run(tmp_path / "h", orders=(1,), levels=2, progress=False, resume=True)
+    assert [r["newton"] for r in rows if r["level"] == 0 and r["normal"] == "obstacle"] == [-7]
+    assert len(json.loads((tmp_path / "h" / "cases.json").read_text())) == 4
+    bench.run(tmp_path / "b", orders=(1,), max_ndof=600, steps=2, progress=False)
+    data = json.loads((tmp_path / "b" / "bench.json").read_text())
+    data["rows"][0]["step_s"] = 123.0
+    (tmp_path / "b" / "bench.json").write_text(json.dumps(data))
+    rows, _ = bench.run(tmp_path / "b", orders=(1,), max_ndof=600, steps=2, progress=False, resume=True)
+    assert [r["step_s"] for r in rows] == [123.0]
+    with pytest.raises(ValueError, match="holds a bench with dim 2, steps 2"):
+        bench.run(tmp_path / "b", orders=(1,), max_ndof=600, steps=3, progress=False, resume=True)

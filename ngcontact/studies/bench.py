@@ -31,7 +31,7 @@ from matplotlib.figure import Figure
 from ngcontact.progress import bar
 from ngcontact.scenes import reference
 
-from .common import fitted_slope, write_csv
+from .common import fitted_slope, writable_directory, write_csv
 
 COLUMNS = ("dim", "order", "level", "ndof", "records", "newton_mean", "newton_max", "step_s",
            "assembly_s", "factorization_s", "solve_s", "residual_s", "other_s", "one_solve_s",
@@ -124,18 +124,21 @@ def levels(order, dim, max_ndof):
 
 
 def run(out, *, orders=(1, 2, 3, 4), dim=2, max_ndof=1e6, steps=10, dt=2.5e-3, progress=True,
-        compare=False, **options):
+        compare=False, resume=False, **options):
     """All cases up to ``max_ndof``: prints the table as it goes, writes bench.csv,
     bench.json (rows and fitted exponents per order) and time_per_step.png into ``out``
     after each case (long runs keep what they measured). ``compare``: each case also on the
-    old path, right after the new one."""
-    out = pathlib.Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    old path, right after the new one. ``resume``: the cases already in ``out/bench.json``
+    (same dim, steps and dt) are kept and not measured again."""
+    out = writable_directory(out)
     cases = [(order, level) for order in orders for level in levels(order, dim, max_ndof)]
-    rows = []
+    rows = _done(out, dim, steps, dt) if resume else []
     with bar(len(cases), "bench cases", progress, unit="run") as shown:
         shown.write(_header())
         for order, level in cases:
+            if any((r["order"], r["level"], r.get("path", "new")) == (order, level, "new") for r in rows):
+                shown.update()
+                continue
             new, state = measure(order, level, dim=dim, steps=steps, dt=dt, **options)
             rows.append(new)
             shown.write(_line(new))
@@ -147,10 +150,23 @@ def run(out, *, orders=(1, 2, 3, 4), dim=2, max_ndof=1e6, steps=10, dt=2.5e-3, p
                 shown.write(_line(old) + f"   old/new {new['speedup']:.2f}x, states differ by "
                             f"{new['state_diff']:.1e}")
             shown.update()
-            exponents = _write(out, rows, dim, steps, dt)
+            _write(out, rows, dim, steps, dt)
+    exponents = _write(out, rows, dim, steps, dt)
     print("time per step ~ ndof^a (fit over ndof >= 1e4): "
           + ", ".join(f"P{p}: a = {a:.2f}" for p, a in exponents.items()))
     return rows, exponents
+
+
+def _done(out, dim, steps, dt):
+    """The rows of ``out/bench.json`` if it holds a run with the same dim, steps and dt."""
+    path = out / "bench.json"
+    if not path.exists():
+        return []
+    earlier = json.loads(path.read_text())
+    if (earlier["dim"], earlier["steps"], earlier["dt"]) != (dim, steps, dt):
+        raise ValueError(f"resume: {str(path)!r} holds a bench with dim {earlier['dim']}, steps "
+                         f"{earlier['steps']}, dt {earlier['dt']}; run with those or write to a new --out")
+    return earlier["rows"]
 
 
 def merge(directories, out):

@@ -8,6 +8,7 @@ pressure L2 error on Γ3, with the rate between successive levels (h halves). Wr
 ``hertz.csv``, ``hertz.md`` (the tables) and ``hertz_pressure.png`` (λ_h along Γ3 against
 Hertz on the finest mesh of each order, both normals).
 """
+import json
 import math
 import time
 
@@ -36,22 +37,31 @@ def case(order, level, normal, dim=2):
     return row, sim
 
 
-def run(out, orders=(1, 2), levels=4, dim=2, progress=True):
-    """Every order × level × normal; returns the rows (also written to ``out``)."""
+def run(out, orders=(1, 2), levels=4, dim=2, progress=True, resume=False):
+    """Every order × level × normal; returns the rows (also written to ``out``). Each case
+    is kept in ``out/cases.json`` as it finishes; ``resume`` skips the cases found there."""
+    if isinstance(levels, bool) or not isinstance(levels, int) or levels < 1:
+        raise ValueError(f"levels must be an integer >= 1, got {levels!r}")
     out = writable_directory(out)
-    if int(levels) != levels or levels < 1:
-        raise ValueError(f"levels must be an integer >= 1, got {levels}")
+    done = json.loads((out / "cases.json").read_text()) if resume and (out / "cases.json").exists() else {}
     rows, finest = [], {}
     cases = [(p, n, k) for p in orders for n in ("obstacle", "body") for k in range(levels)]
     with bar(len(cases), "Hertz cases", progress) as shown:
         for order, normal, level in cases:
-            row, sim = case(order, level, normal, dim)
+            key = f"{dim}D P{order} {normal} L{level}"
+            if key in done:
+                row, profile = done[key]["row"], done[key]["profile"]
+            else:
+                row, sim = case(order, level, normal, dim)
+                profile = [list(map(float, a)) for a in _profile(sim)] if level == levels - 1 else None
+                done[key] = dict(row=row, profile=profile)
+                (out / "cases.json").write_text(json.dumps(done))
             if level > 0:
                 previous = rows[-1]
                 row["rate_L2"] = math.log2(previous["pressure_L2"] / row["pressure_L2"])
             rows.append(row)
             if level == levels - 1:
-                finest[order, normal] = _profile(sim)
+                finest[order, normal] = tuple(np.array(a) for a in profile)
             shown.update(1)
     write_csv(rows, out / "hertz.csv", COLUMNS)
     text = table(rows, COLUMNS)
@@ -108,6 +118,6 @@ def _plot(profiles, path):
     plt.close(fig)
 
 
-def command(out, orders, levels, dim):
+def command(out, orders, levels, dim, resume=False):
     """``python -m ngcontact hertz``."""
-    run(out, orders, levels, dim)
+    run(out, orders, levels, dim, resume=resume)
