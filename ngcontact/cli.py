@@ -40,12 +40,15 @@ def parser():
     conv.add_argument("--dt-halvings", metavar="J", type=int, default=0,
                       help="time-step variant: halve dt J times on the finest mesh, first order given")
     conv.add_argument("--out", metavar="DIR", default="convergence", help="output directory")
+    conv.add_argument("--resume", action="store_true",
+                      help="reuse the runs already in OUT/cases (and the streamed fine run of --case reference)")
 
     stab = commands.add_parser("stability", help="stability maps (Nitsche γ0 × θ, penalty, β time "
                                "step, ν → 1/2, strong coupling, debonding, load cycles): "
                                "<study>.csv and charts")
     stab.add_argument("--out", metavar="DIR", default="stability", help="output directory")
     stab.add_argument("--quick", action="store_true", help="fewer runs per study (about a third)")
+    stab.add_argument("--resume", action="store_true", help="skip the studies whose <study>.csv is in OUT")
 
     hertz = commands.add_parser("hertz", help="contact on a curved side against Hertz (half-disk on a "
                                 "plane), obstacle normal and body normal: hertz.csv, hertz.md, a chart")
@@ -108,10 +111,11 @@ def _dispatch(args):
                  gamma0=args.gamma0, resume=args.resume)
     elif args.command == "convergence":
         from .studies import convergence
-        convergence.command(args.orders, args.levels, args.case, args.smoothness, args.dt_halvings, args.out)
+        convergence.command(args.orders, args.levels, args.case, args.smoothness, args.dt_halvings, args.out,
+                            args.resume)
     elif args.command == "stability":
         from .studies import stability
-        stability.command(args.out, args.quick)
+        stability.command(args.out, args.quick, args.resume)
     elif args.command == "hertz":
         from .studies import hertz
         hertz.command(args.out, args.orders, args.levels, args.dim, args.resume)

@@ -168,6 +168,7 @@ class Newton:
         if int(maxit) != maxit or maxit < 1:
             raise ValueError(f"maxit must be an integer >= 1, got {maxit}")
         self.system, self.gfu, self.hook, self.step_length = system, gfu, hook, step_length
+        self.on_iteration = None       # called with (iteration, scaled residual): progress output
         self.solver = solver or DirectSolver("umfpack")
         self.rtol, self.maxit = rtol, int(maxit)
         space = gfu.space
@@ -230,6 +231,8 @@ class Newton:
                 self.norm.set_scales(self._diagonal(x))
             value, settled = hook.residual(x, r, self.norm) if hook is not None else (self.norm.dual(r), True)
             residuals.append(value)
+            if self.on_iteration is not None:
+                self.on_iteration(it, value)
             if not np.isfinite(value):
                 error = NewtonError("diverged (non-finite residual)", iteration=it, residuals=residuals,
                                     step=step, time=time, hint="a smaller time step")

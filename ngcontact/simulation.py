@@ -11,7 +11,6 @@ import warnings
 
 import ngsolve as ngs
 import numpy as np
-import scipy.sparse as sp
 
 from . import forms, results
 from .adhesion import BondingField
@@ -23,12 +22,12 @@ from .electric_part import electric_parts, solves_potential
 from .enforcement import METHODS
 from .linear_solver import DirectSolver, KeptFactorization
 from .loads import Loads, as_cf
-from .newton import Newton, NewtonError, NewtonResult, ResidualNorm, Timings
+from .newton import Newton, NewtonError, NewtonResult, Timings
 from .observables import Gamma3, Recorder
 from .step_length import StepLength
 from .progress import bar
 from .records import History
-from .system import StepSystem, has_interior_dofs
+from .system import StepSystem, free_jacobian, has_interior_dofs
 
 
 MAX_STEPS = 1_000_000        # nominal steps of one run(): more is a mistyped dt, not a plan
@@ -345,19 +344,29 @@ class Simulation:
             for callback in callbacks:
                 callback(record)
         with bar(steps, "time steps", progress) as shown:
-            for i in range(steps):
-                target = start + (T - start) * (i + 1) / steps
-                if target <= self.t * (1 + 1e-12):      # reached before a resume
-                    shown.update(1)
-                    continue
-                try:
-                    records = self.advance(target, max_cutbacks, after)
-                except NewtonError as err:
-                    err.history = self.history
-                    raise
-                shown.set_postfix_str(f"t = {self.t:.4g} s, newton {records[-1].newton_iterations}")
-                shown.update(1)
+            if progress:                        # a long step shows its Newton iterations
+                self.newton.on_iteration = lambda it, r: shown.set_postfix_str(
+                    f"t -> {self.time.Get():.4g} s, Newton {it}, residual {r:.1e}")
+            try:
+                self._steps(start, T, steps, max_cutbacks, after, shown)
+            finally:
+                self.newton.on_iteration = None
         return self.history
+
+    def _steps(self, start, T, steps, max_cutbacks, after, shown):
+        """The nominal steps of ``run`` not reached yet."""
+        for i in range(steps):
+            target = start + (T - start) * (i + 1) / steps
+            if target <= self.t * (1 + 1e-12):          # reached before a resume
+                shown.update(1)
+                continue
+            try:
+                records = self.advance(target, max_cutbacks, after)
+            except NewtonError as err:
+                err.history = self.history
+                raise
+            shown.set_postfix_str(f"t = {self.t:.4g} s, newton {records[-1].newton_iterations}")
+            shown.update(1)
 
     def resume(self, directory):
         """Continue a run streamed into ``directory`` (``run(..., out=directory)``) that was
@@ -380,19 +389,7 @@ class Simulation:
         """The step Jacobian R'(x) at the current state (with the last step's t and dt) on the
         free DOFs, as a scipy CSR matrix; ``scaled``: S J S with S = diag(s_u^-½, s_φ^-½), s_b
         the mean of |diagonal| over block b (the scaling of Newton's norms)."""
-        system = self.system.uncondensed
-        system.AssembleLinearization(self.gfu.vec)
-        J = sp.csr_matrix(system.mat.CSR(), shape=(system.mat.height, system.mat.width))
-        free = np.flatnonzero(np.array(list(self.X.FreeDofs()), dtype=bool))
-        if scaled:
-            norm = ResidualNorm(self.X, self.X.FreeDofs())
-            norm.set_scales(J.diagonal())
-            scale = np.ones(J.shape[0])
-            for block, s in zip(norm.blocks, norm.scales):
-                scale[block] = s ** -0.5
-            J = sp.diags(scale) @ J @ sp.diags(scale)
-        return J[free][:, free].tocsr()
-
+        return free_jacobian(self.system.uncondensed, self.gfu.vec, self.X, scaled)
 
 def _check_cutbacks(max_cutbacks):
     if int(max_cutbacks) != max_cutbacks or max_cutbacks < 0:

@@ -308,6 +308,24 @@ class _Uncondensed:
         self.AssembleLinearization, self.mat = system._assemble_full, system._full
 
 
+def free_jacobian(system, x, space, scaled=True):
+    """R'(x) of ``system`` (full Jacobian protocol) on the free DOFs of ``space`` as a scipy
+    CSR matrix; ``scaled``: S J S with S = diag(s_u^-½, s_φ^-½), s_b the mean of |diagonal|
+    over block b (the scaling of Newton's norms)."""
+    from .newton import ResidualNorm
+    system.AssembleLinearization(x)
+    J = sp.csr_matrix(system.mat.CSR(), shape=(system.mat.height, system.mat.width))
+    free = np.flatnonzero(np.array(list(space.FreeDofs()), dtype=bool))
+    if scaled:
+        norm = ResidualNorm(space, space.FreeDofs())
+        norm.set_scales(J.diagonal())
+        scale = np.ones(J.shape[0])
+        for block, s in zip(norm.blocks, norm.scales):
+            scale[block] = s ** -0.5
+        J = sp.diags(scale) @ J @ sp.diags(scale)
+    return J[free][:, free].tocsr()
+
+
 def _csr(matrix):
     """An NGSolve sparse matrix as a scipy CSR matrix."""
     return sp.csr_matrix(matrix.CSR(), shape=(matrix.height, matrix.width))

@@ -127,3 +127,17 @@ def test_studies_skip_the_cases_on_disk(tmp_path):
     assert [r["step_s"] for r in rows] == [123.0]
     with pytest.raises(ValueError, match="holds a bench with dim 2, steps 2"):
         bench.run(tmp_path / "b", orders=(1,), max_ndof=600, steps=3, progress=False, resume=True)
+
+
+def test_the_reference_convergence_study_resumes(tmp_path):
+    """The fine run of the reference-scene study streams into the study's directory and a
+    resumed study reuses it and the finished cases (same errors, no new fine steps)."""
+    from ngcontact.studies import convergence
+    from ngcontact.studies.common import CaseStore
+    settings = dict(orders=(1,), levels=1, steps=4, T=0.01, maxh=0.02, reference_level=1, progress=False)
+    first = convergence.reference_study(**settings, store=CaseStore(tmp_path))
+    fine = next((tmp_path / "cases").glob("fine*"))
+    written = {p: p.stat().st_mtime_ns for p in (fine / "steps").glob("*.npz")}
+    again = convergence.reference_study(**settings, store=CaseStore(tmp_path, resume=True))
+    assert again[0].error_max == first[0].error_max and len(written) == 5
+    assert {p: p.stat().st_mtime_ns for p in (fine / "steps").glob("*.npz")} == written

@@ -5,8 +5,10 @@ A study's result is a list of rows, flat dicts with the same keys; a failed Newt
 kept as a row too, with ``failure_kind`` of its residual history.
 """
 import csv
+import json
 import math
 import pathlib
+import re
 
 import numpy as np
 
@@ -117,3 +119,27 @@ def fitted_slope(xs, ys):
         return math.nan
     lx, ly = np.log(np.array(pts)).T
     return float(np.polyfit(lx, ly, 1)[0])
+
+
+class CaseStore:
+    """The finished cases of a study in ``out/cases/<key>.json``, each written as it ends, so
+    that the study run again with ``resume`` skips them (``python -m ngcontact ... --resume``).
+    ``None`` for ``out`` keeps nothing."""
+
+    def __init__(self, out, resume=False):
+        self.dir = None if out is None else pathlib.Path(out) / "cases"
+        self.resume = bool(resume)
+        if self.dir is not None:
+            self.dir.mkdir(parents=True, exist_ok=True)
+
+    def get(self, key, compute, encode=lambda result: result, decode=lambda data: data):
+        """The result of ``compute()`` for ``key``, from disk when resuming and it is there."""
+        path = None if self.dir is None else self.dir / (re.sub(r"[^A-Za-z0-9_.=-]+", "_", key) + ".json")
+        if path is not None and self.resume and path.exists():
+            return decode(json.loads(path.read_text()))
+        result = compute()
+        if path is not None:
+            temporary = path.with_suffix(".tmp")
+            temporary.write_text(json.dumps(encode(result)))
+            temporary.replace(path)
+        return result

@@ -20,7 +20,7 @@ and wall time. Two kinds of exact solution:
 """
 import math
 import time as wallclock
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 
 import ngsolve as ngs
 import numpy as np
@@ -32,7 +32,7 @@ from ngcontact.progress import bar
 from ngcontact.scenes import reference
 from ngcontact.scenes.manufactured import ContactManufactured, t as t_symbol
 
-from .common import fitted_slope, writable_directory, write_csv
+from .common import CaseStore, fitted_slope, writable_directory, write_csv
 
 PARTS = ("u", "phi", "beta")
 
@@ -76,27 +76,33 @@ def _measured_run(sim, dt, T, measure):
     return _with_total(worst), _with_total(last)
 
 
+def _stored(store, args):
+    """_manufactured_run(*args), or its Run from the CaseStore ``store``."""
+    key = "manufactured " + " ".join(map(str, args))
+    return (store or CaseStore(None)).get(key, lambda: _manufactured_run(*args), asdict, lambda d: Run(**d))
+
+
 def manufactured_study(orders=(1, 2), levels=3, case="viscous", dt=0.25, T=1.0, maxh=0.25,
-                       time_profile="linear", smoothness=4, theta=1, gamma0=10.0, progress=True):
-    """Errors against ``ContactManufactured`` for every order and level (0 .. levels-1)."""
+                       time_profile="linear", smoothness=4, theta=1, gamma0=10.0, progress=True, store=None):
+    """Errors against ``ContactManufactured`` for every order and level (0 .. levels-1);
+    ``store``: a CaseStore that keeps (and, resuming, reuses) each finished run."""
     cases = [(order, level) for order in orders for level in range(levels)]
     runs = []
     with bar(len(cases), f"convergence ({case})", progress, unit="run") as shown:
         for order, level in cases:
-            runs.append(_manufactured_run(order, level, case, dt, T, maxh, time_profile, smoothness, theta, gamma0))
+            runs.append(_stored(store, (order, level, case, dt, T, maxh, time_profile, smoothness, theta, gamma0)))
             shown.write(_line(runs[-1]))
             shown.update()
     return add_rates(runs)
 
 
 def time_study(order=2, level=2, halvings=4, case="viscous", dt0=0.25, T=1.0, maxh=0.25,
-               smoothness=4, progress=True):
+               smoothness=4, progress=True, store=None):
     """Errors for dt = dt0 / 2^j (j < halvings) on one mesh: the time-step part of (4.12)."""
     runs = []
     with bar(halvings, "convergence in dt", progress, unit="run") as shown:
         for j in range(halvings):
-            runs.append(_manufactured_run(order, level, case, dt0 / 2**j, T, maxh, "nonlinear", smoothness,
-                                          1, 10.0))
+            runs.append(_stored(store, (order, level, case, dt0 / 2**j, T, maxh, "nonlinear", smoothness, 1, 10.0)))
             shown.write(_line(runs[-1]))
             shown.update()
     return add_rates(runs, by="dt")
@@ -120,9 +126,12 @@ def _manufactured_run(order, level, case, dt, T, maxh, time_profile, smoothness,
 
 
 def reference_study(orders=(1, 2), levels=3, steps=80, T=0.25, maxh=0.01, reference_order=None,
-                    reference_level=None, progress=True):
+                    reference_level=None, progress=True, store=None):
     """Relative errors of the reference scene against a fine solution, ``steps`` time steps
-    over [0, T] for each (T = 0.25 s: contact growth, release, the start of debonding)."""
+    over [0, T] for each (T = 0.25 s: contact growth, release, the start of debonding).
+    ``store``: a CaseStore; the fine run streams into its directory (and resumes from it) and
+    each finished case is kept there."""
+    store = store or CaseStore(None)
     reference_order = reference_order or max(orders)
     reference_level = levels if reference_level is None else reference_level
     dt = T / steps
@@ -130,8 +139,12 @@ def reference_study(orders=(1, 2), levels=3, steps=80, T=0.25, maxh=0.01, refere
     with bar(len(cases) + 1, "convergence (reference scene)", progress, unit="run") as shown:
         shown.write(f"reference: order {reference_order}, level {reference_level}")
         fine = reference.simulation(reference_order, maxh, reference_level)
+        streamed = None if store.dir is None else store.dir / f"fine P{reference_order} L{reference_level} {steps} {T}"
+        if streamed is not None and store.resume and (streamed / "run.json").exists():
+            fine.resume(streamed)
         with ngs.TaskManager():
-            fine.run(dt=dt, T=T)
+            if fine.t < T * (1 - 1e-12):
+                fine.run(dt=dt, T=T, out=streamed)
         shown.update()
         fine_states = [fine.state(n) for n in range(len(fine.history))]
         fine_side, mesh = fine.side, fine.body.mesh
@@ -142,7 +155,8 @@ def reference_study(orders=(1, 2), levels=3, steps=80, T=0.25, maxh=0.01, refere
                      phi=max(norm(ngs.grad(g.components[1])) for g in fine_states),
                      beta=math.sqrt(np.dot(np.ones_like(fine_side.measure), fine_side.measure)))
         runs = []
-        for order, level in cases:
+
+        def solved(order, level):
             sim = reference.simulation(order, maxh, level)
             transfer = ngs.GridFunction(fine.body.X)
             start = wallclock.perf_counter()
@@ -159,9 +173,11 @@ def reference_study(orders=(1, 2), levels=3, steps=80, T=0.25, maxh=0.01, refere
                     return dict(u=norm(eu) / scale["u"], phi=norm(dphi) / scale["phi"],
                                 beta=math.sqrt(np.dot((beta_f - beta_c) ** 2, fine_side.measure)) / scale["beta"])
                 worst, final = _measured_run(sim, dt, T, measure)
-            runs.append(Run(order, level, maxh / 2**level, dt, sim.body.ndof, worst, final,
-                            [int(k) for k in sim.history.newton_iterations[1:]],
-                            wallclock.perf_counter() - start))
+            return Run(order, level, maxh / 2**level, dt, sim.body.ndof, worst, final,
+                       [int(k) for k in sim.history.newton_iterations[1:]], wallclock.perf_counter() - start)
+        for order, level in cases:
+            key = f"reference P{order} L{level} {steps} {T} {maxh} fine P{reference_order} L{reference_level}"
+            runs.append(store.get(key, lambda: solved(order, level), asdict, lambda d: Run(**d)))
             shown.write(_line(runs[-1]))
             shown.update()
     return add_rates(runs)
@@ -253,7 +269,7 @@ def save(runs, out, title, by="h"):
     return plot(runs, out, title, by)
 
 
-def command(orders, levels, case, smoothness, dt_halvings, out):
+def command(orders, levels, case, smoothness, dt_halvings, out, resume=False):
     """``python -m ngcontact convergence``: run the study, write errors.csv and the charts
     into ``out``, print the fitted rates (from three levels or more)."""
     if isinstance(levels, bool) or not isinstance(levels, int) or levels < 1:
@@ -261,14 +277,15 @@ def command(orders, levels, case, smoothness, dt_halvings, out):
     if dt_halvings and (not isinstance(dt_halvings, int) or dt_halvings < 0):
         raise ValueError(f"--dt-halvings must be an integer >= 0, got {dt_halvings!r}")
     out = writable_directory(out)
+    store = CaseStore(out, resume)                      # each finished run, for --resume
     if dt_halvings:
-        runs = time_study(orders[0], levels - 1, dt_halvings, smoothness=smoothness)
+        runs = time_study(orders[0], levels - 1, dt_halvings, smoothness=smoothness, store=store)
         paths = save(runs, out, f"time steps, P{orders[0]}, level {levels - 1}", by="dt")
         rate = fitted_rate(runs, orders[0], by='dt')
         print(f"fitted rate in dt: {rate:.2f}" if rate == rate else "no fitted rate in dt: fewer than 3 points")
     else:
-        runs = (reference_study(orders, levels) if case == "reference" else
-                manufactured_study(orders, levels, case, smoothness=smoothness))
+        runs = (reference_study(orders, levels, store=store) if case == "reference" else
+                manufactured_study(orders, levels, case, smoothness=smoothness, store=store))
         paths = save(runs, out, f"{case}: error (4.12) and its parts")
         for order in orders:
             rates = {p: fitted_rate(runs, order, p) for p in ("u", "phi", "total")}

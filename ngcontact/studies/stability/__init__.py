@@ -28,13 +28,17 @@ STUDIES = dict(nitsche_map=nitsche_map, time_step_sweep=time_step_sweep, incompr
 """The studies in the order ``python -m ngcontact stability`` runs them."""
 
 
-def command(out, quick=False):
+def command(out, quick=False, resume=False):
     """``python -m ngcontact stability``: run every study, write <study>.csv and the charts
-    into ``out``, print each study's summary."""
+    into ``out``, print each study's summary; ``resume`` skips the studies whose <study>.csv
+    (written when a study ends) is already in ``out``."""
     out = writable_directory(out)
     start = wallclock.perf_counter()
     for name, study in STUDIES.items():
         print(f"\n{name}", flush=True)
+        if resume and (out / f"{name}.csv").exists():
+            print(f"on disk ({out / f'{name}.csv'}), skipped", flush=True)
+            continue
         began = wallclock.perf_counter()
         rows = study.run(out, quick=quick)
         write_csv(rows, out / f"{name}.csv")
