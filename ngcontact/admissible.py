@@ -7,22 +7,28 @@ import ngsolve as ngs
 import numpy as np
 
 
-def check_gap(body, gamma3, t):
+class GapCheck:
     """The gap must be >= 0 on Γ3 (to 1e-8 of the body's size) at time t (the time Parameter
     set to it): on the facets, with the facet normals (a gap written with
     ``specialcf.normal`` is zero inside elements), and at the sample points. With an obstacle
     this is its intersection with the body, checked at t = 0 only: a moving obstacle may then
-    be driven into the body."""
-    side, gap = gamma3.side, gamma3.gap
-    coordinates = np.array([p.p[:body.dim] for p in body.mesh.ngmesh.Points()])
-    tolerance = 1e-8 * np.linalg.norm(coordinates.max(axis=0) - coordinates.min(axis=0))
-    negative = max(side.project(ngs.IfPos(-gap, -gap, 0.0)).max(),
-                   0.0 if gamma3.sampled_normal is None else -side.sample(gap).min())
-    if negative > tolerance:
-        what = ("Contact.obstacle intersects the body at t = 0" if gamma3.contact.obstacle is not None
-                else f"Contact.gap must be >= 0 on Γ3 at t = {t:.6g} s")
-        raise ValueError(f"{what}: the gap reaches {-negative:.3g} m (tolerance {tolerance:.2g} m, 1e-8 of "
-                         "the body's size)")
+    be driven into the body. Built once (its facet integrals are reassembled per call), so
+    that a time-dependent gap can be checked at every step."""
+
+    def __init__(self, body, gamma3):
+        self.gamma3, self.tolerance = gamma3, 1e-8 * body.size
+        gap = gamma3.gap
+        self._negative = gamma3.side.facet_integrals(ngs.IfPos(-gap, -gap, 0.0))
+
+    def __call__(self, t):
+        g = self.gamma3
+        negative = max((self._negative() / g.side.measure).max(),
+                       0.0 if g.sampled_normal is None else -g.side.sample(g.gap).min())
+        if negative > self.tolerance:
+            what = ("Contact.obstacle intersects the body at t = 0" if g.contact.obstacle is not None
+                    else f"Contact.gap must be >= 0 on Γ3 at t = {t:.6g} s")
+            raise ValueError(f"{what}: the gap reaches {-negative:.3g} m (tolerance {self.tolerance:.2g} m, "
+                             "1e-8 of the body's size)")
 
 
 def check_supports_at_start(body, u, given):
@@ -56,8 +62,7 @@ def flags(body, record, u, side=None):
     if not np.all(np.isfinite(values)):
         found.append(f"step {record.step}: the displacement has NaN or inf entries")
         return found
-    coordinates = np.array([p.p[:body.dim] for p in body.mesh.ngmesh.Points()])
-    size = np.linalg.norm(coordinates.max(axis=0) - coordinates.min(axis=0))
+    size = body.size
     largest = np.abs(values).max(initial=0.0)
     if largest > DISPLACEMENT_LIMIT * size:
         found.append(f"step {record.step} (t = {record.time:.6g} s): displacement {largest:.3g} m exceeds "

@@ -9,11 +9,15 @@ Boundaries are named as in the Netgen mesh; a part may list several names joined
 * electric:   Γa ``grounded`` (φ prescribed, 0 by default), Γb = the rest (charges qb),
   with Γ3 ⊂ Γb.
 """
+import functools
+
 import ngsolve as ngs
+import numpy as np
 
 from .checks import integer
 from .materials import Material
-from .supports import dirichlet_flags, parse as parse_supports
+from .supports import dirichlet_flags
+from .supports import parse as parse_supports
 
 
 def split_names(names):
@@ -113,6 +117,13 @@ class Body:
         Γb minus Γ3 = free_names(("grounded", "contact_side"))."""
         taken = {n for part in excluded for n in self.boundaries[part]}
         return [n for n in dict.fromkeys(self.mesh.GetBoundaries()) if n not in taken]
+
+    @functools.cached_property
+    def size(self):
+        """The diagonal of the mesh's bounding box (m): the scale of the checks of
+        ``admissible``."""
+        coordinates = self.mesh.ngmesh.Coordinates()
+        return float(np.linalg.norm(coordinates.max(axis=0) - coordinates.min(axis=0)))
 
     @property
     def coupled(self):

@@ -172,26 +172,30 @@ def weak_normal_support(T, order, trial, test, gamma0):
     σ_ν of the step (its A ε(u)/dt part in the viscous term), so that the traction of the
     support, −∫ σ_ν v_ν, is consistent and the whole stays symmetric."""
     (u, phi), (v, xi) = trial, test
-    n, h = ngs.specialcf.normal(u.dim), ngs.specialcf.mesh_size
-    elastic_stiffness = T.stiffness(0.0)
-    gamma = gamma0 * order ** 2 / h
+    n = ngs.specialcf.normal(u.dim)
+    gamma_el, gamma_A = _support_gammas(T, order, gamma0)
     elastic = (-normal_stress(stress(T, u, phi), n) * (v * n) - normal_stress(stress(T, v, xi), n) * (u * n)
-               + gamma * elastic_stiffness * (u * n) * (v * n))
+               + gamma_el * (u * n) * (v * n))
     if not T.viscous:
         return elastic, None
     A = matrix_cf(T.A)
     viscous = (-normal_stress(A * strain(u), n) * (v * n) - normal_stress(A * strain(v), n) * (u * n)
-               + gamma * (T.stiffness(1.0) - elastic_stiffness) * (u * n) * (v * n))
+               + gamma_A * (u * n) * (v * n))
     return elastic, viscous
+
+
+def _support_gammas(T, order, gamma0):
+    """(γ_el, γ_A) of a weak normal support: γ_s = γ_el + γ_A/dt (Pa/m, Pa·s/m)."""
+    scale = gamma0 * order ** 2 / ngs.specialcf.mesh_size
+    return scale * T.stiffness(0.0), scale * (T.stiffness(1.0) - T.stiffness(0.0))
 
 
 def support_multiplier(T, order, u, phi, u_old, inv_dt, gamma0):
     """λ (Pa) of a weak normal support, read off its residual terms −∫ λ v_ν:
     λ = σ_ν − γ_el u_ν − γ_A (u − u_old)_ν / dt → σ_ν; its traction is λ ν."""
-    n, h = ngs.specialcf.normal(u.dim), ngs.specialcf.mesh_size
-    gamma = gamma0 * order ** 2 / h
-    elastic_stiffness = T.stiffness(0.0)
-    lam = step_normal_stress(T, u, phi, inv_dt, u_old) - gamma * elastic_stiffness * (u * n)
+    n = ngs.specialcf.normal(u.dim)
+    gamma_el, gamma_A = _support_gammas(T, order, gamma0)
+    lam = step_normal_stress(T, u, phi, inv_dt, u_old) - gamma_el * (u * n)
     if T.viscous:
-        lam = lam - gamma * (T.stiffness(1.0) - elastic_stiffness) * inv_dt * ((u - u_old) * n)
+        lam = lam - gamma_A * inv_dt * ((u - u_old) * n)
     return lam

@@ -14,8 +14,8 @@ import numpy as np
 
 from . import forms
 from .contact_side import element_boundary_layer
-from .supports import SLIP_GAMMA0
 from .records import ContactRecord, StepRecord
+from .supports import SLIP_GAMMA0
 
 
 @dataclass(frozen=True)
@@ -48,7 +48,7 @@ class Recorder:
     def __init__(self, body, state, system, gamma3=None):
         self.body, self.state, self.system = body, state, system
         self.gamma3 = gamma3
-        self._reaction, self._charge = self._boundary_tests()
+        self._charge = {name: self._test(1, 1.0, name) for name in body.boundaries["grounded"]}
         self._held = self._held_tests()
         self._weak = self._weak_supports()
         if gamma3 is not None:
@@ -59,16 +59,6 @@ class Recorder:
         w = ngs.GridFunction(self.state.space)
         w.components[component].Set(value, ngs.BND, definedon=self.body.mesh.Boundaries(names))
         return w.vec
-
-    def _boundary_tests(self):
-        body, dim = self.body, self.body.dim
-        if body.boundaries["clamped"]:
-            reaction = [self._test(0, ngs.CF(tuple(float(i == j) for j in range(dim))),
-                                   body.region_names("clamped")) for i in range(dim)]
-        else:                                                    # no Γ1: no reaction there
-            reaction = [ngs.GridFunction(self.state.space).vec for _ in range(dim)]
-        charge = {name: self._test(1, 1.0, name) for name in body.boundaries["grounded"]}
-        return reaction, charge
 
     def _held_tests(self):
         """{name: [w_i]}: the test vectors e_i at the held DOFs of each boundary of Γ1 and of
@@ -84,9 +74,7 @@ class Recorder:
             for i in range(dim):
                 w = self._test(0, ngs.CF(tuple(float(i == j) for j in range(dim))), name)
                 values = w.FV().NumPy()[:len(held)]
-                values[~held | taken] = 0.0
-                if i not in axes:
-                    values[:] = 0.0
+                values[~held | taken | (i not in axes)] = 0.0
                 tests[name].append(w)
             for w in tests[name]:
                 taken |= w.FV().NumPy()[:len(held)] != 0
@@ -148,12 +136,13 @@ class Recorder:
         """The StepRecord of step n at ``time`` (s) from the converged NewtonResult;
         ``wall_s`` and ``timings`` are left for the caller."""
         r = result.residual
+        reactions = self.boundary_reaction(r)
         return StepRecord(
             step=n, time=time, newton_iterations=result.iterations, residuals=result.residuals,
             factorizations=result.factorizations, krylov_iterations=result.krylov_iterations,
             krylov_failures=result.krylov_failures, discarded_iterations=result.discarded,
-            wall_s=0.0, reaction=np.array([ngs.InnerProduct(r, w) for w in self._reaction]),
-            boundary_reaction=self.boundary_reaction(r),
+            wall_s=0.0, boundary_reaction=reactions,     # Γ1's DOFs are each in one of its names:
+            reaction=sum((reactions[n] for n in self.body.boundaries["clamped"]), np.zeros(self.body.dim)),
             electrode_charge={name: -ngs.InnerProduct(r, w) for name, w in self._charge.items()},
             state=self.state.vec.FV().NumPy().copy() if keep_state else None,
             contact=self._contact_record() if self.gamma3 is not None else None)

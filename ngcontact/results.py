@@ -218,5 +218,4 @@ def restore(sim, directory):
                        r.get("hook"), (r["last_state"], float(r["last_dt"])) if "last_state" in r else None)
     sim.scheme.restore(saved)
     sim.history[:] = history
-    sim._resumed = info
     return info

@@ -14,7 +14,7 @@ import numpy as np
 
 from . import forms, results
 from .adhesion import BondingField
-from .admissible import PhysicsWarning, check_gap, check_supports_at_start, flags
+from .admissible import GapCheck, PhysicsWarning, check_supports_at_start, flags
 from .backward_euler import BackwardEuler
 from .checks import integer, number, uses_only
 from .contact_side import ContactSide
@@ -24,11 +24,10 @@ from .linear_solver import DirectSolver, KeptFactorization
 from .loads import Loads, as_cf
 from .newton import Newton, NewtonError, NewtonResult, Timings
 from .observables import Gamma3, Recorder
-from .step_length import StepLength
 from .progress import bar
 from .records import History
+from .step_length import StepLength
 from .system import StepSystem, free_jacobian, has_interior_dofs
-
 
 MAX_STEPS = 1_000_000        # nominal steps of one run(): more is a mistyped dt, not a plan
 
@@ -112,8 +111,7 @@ class Simulation:
             # FinalizeUpdate, which would reset them; UNUSED coupling types would break
             # static condensation); condensed interior φ DOFs stay 0 (no coupling, no charge)
             for free in (self.X.FreeDofs(), self.X.FreeDofs(coupling=True)):
-                for dof in range(self.X.Range(1).start, self.X.Range(1).stop):
-                    free.Clear(dof)
+                free[self.X.Range(1)] = False
         self.gamma3 = self._contact_side(contact) if contact is not None else None
         symmetric = contact is None or contact.symmetric
         self._inverse = inverse or ("sparsecholesky" if symmetric else "umfpack")
@@ -140,6 +138,7 @@ class Simulation:
         self.cutbacks = []
         self.flags = []                          # messages of steps that make no physical sense
         self.physical_checks = bool(physical_checks)
+        self._resumed = None                     # the run info of resume()
         self._start(u0)
 
     @property
@@ -161,7 +160,8 @@ class Simulation:
         foundation_potential = as_cf(contact.foundation_potential, 1, "Contact.foundation_potential")
         gamma3 = Gamma3(side, contact, None, None, gap, foundation_potential, normal, sampled_normal)
         self.time.Set(0.0)
-        check_gap(self.body, gamma3, 0.0)
+        self._gap_check = GapCheck(self.body, gamma3)
+        self._gap_check(0.0)
         if sampled_normal is not None:
             length = np.linalg.norm(side.sample(normal), axis=-1)
             if np.abs(length - 1).max() > 1e-8:
@@ -257,7 +257,7 @@ class Simulation:
             if self.contact is not None and self.contact.obstacle is None and \
                     isinstance(self.contact.gap, ngs.CoefficientFunction):
                 self.time.Set(self.t + dt)                  # the gap at t_n, before the solve
-                check_gap(self.body, self.gamma3, self.t + dt)
+                self._gap_check(self.t + dt)
             result = self.scheme.advance(dt, step=n, timer=timings)
             record = self._record(n, result, start, timings)
         except BaseException:
@@ -325,7 +325,7 @@ class Simulation:
         if (T - self.t) / dt > MAX_STEPS:
             raise ValueError(f"time step dt = {dt:g} s gives {(T - self.t) / dt:.3g} steps to T = {T:g} s; at "
                              f"most {MAX_STEPS:,} steps per run (a larger dt, or several runs)")
-        resumed = getattr(self, "_resumed", None)
+        resumed = self._resumed
         start = resumed["start"] if resumed and (resumed["dt"], resumed["T"]) == (dt, T) else self.t
         steps = int(np.ceil((T - start) / dt - 1e-9))
         callbacks = [on_step] if on_step else []
@@ -373,7 +373,7 @@ class Simulation:
         interrupted: its last step on disk becomes this simulation's state and history (the
         simulation must be of the same scene, freshly built). Then ``run(dt, T, out=directory)``
         with the run's dt and T computes the rest. Returns self."""
-        results.restore(self, directory)
+        self._resumed = results.restore(self, directory)
         return self
 
     # ----------------------------------------------------------------------- reading the state

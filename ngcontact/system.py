@@ -30,6 +30,7 @@ import scipy.sparse as sp
 from . import forms
 from .contact_side import element_boundary_layer
 from .loads import as_cf
+from .newton import ResidualNorm
 from .supports import SLIP_GAMMA0
 
 
@@ -312,7 +313,6 @@ def free_jacobian(system, x, space, scaled=True):
     """R'(x) of ``system`` (full Jacobian protocol) on the free DOFs of ``space`` as a scipy
     CSR matrix; ``scaled``: S J S with S = diag(s_u^-½, s_φ^-½), s_b the mean of |diagonal|
     over block b (the scaling of Newton's norms)."""
-    from .newton import ResidualNorm
     system.AssembleLinearization(x)
     J = sp.csr_matrix(system.mat.CSR(), shape=(system.mat.height, system.mat.width))
     free = np.flatnonzero(np.array(list(space.FreeDofs()), dtype=bool))
