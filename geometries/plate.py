@@ -9,10 +9,12 @@ Boundary names (use them for the parts of (2.5)-(2.6)):
   "bottom" (z = 0, the contact side Γ3) and "top" (z = L3).
 
 Lengths in metres. ``refine`` applies ``mesh.Refine()`` that many times (nested meshes,
-h halves each time): far cheaper than generating a fine mesh.
+h halves each time): far cheaper than generating a fine mesh; the coarse mesh is kept for
+the multigrid solver (``ngcontact.multigrid.nested_mesh``).
 """
-import ngsolve as ngs
 from netgen.occ import Box, OCCGeometry, Pnt, Rectangle, X, Y, Z
+
+from ngcontact.multigrid import nested_mesh
 
 
 def _check(**lengths):
@@ -24,10 +26,7 @@ def _check(**lengths):
 def _mesh(geometry, dim, maxh, refine):
     if int(refine) != refine or refine < 0:
         raise ValueError(f"refine must be an integer >= 0, got {refine}")
-    mesh = ngs.Mesh(OCCGeometry(geometry, dim=dim).GenerateMesh(maxh=maxh))
-    for _ in range(int(refine)):
-        mesh.Refine()
-    return mesh
+    return nested_mesh(OCCGeometry(geometry, dim=dim).GenerateMesh(maxh=maxh), refine)
 
 
 def plate(L1=0.1, L2=0.02, maxh=None, refine=0, maxh_contact=None):

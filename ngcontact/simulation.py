@@ -20,12 +20,12 @@ from .checks import integer, number, uses_only
 from .contact_side import ContactSide
 from .electric_part import electric_parts, solves_potential
 from .enforcement import METHODS
-from .linear_solver import DirectSolver, KeptFactorization
 from .loads import Loads, as_cf
 from .newton import Newton, NewtonError, NewtonResult, Timings
 from .observables import Gamma3, Recorder
 from .progress import bar
 from .records import History
+from .solver_choice import choose
 from .step_length import StepLength
 from .system import StepSystem, free_jacobian, has_interior_dofs
 
@@ -77,6 +77,10 @@ class Simulation:
         factorisation of an earlier Jacobian of the same time step size, factorising again
         only when that pays (``linear_solver.KeptFactorization``); False: factorise at every
         Newton iteration (also the default for Nitsche's θ = −1, see ``inverse``).
+    iterative : GMRES preconditioned by multigrid on nested meshes (``multigrid``) instead of
+        a factorisation: None (default) in 3D from 10⁵ DOFs when the mesh was made by
+        ``multigrid.nested_mesh`` (``ngcontact.geometries`` do) and nothing is condensed
+        (``solver_choice``); True or False to choose.
 
     The state after the last step: ``t`` (s), ``u``, ``phi`` (components of ``gfu``), the
     bonding field ``beta`` (``beta.values``), and ``history``, one StepRecord per step.
@@ -84,7 +88,7 @@ class Simulation:
 
     def __init__(self, body, loads=None, *, contact=None, time=None, u0=None, inverse=None,
                  rtol=1e-10, maxit=50, keep_states=True, predictor=False, condense=None, realcompile=None,
-                 limit_steps=True, reuse_factorization=True, electric=None, physical_checks=True):
+                 limit_steps=True, reuse_factorization=True, iterative=None, electric=None, physical_checks=True):
         self.body = body
         self.loads = loads or Loads()
         self.loads.check(body)
@@ -113,17 +117,9 @@ class Simulation:
             for free in (self.X.FreeDofs(), self.X.FreeDofs(coupling=True)):
                 free[self.X.Range(1)] = False
         self.gamma3 = self._contact_side(contact) if contact is not None else None
-        symmetric = contact is None or contact.symmetric
-        self._inverse = inverse or ("sparsecholesky" if symmetric else "umfpack")
-        skew = contact is not None and contact.method == "nitsche" and contact.theta == -1
-        if not reuse_factorization or (inverse is None and skew):
-            # θ = −1: GMRES needs 7 iterations with the symmetric part, UMFPACK at every
-            # iteration is faster (docs/speed.md, "Symmetric preconditioning by θ")
-            solver = DirectSolver(self._inverse)
-        elif inverse is None and not symmetric:   # LDLᵀ of the symmetric part: the skew part lives on Γ3
-            solver = KeptFactorization(DirectSolver("sparsecholesky"), symmetric=True)
-        else:
-            solver = KeptFactorization(DirectSolver(self._inverse))
+        solver, self._potential_solver = choose(body, contact, self.system, self.X, inverse=inverse,
+                                                reuse_factorization=reuse_factorization, iterative=iterative,
+                                                electric=self.electric, condense=self.condense)
         hook = self.gamma3.enforcement.newton_hook if contact is not None else None
         limit = None
         if contact is not None and hook is None and limit_steps:
@@ -226,7 +222,7 @@ class Simulation:
         phi_only = ngs.BitArray(self.X.FreeDofs())
         phi_only[self.X.Range(0)] = False
         if self.electric:
-            newton = Newton(self.system.uncondensed, self.gfu, solver=DirectSolver(self._inverse),
+            newton = Newton(self.system.uncondensed, self.gfu, solver=self._potential_solver,
                             freedofs=phi_only, rtol=self.newton.rtol, maxit=self.newton.maxit)
             result = newton.solve(step=0, time=0.0, timer=timings)
         else:                                    # nothing to solve: φ0 = 0

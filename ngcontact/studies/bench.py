@@ -21,6 +21,7 @@ Times are wall-clock seconds on the machine that runs it; nothing here asserts a
 """
 import json
 import pathlib
+import resource
 import time as wallclock
 from contextlib import nullcontext
 
@@ -36,11 +37,14 @@ from .common import fitted_slope, writable_directory, write_csv
 COLUMNS = ("dim", "order", "level", "ndof", "records", "newton_mean", "newton_max", "step_s",
            "assembly_s", "factorization_s", "solve_s", "residual_s", "other_s", "one_solve_s",
            "overhead", "setup_s", "factorizations", "krylov_per_newton", "path", "speedup", "state_diff",
-           "solver", "condense", "realcompile", "threads")
+           "solver", "condense", "realcompile", "threads", "peak_mib", "hierarchy_s")
 """Columns of bench.csv; times in s, per step except one_solve_s and setup_s; ``records``:
 the steps computed (cut-backs included); ``factorizations``: per step; ``path``: "new" or
 "old" (``OLD_PATH``); ``speedup`` (old step_s / new step_s) and ``state_diff`` (max |x_old −
-x_new| / max |x_old| over the final state vectors, u and φ) on the new row of a comparison."""
+x_new| / max |x_old| over the final state vectors, u and φ) on the new row of a comparison;
+``peak_mib``: the process's peak resident memory after the case (MiB; cases run in ascending
+size, so it is the case's own peak unless a comparison's old path ran before it);
+``hierarchy_s``: the multigrid solver's setup (replica hierarchy) inside the steps, s."""
 OLD_PATH = dict(reuse_factorization=False, limit_steps=False)
 """The Simulation options of the path before issue 12: factorise at every Newton iteration,
 full Newton steps."""
@@ -57,13 +61,15 @@ def case(order, level, **options):
 
 
 def measure(order, level, *, dim=2, steps=10, dt=2.5e-3, inverse=None, realcompile=None,
-            predictor=False, condense=None, threads=None, bare=False, path="new"):
+            predictor=False, condense=None, threads=None, bare=False, path="new", iterative=None):
     """One benchmark row (a dict with ``COLUMNS``) for the reference scene at P``order`` on
     refinement ``level``: ``steps`` time steps of ``dt`` s. ``inverse``, ``realcompile``,
     ``predictor`` and ``condense`` go to Simulation; ``threads``: run under TaskManager
     (default: from ``THREADS_FROM`` DOFs); ``bare=True``: no glue, no conduction (symmetric
     Jacobian with θ = 1: sparse Cholesky by default); ``path``: "new" (the defaults) or
-    "old" (``OLD_PATH``). Returns the row and the final state vector (numpy)."""
+    "old" (``OLD_PATH``); ``iterative``: GMRES with multigrid (True), a factorisation (False)
+    or the default by size (None, ``solver_choice``). Returns the row and the final state
+    vector (numpy)."""
     if path not in ("new", "old"):
         raise ValueError(f"path must be 'new' or 'old', got {path!r}")
     start = wallclock.perf_counter()
@@ -72,7 +78,7 @@ def measure(order, level, *, dim=2, steps=10, dt=2.5e-3, inverse=None, realcompi
     with ngs.TaskManager() if threads else nullcontext():
         sim = reference.simulation(order, MAXH[dim], level, dim, contact=reference.contact(bare=bare),
                                    inverse=inverse, keep_states=False, realcompile=realcompile,
-                                   predictor=predictor, condense=condense,
+                                   predictor=predictor, condense=condense, iterative=iterative,
                                    **(OLD_PATH if path == "old" else {}))
         setup = wallclock.perf_counter() - start
         sim.run(dt, steps * dt)
@@ -90,7 +96,8 @@ def measure(order, level, *, dim=2, steps=10, dt=2.5e-3, inverse=None, realcompi
                 setup_s=setup, factorizations=float(np.mean([r.factorizations for r in records])),
                 krylov_per_newton=krylov / max(int(iterations.sum()), 1), path=path, speedup=None,
                 state_diff=None, solver=sim.solver, condense=sim.condense, realcompile=sim.realcompile,
-                threads=threads)
+                threads=threads, peak_mib=peak_mib(),
+                hierarchy_s=getattr(sim.newton.solver, "setup_s", 0.0))
     return row, sim.gfu.vec.FV().NumPy().copy()
 
 
@@ -107,6 +114,22 @@ def one_linear_solve(sim, repeat=2):
     return min(times)
 
 
+def peak_mib():
+    """The peak resident memory of this process so far, MiB (Linux ru_maxrss is in KiB)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def krylov_growth(rows):
+    """Per order: the ratios of Krylov iterations per Newton iteration between consecutive
+    refinement levels (new path rows with Krylov iterations)."""
+    growth = {}
+    for order in dict.fromkeys(r["order"] for r in rows):
+        values = [r["krylov_per_newton"] for r in sorted(rows, key=lambda r: r["level"])
+                  if r["order"] == order and r.get("path", "new") == "new"]
+        growth[int(order)] = [b / a for a, b in zip(values[:-1], values[1:]) if a > 0]
+    return growth
+
+
 def growth_exponent(ndof, seconds, min_ndof=1e4):
     """Least-squares slope of log(seconds) against log(ndof) over the sizes >= min_ndof
     (nan with fewer than three such sizes)."""
@@ -117,10 +140,17 @@ def growth_exponent(ndof, seconds, min_ndof=1e4):
 
 def levels(order, dim, max_ndof):
     """The refinement levels whose ndof stays <= max_ndof (the meshes are built to count)."""
-    found = [0]
-    while reference.body(order, MAXH[dim], refine=found[-1] + 1, dim=dim).ndof <= max_ndof:
+    found, sizes = [0], [reference.body(order, MAXH[dim], dim=dim).ndof]
+    while True:
+        # a refinement multiplies ndof by ~2^dim: do not build a mesh far beyond max_ndof
+        guess = sizes[-1] * (sizes[-1] / sizes[-2] if len(sizes) > 1 else 2 ** dim)
+        if guess > 2 * max_ndof:
+            return found
+        size = reference.body(order, MAXH[dim], refine=found[-1] + 1, dim=dim).ndof
+        if size > max_ndof:
+            return found
         found.append(found[-1] + 1)
-    return found
+        sizes.append(size)
 
 
 def run(out, *, orders=(1, 2, 3, 4), dim=2, max_ndof=1e6, steps=10, dt=2.5e-3, progress=True,
@@ -154,6 +184,8 @@ def run(out, *, orders=(1, 2, 3, 4), dim=2, max_ndof=1e6, steps=10, dt=2.5e-3, p
     exponents = _write(out, rows, dim, steps, dt)
     print("time per step ~ ndof^a (fit over ndof >= 1e4): "
           + ", ".join(f"P{p}: a = {a:.2f}" for p, a in exponents.items()))
+    print("Krylov iterations per Newton iteration, growth per level: "
+          + "; ".join(f"P{p}: " + ", ".join(f"{g:.2f}x" for g in gs) for p, gs in krylov_growth(rows).items()))
     return rows, exponents
 
 
@@ -199,14 +231,15 @@ def _write(out, rows, dim, steps, dt):
 def _header():
     return (f"{'dim':>3} {'p':>2} {'lvl':>3} {'ndof':>9} {'newton':>11} {'step [s]':>9} {'assembly':>9} "
             f"{'factor':>9} {'solve':>8} {'residual':>9} {'other':>8} {'1 solve':>8} {'ratio':>6} "
-            f"{'fact/st':>7} {'kry/it':>6} path")
+            f"{'fact/st':>7} {'kry/it':>6} {'peak MiB':>8} path")
 
 
 def _line(r):
     return (f"{r['dim']:3d} {r['order']:2d} {r['level']:3d} {r['ndof']:9d} {r['newton_mean']:6.2f} "
             f"({r['newton_max']:2d}) {r['step_s']:9.4f} {r['assembly_s']:9.4f} {r['factorization_s']:9.4f} "
             f"{r['solve_s']:8.4f} {r['residual_s']:9.4f} {r['other_s']:8.4f} {r['one_solve_s']:8.4f} "
-            f"{r['overhead']:6.2f} {r['factorizations']:7.2f} {r['krylov_per_newton']:6.1f} {r['path']}")
+            f"{r['overhead']:6.2f} {r['factorizations']:7.2f} {r['krylov_per_newton']:6.1f} {r.get('peak_mib', 0):8.0f} "
+            f"{r['path']}")
 
 
 def _plot(path, rows, exponents, dim):

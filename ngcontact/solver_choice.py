@@ -1,0 +1,53 @@
+"""Which linear solver makes the Newton corrections of a simulation (``Simulation(inverse=,
+reuse_factorization=, iterative=)``), chosen by the system's symmetry, size and dimension.
+
+* ``iterative`` (``multigrid.MultigridSolver``, GMRES with Γ3 solves around block multigrid):
+  by default in 3D from ``ITERATIVE_FROM`` DOFs on nested meshes (``multigrid.nested_mesh``)
+  without static condensation; direct factorisations fill in like n^(4/3) there.
+* else a direct factorisation: kept between Newton iterations as GMRES's preconditioner
+  (``linear_solver.KeptFactorization``; of the symmetric part for a non-symmetric Jacobian),
+  or made at every iteration (``reuse_factorization=False``, and Nitsche's θ = −1, whose
+  skew Γ3 part makes GMRES slower than factorising, docs/speed.md).
+"""
+from .linear_solver import NAMES, DirectSolver, KeptFactorization
+from .multigrid import MultigridSolver, refinements
+
+ITERATIVE_FROM = 100_000
+"""DOFs from which 3D simulations on nested meshes solve iteratively by default (docs/scale.md)."""
+
+
+def iterative_by_default(body, condense):
+    """The default of ``iterative``: 3D, ≥ ITERATIVE_FROM DOFs, nested meshes, no condensation."""
+    return body.dim == 3 and body.ndof >= ITERATIVE_FROM and (refinements(body.mesh) or 0) >= 1 and not condense
+
+
+def choose(body, contact, system, space, *, inverse, reuse_factorization, iterative, electric, condense):
+    """(the Newton corrections' solver, the solver of the potential at t = 0) for ``body``
+    and ``contact`` on the StepSystem ``system`` of the product ``space``."""
+    if inverse is not None and inverse not in NAMES:
+        raise ValueError(f"inverse must be one of {', '.join(map(repr, NAMES))} or None, got {inverse!r}")
+    if iterative not in (None, True, False):
+        raise ValueError(f"iterative must be None (automatic), True or False, got {iterative!r}")
+    if iterative is None:
+        iterative = inverse is None and iterative_by_default(body, condense)
+    if iterative:
+        if inverse is not None:
+            raise ValueError(f"iterative=True solves by GMRES with multigrid; it takes no inverse= (got {inverse!r})")
+        if condense:
+            raise ValueError("iterative=True needs condense=False (the multigrid preconditioner acts on all DOFs)")
+        if refinements(body.mesh) is None:
+            raise ValueError("iterative=True needs nested meshes: make the mesh with "
+                             "ngcontact.multigrid.nested_mesh(ngmesh, refine) (ngcontact.geometries do)")
+        layer = space.GetDofs(body.region("contact_side")) if contact is not None else None
+
+        def solver(free_electric):
+            return MultigridSolver(body, system, layer, electric=free_electric)
+        return solver(electric), solver(True)
+    symmetric = contact is None or contact.symmetric
+    name = inverse or ("sparsecholesky" if symmetric else "umfpack")
+    skew = contact is not None and contact.method == "nitsche" and contact.theta == -1
+    if not reuse_factorization or (inverse is None and skew):
+        return DirectSolver(name), DirectSolver(name)
+    if inverse is None and not symmetric:       # LDLᵀ of the symmetric part: the skew part lives on Γ3
+        return KeptFactorization(DirectSolver("sparsecholesky"), symmetric=True), DirectSolver(name)
+    return KeptFactorization(DirectSolver(name)), DirectSolver(name)
