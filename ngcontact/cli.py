@@ -17,7 +17,10 @@ def parser():
     demo.add_argument("--order", metavar="P", type=int, default=1,
                       help="polynomial order of u and φ (default 1, the paper's P1)")
     demo.add_argument("--out", metavar="DIR", default="results", help="output directory (default results)")
-    demo.add_argument("--maxh", metavar="H", type=float, default=0.005, help="mesh size in m (default 0.005)")
+    demo.add_argument("--maxh", metavar="H", type=float, help="mesh size in m (default 0.005 in 2D, 0.01 in 3D)")
+    demo.add_argument("--dim", type=int, choices=(2, 3), default=2, help="2D plate (default) or 3D block")
+    demo.add_argument("--refine", metavar="K", type=int, default=0,
+                      help="refine the mesh K times (nested meshes; default 0)")
     demo.add_argument("--steps", metavar="N", type=int, default=200,
                       help="number of time steps over the load history, 0 to 0.5 s (default 200)")
     demo.add_argument("--theta", type=int, default=1, choices=(1, 0, -1), help="Nitsche variant")
@@ -111,7 +114,7 @@ def _dispatch(args):
     if args.command == "demo":
         from . import demo
         demo.run(order=args.order, out=args.out, maxh=args.maxh, steps=args.steps, theta=args.theta,
-                 gamma0=args.gamma0, resume=args.resume)
+                 gamma0=args.gamma0, resume=args.resume, dim=args.dim, refine=args.refine)
     elif args.command == "convergence":
         from .studies import convergence
         convergence.command(args.orders, args.levels, args.case, args.smoothness, args.dt_halvings, args.out,

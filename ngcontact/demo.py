@@ -15,11 +15,16 @@ from .scenes import reference
 from .studies.bench import THREADS_FROM
 from .studies.common import writable_directory
 
-HEADER = (f"{'step':>5} {'t [s]':>7} {'newton':>6} {'contact [mm]':>12} {'p_max [MPa]':>11} "
-          f"{'beta_min':>8} {'charge flux [C/m]':>17}")
 
 
-def run(order=1, out="results", maxh=0.005, steps=200, theta=1, gamma0=10.0, resume=False):
+def header(dim):
+    """The column titles of the line per step (2D: per metre of depth)."""
+    contact, flux = ("contact [mm]", "charge flux [C/m]") if dim == 2 else ("contact [mm²]", "charge flux [C]")
+    return (f"{'step':>5} {'t [s]':>7} {'newton':>6} {contact:>13} {'p_max [MPa]':>11} "
+            f"{'beta_min':>8} {flux:>17}")
+
+
+def run(order=1, out="results", maxh=None, steps=200, theta=1, gamma0=10.0, resume=False, dim=2, refine=0):
     """Run the reference scene (``scenes.reference``) over its load history in ``steps``
     time steps, print a line per step, write summary.json and charts into ``out``. Every
     step is streamed into ``out/run`` as it is computed (``ngcontact.results``); ``resume``
@@ -29,28 +34,38 @@ def run(order=1, out="results", maxh=0.005, steps=200, theta=1, gamma0=10.0, res
     ----------
     order : int, polynomial order of u and φ (1 = the paper's P1 scheme).
     out : str or path, output directory (created).
-    maxh : float, mesh size in m (halved along Γ3).
+    maxh : float, mesh size in m (2D: halved along Γ3; default 0.005 in 2D, 0.01 in 3D).
     steps : int, number of time steps over the load history, 0 to 0.5 s (dt γ_ν L² = 0.625
         at 200).
     theta, gamma0 : Nitsche variant and parameter.
+    dim : 2 (the plate, plane strain) or 3 (the block L1 × WIDTH × L2).
+    refine : int, times the mesh is refined (nested meshes: from 10⁵ DOFs in 3D the Newton
+        corrections are solved by GMRES with multigrid, ``solver_choice``).
 
     Returns
     -------
     dict, the contents of ``out/summary.json``: settings, ``ndof``, ``steps``, ``wall_s``
     (time stepping, s), ``max_penetration`` (m), final ``beta_min``/``beta_max``, and per
     computed step (cut-back steps included): ``times`` (s), ``load`` (Pa), ``newton_iterations``,
-    ``contact_length`` (m), ``max_pressure`` (Pa), ``charge_flux`` (∫_Γ3 D·ν, C/m),
-    ``tip_deflection`` (u_y at (L1, 0), m), ``reaction_y`` and ``contact_force_y`` (N/m).
+    ``contact_length`` (m; the contact area in 3D, m²), ``max_pressure`` (Pa), ``charge_flux``
+    (∫_Γ3 D·ν, C/m; C in 3D), ``tip_deflection`` (the vertical displacement at the middle of
+    the free end of Γ3, m), ``reaction_y`` and ``contact_force_y`` (vertical components, N/m;
+    N in 3D).
     """
     if int(steps) != steps or steps < 1:
         raise ValueError(f"steps must be an integer >= 1, got {steps}")
     if resume not in (True, False):
         raise ValueError(f"resume must be True or False, got {resume!r}")
+    if dim not in (2, 3):
+        raise ValueError(f"dim must be 2 or 3, got {dim!r}")
+    maxh = (0.005 if dim == 2 else 0.01) if maxh is None else maxh
     out = writable_directory(out)
-    sim = reference.simulation(order, maxh, contact=reference.contact(theta, gamma0))
+    sim = reference.simulation(order, maxh, refine, dim, contact=reference.contact(theta, gamma0),
+                               keep_states=dim == 2)
     body, mesh = sim.body, sim.body.mesh
-    tip = mesh(reference.L1, 0.0)
-    print(f"{body}, solver {sim.solver}\n{HEADER}")
+    tip = mesh(reference.L1, 0.0) if dim == 2 else mesh(reference.L1, reference.WIDTH / 2, 0.0)
+    deflection = {}                                  # step -> vertical displacement at the tip
+    print(f"{body}, solver {sim.solver}\n{header(dim)}")
     if resume:
         if not (out / "run" / "run.json").exists():
             raise ValueError(f"resume: {str(out / 'run')!r} holds no run to continue; run without --resume")
@@ -59,23 +74,27 @@ def run(order=1, out="results", maxh=0.005, steps=200, theta=1, gamma0=10.0, res
     elif (out / "run").exists():
         shutil.rmtree(out / "run")                   # a new run replaces the old one
 
+    area = 1e3 if dim == 2 else 1e6                  # m -> mm, m² -> mm²
+
     def report(rec):
         c = rec.contact
-        write(f"{rec.step:5d} {rec.time:7.4f} {rec.newton_iterations:6d} {1e3 * c.contact_area:12.3f} "
+        deflection[rec.step] = sim.u(tip)[dim - 1]
+        write(f"{rec.step:5d} {rec.time:7.4f} {rec.newton_iterations:6d} {area * c.contact_area:13.3f} "
               f"{1e-6 * max(c.pressure.max(), 0.0):11.3f} {c.beta.min():8.4f} {c.charge_flux:+17.4e}")
     start = wallclock.perf_counter()
     T = reference.LOAD_HISTORY[-1][0]
     with ngs.TaskManager() if body.ndof >= THREADS_FROM else nullcontext():
         history = sim.run(T / steps, T, on_step=report, out=out / "run")
     wall = wallclock.perf_counter() - start
-    rows = [_row(sim, n, rec, tip) for n, rec in enumerate(history) if n > 0]
+    rows = [_row(rec, deflection.get(n, np.nan)) for n, rec in enumerate(history) if n > 0]
     columns = {key: [row[key] for row in rows] for key in rows[0]}
     max_penetration = max(columns.pop("max_penetration"))
     peak = 1 + int(np.argmax(columns["contact_length"]))
     _plot_overview(out / "history.png", columns, history)
     _plot_gamma3(out / "beta.png", out / "pressure.png", sim, history)
-    _plot_potential(out / "potential_at_peak.png", mesh, sim.state(peak), history[peak].time)
-    summary = dict(order=order, maxh=maxh, ndof=body.ndof, L1=reference.L1, L2=reference.L2,
+    if dim == 2:
+        _plot_potential(out / "potential_at_peak.png", mesh, sim.state(peak), history[peak].time)
+    summary = dict(order=order, maxh=maxh, dim=dim, refine=refine, ndof=body.ndof, solver=sim.solver, L1=reference.L1, L2=reference.L2,
                    pressure=reference.PRESSURE, relaxation_time=reference.RELAXATION_TIME,
                    contact=reference.CONTACT, theta=theta, gamma0=gamma0, steps=steps, wall_s=wall,
                    max_penetration=max_penetration, beta_min=float(history[-1].contact.beta.min()),
@@ -86,14 +105,15 @@ def run(order=1, out="results", maxh=0.005, steps=200, theta=1, gamma0=10.0, res
     return summary
 
 
-def _row(sim, n, rec, tip):
-    """The summary's values of step n (record ``rec``), from the record and its kept state."""
+def _row(rec, deflection):
+    """The summary's values of a step: its record, and the tip's vertical ``deflection`` (m)."""
     c = rec.contact
+    vertical = len(rec.reaction) - 1
     load = reference.PRESSURE * float(np.interp(rec.time, *zip(*reference.LOAD_HISTORY)))
     return dict(times=rec.time, load=load, newton_iterations=int(rec.newton_iterations),
                 contact_length=c.contact_area, max_pressure=max(c.pressure.max(), 0.0),
-                charge_flux=c.charge_flux, tip_deflection=sim.state(n).components[0](tip)[1],
-                reaction_y=float(rec.reaction[1]), contact_force_y=float(c.force[1]),
+                charge_flux=c.charge_flux, tip_deflection=float(deflection),
+                reaction_y=float(rec.reaction[vertical]), contact_force_y=float(c.force[vertical]),
                 max_penetration=c.max_penetration)
 
 
@@ -104,8 +124,9 @@ def _plot_overview(path, columns, history):
     time = np.array(columns["times"])
     axes[0].plot(time, 1e-6 * np.array(columns["load"]), color="C3")
     axes[0].set_ylabel("pressure on top [MPa]")
-    axes[1].plot(time, 1e3 * np.array(columns["contact_length"]), color="C0", label="contact length [mm]")
-    axes[1].plot(time, 1e6 * np.array(columns["tip_deflection"]), color="C2", label="tip u_y [µm]")
+    area, unit = (1e3, "contact length [mm]") if len(history[0].reaction) == 2 else (1e6, "contact area [mm²]")
+    axes[1].plot(time, area * np.array(columns["contact_length"]), color="C0", label=unit)
+    axes[1].plot(time, 1e6 * np.array(columns["tip_deflection"]), color="C2", label="tip deflection [µm]")
     axes[1].legend()
     beta = history.contact_column("beta")[1:]
     axes[2].plot(time, beta.min(axis=1), color="C1", label="min β")
@@ -117,11 +138,11 @@ def _plot_overview(path, columns, history):
 
 
 def _plot_gamma3(beta_path, pressure_path, sim, history):
-    """β along Γ3 over time (x-t map), and the contact pressure along Γ3 at several times."""
-    order = np.argsort(sim.side.midpoints[:, 0])
-    x = 1e3 * sim.side.midpoints[order, 0]
+    """β along Γ3 over time (x-t map), and the contact pressure along Γ3 at several times
+    (in 3D: means over the facets in each of 40 slices across the width)."""
+    x, average = _along_x(sim.side.midpoints[:, 0])
     times = history.times
-    beta = history.contact_column("beta")[:, order]
+    beta = average(history.contact_column("beta"))
     fig = Figure(figsize=(7, 4), layout="constrained")
     ax = fig.add_subplot()
     shown = ax.pcolormesh(x, times, beta, shading="nearest", cmap="magma", vmin=0, vmax=1)
@@ -130,7 +151,7 @@ def _plot_gamma3(beta_path, pressure_path, sim, history):
     fig.savefig(beta_path, dpi=120)
     fig = Figure(figsize=(7, 4), layout="constrained")
     ax = fig.add_subplot()
-    pressure = history.contact_column("pressure")[:, order]
+    pressure = average(history.contact_column("pressure"))
     shown_steps = np.linspace(1, len(history) - 1, 9).astype(int)
     for n in shown_steps:
         ax.step(x, 1e-6 * pressure[n], where="mid", label=f"t = {times[n]:.3f} s")
@@ -149,6 +170,22 @@ def _plot_gamma3(beta_path, pressure_path, sim, history):
            title="contact pressure along Γ3 (negative: glue in tension)")
     ax.legend(fontsize=7, ncol=3)
     fig.savefig(pressure_path, dpi=120)
+
+
+def _along_x(x, slices=40):
+    """(x of each column in mm, a function that maps per-facet columns to columns along x):
+    the facets sorted by x when they are a line (2D), else the mean over ``slices`` slices."""
+    if len(np.unique(np.round(x, 12))) == len(x):
+        order = np.argsort(x)
+        return 1e3 * x[order], lambda values: values[:, order]
+    edges = np.linspace(x.min(), x.max(), slices + 1)
+    which = np.clip(np.digitize(x, edges) - 1, 0, slices - 1)
+    used = np.unique(which)
+    count = np.bincount(which, minlength=slices)[used]
+
+    def average(values):
+        return np.stack([np.bincount(which, weights=row, minlength=slices)[used] / count for row in values])
+    return 1e3 * 0.5 * (edges[used] + edges[used + 1]), average
 
 
 def _plot_potential(path, mesh, state, time):

@@ -115,11 +115,11 @@ class Hierarchy:
 class Preconditioner(ngs.BaseMatrix):
     """M ≈ J⁻¹ on the free DOFs (module docstring): Γ3 solve, block multigrid, Γ3 solve."""
 
-    def __init__(self, hierarchy, matrix, freedofs, layer, electric):
+    def __init__(self, hierarchy, matrix, freedofs, layer, electric, free=None):
         super().__init__()
         self.hierarchy, self.matrix, self.electric = hierarchy, matrix, electric
         self.n_u = hierarchy.V.ndof
-        self.free = np.array(list(freedofs), dtype=bool)
+        self.free = np.array(list(freedofs), dtype=bool) if free is None else free    # numpy mask of freedofs
         self.surface = matrix.Inverse(layer, inverse="umfpack") if layer.NumSet() else None
         self._u_in, self._u_out = (hierarchy.form_u.mat.CreateColVector() for _ in range(2))
         self._phi_in, self._phi_out = (ngs.GridFunction(hierarchy.W).vec for _ in range(2))
@@ -136,17 +136,14 @@ class Preconditioner(ngs.BaseMatrix):
 
     def _bulk(self, x, y):
         """y += diag(MG_u, −MG_φ) x on the free DOFs."""
-        values = x.FV().NumPy()
-        out = y.FV().NumPy()
-        self._u_in.FV().NumPy()[:] = values[:self.n_u]
+        values, out, n_u, free = x.FV().NumPy(), y.FV().NumPy(), self.n_u, self.free
+        self._u_in.FV().NumPy()[:] = values[:n_u]
         self._u_out.data = self.hierarchy.pre_u.mat * self._u_in
-        add = np.zeros(len(out))
-        add[:self.n_u] = self._u_out.FV().NumPy()
+        out[:n_u] += np.where(free[:n_u], self._u_out.FV().NumPy(), 0.0)
         if self.electric:
-            self._phi_in.FV().NumPy()[:] = values[self.n_u:]
+            self._phi_in.FV().NumPy()[:] = values[n_u:]
             self._phi_out.data = self.hierarchy.pre_phi.mat * self._phi_in
-            add[self.n_u:] = -self._phi_out.FV().NumPy()
-        out += np.where(self.free, add, 0.0)
+            out[n_u:] -= np.where(free[n_u:], self._phi_out.FV().NumPy(), 0.0)
 
     def Mult(self, x, y):
         d = self._defect
@@ -184,6 +181,7 @@ class MultigridSolver:
         self.tol, self.maxiter = tol, int(maxiter)
         self.factorizations = self.krylov_iterations = self.krylov_failures = 0
         self.hierarchy, self._generation = None, None
+        self._masks = (None, None, None)       # (freedofs, its numpy mask, its Γ3 DOFs)
         self.setup_s = 0.0                     # wall time of building hierarchies, s
 
     @property
@@ -200,8 +198,11 @@ class MultigridSolver:
                 self.hierarchy = Hierarchy(self.body, self.system.inv_dt.Get())
                 self._generation = generation
                 self.setup_s += wallclock.perf_counter() - start
-            layer = freedofs if self.layer is None else self.layer & freedofs
-            pre = Preconditioner(self.hierarchy, matrix, freedofs, layer, self.electric)
+            if self._masks[0] is not freedofs:
+                self._masks = (freedofs, np.array(list(freedofs), dtype=bool),
+                               freedofs if self.layer is None else self.layer & freedofs)
+            _, free, layer = self._masks
+            pre = Preconditioner(self.hierarchy, matrix, freedofs, layer, self.electric, free)
             self.factorizations += 1
         with timer("solve"):
             converged, iterations = gmres(matrix, pre, r, w, weights, self.tol if tol is None else tol,
