@@ -39,6 +39,7 @@ import numpy as np
 from . import forms
 from .linear_solver import gmres, untimed
 from .supports import dirichlet_flags
+from .system import compiled
 
 COARSE = "ngcontact_coarse"
 """The attribute of an ngsolve.Mesh that holds (coarse netgen mesh, refinements)."""
@@ -67,9 +68,13 @@ def refinements(mesh):
 class Hierarchy:
     """The replica hierarchy: V and W of ``body`` on a copy of its coarse mesh, refined as the
     body's, with the multigrid preconditioners of the u and φ forms (module docstring) at
-    1/dt = ``inv_dt`` (1/s)."""
+    1/dt = ``inv_dt`` (1/s). ``set_inv_dt`` changes 1/dt on the finest level only: the
+    coarse levels keep the first one (a spectrally equivalent coarse correction: the viscous
+    term scales the elastic one by 1 + τ/dt for Kelvin-Voigt A = τF), which saves rebuilding
+    the hierarchy at a cut-back. ``realcompile``: compile the integrands to machine code (the
+    3D Voigt-matrix integrands assemble ~3× faster)."""
 
-    def __init__(self, body, inv_dt):
+    def __init__(self, body, inv_dt, realcompile=False):
         kept = getattr(body.mesh, COARSE, None)
         if kept is None:
             raise ValueError("the multigrid solver needs nested meshes: build the mesh with "
@@ -83,12 +88,14 @@ class Hierarchy:
         (u, v), (phi, xi) = self.V.TnT(), self.W.TnT()
         stiffened = T.F + T.E.T @ np.linalg.solve(T.C, T.E) if body.coupled else T.F
         strain = forms.strain
-        self.form_u = ngs.BilinearForm(self.V, symmetric=True)
-        self.form_u += ngs.InnerProduct(forms.matrix_cf(stiffened) * strain(u), strain(v)) * ngs.dx
+        self.inv_dt = ngs.Parameter(inv_dt)
+        integrand = ngs.InnerProduct(forms.matrix_cf(stiffened) * strain(u), strain(v))
         if T.viscous:
-            self.form_u += inv_dt * forms.a(T, u, v) * ngs.dx
+            integrand = integrand + self.inv_dt * forms.a(T, u, v)
+        self.form_u = ngs.BilinearForm(self.V, symmetric=True)
+        self.form_u += compiled(integrand, realcompile) * ngs.dx
         self.form_phi = ngs.BilinearForm(self.W, symmetric=True)
-        self.form_phi += forms.c(T, phi, xi) * ngs.dx
+        self.form_phi += compiled(forms.c(T, phi, xi), realcompile) * ngs.dx
         self.pre_u = ngs.Preconditioner(self.form_u, "multigrid")
         self.pre_phi = ngs.Preconditioner(self.form_phi, "multigrid")
         self._assemble()
@@ -110,6 +117,12 @@ class Hierarchy:
         self.form_u.Assemble()
         if self.W.ndof:
             self.form_phi.Assemble()
+
+    def set_inv_dt(self, inv_dt):
+        """1/dt (1/s) of the u form's finest level (module docstring)."""
+        if inv_dt != self.inv_dt.Get():
+            self.inv_dt.Set(inv_dt)
+            self.form_u.Assemble()
 
 
 class Preconditioner(ngs.BaseMatrix):
@@ -167,17 +180,19 @@ class MultigridSolver:
     Parameters
     ----------
     body : the Body (its mesh made by ``nested_mesh``).
-    system : the StepSystem (its ``inv_dt``, 1/s); the hierarchy is rebuilt when its
-        ``generation`` (the time step size) changes.
+    system : the StepSystem (its ``inv_dt``, 1/s); when its ``generation`` (the time step
+        size) changes, the finest level takes the new 1/dt (``Hierarchy.set_inv_dt``).
     layer : BitArray of the DOFs on the Γ3 facets (``ContactSide``), or None.
     electric : whether φ is an unknown.
     tol : GMRES's relative reduction of the preconditioned residual (Newton asks for less
         where that suffices, inexact Newton).
     maxiter : GMRES iterations before a solve counts as failed (its best iterate is used).
+    realcompile : compile the hierarchy's integrands to machine code.
     """
 
-    def __init__(self, body, system, layer=None, *, electric=True, tol=1e-8, maxiter=300):
+    def __init__(self, body, system, layer=None, *, electric=True, tol=1e-8, maxiter=300, realcompile=False):
         self.body, self.system, self.layer, self.electric = body, system, layer, electric
+        self.realcompile = realcompile
         self.tol, self.maxiter = tol, int(maxiter)
         self.factorizations = self.krylov_iterations = self.krylov_failures = 0
         self.hierarchy, self._generation = None, None
@@ -195,7 +210,10 @@ class MultigridSolver:
         with timer("factorization"):
             if self.hierarchy is None or generation != self._generation:
                 start = wallclock.perf_counter()
-                self.hierarchy = Hierarchy(self.body, self.system.inv_dt.Get())
+                if self.hierarchy is None:
+                    self.hierarchy = Hierarchy(self.body, self.system.inv_dt.Get(), self.realcompile)
+                else:
+                    self.hierarchy.set_inv_dt(self.system.inv_dt.Get())
                 self._generation = generation
                 self.setup_s += wallclock.perf_counter() - start
             if self._masks[0] is not freedofs:

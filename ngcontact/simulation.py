@@ -119,7 +119,8 @@ class Simulation:
         self.gamma3 = self._contact_side(contact) if contact is not None else None
         solver, self._potential_solver = choose(body, contact, self.system, self.X, inverse=inverse,
                                                 reuse_factorization=reuse_factorization, iterative=iterative,
-                                                electric=self.electric, condense=self.condense)
+                                                electric=self.electric, condense=self.condense,
+                                                realcompile=self.realcompile)
         hook = self.gamma3.enforcement.newton_hook if contact is not None else None
         limit = None
         if contact is not None and hook is None and limit_steps:

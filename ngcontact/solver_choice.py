@@ -21,9 +21,11 @@ def iterative_by_default(body, condense):
     return body.dim == 3 and body.ndof >= ITERATIVE_FROM and (refinements(body.mesh) or 0) >= 1 and not condense
 
 
-def choose(body, contact, system, space, *, inverse, reuse_factorization, iterative, electric, condense):
+def choose(body, contact, system, space, *, inverse, reuse_factorization, iterative, electric, condense,
+           realcompile=False):
     """(the Newton corrections' solver, the solver of the potential at t = 0) for ``body``
-    and ``contact`` on the StepSystem ``system`` of the product ``space``."""
+    and ``contact`` on the StepSystem ``system`` of the product ``space`` (``realcompile``: of
+    the multigrid hierarchy's integrands)."""
     if inverse is not None and inverse not in NAMES:
         raise ValueError(f"inverse must be one of {', '.join(map(repr, NAMES))} or None, got {inverse!r}")
     if iterative not in (None, True, False):
@@ -40,9 +42,9 @@ def choose(body, contact, system, space, *, inverse, reuse_factorization, iterat
                              "ngcontact.multigrid.nested_mesh(ngmesh, refine) (ngcontact.geometries do)")
         layer = space.GetDofs(body.region("contact_side")) if contact is not None else None
 
-        def solver(free_electric):
-            return MultigridSolver(body, system, layer, electric=free_electric)
-        return solver(electric), solver(True)
+        newton = MultigridSolver(body, system, layer, electric=electric, realcompile=realcompile)
+        potential = MultigridSolver(body, system, layer, electric=True, realcompile=realcompile)
+        return newton, potential
     symmetric = contact is None or contact.symmetric
     name = inverse or ("sparsecholesky" if symmetric else "umfpack")
     skew = contact is not None and contact.method == "nitsche" and contact.theta == -1

@@ -154,7 +154,7 @@ class StepSystem:
         test = self.X.TestFunction()
         integrand = terms(self.X.TrialFunction(), test)
         if realcompile:
-            self.boundary += _compiled(side.indicator * integrand, True) * side.dx_at
+            self.boundary += compiled(side.indicator * integrand, True) * side.dx_at
         else:
             self.boundary += integrand.Compile() * side.ds
         self._boundary_linear += terms(self.state.components, test).Compile() * side.ds
@@ -331,7 +331,7 @@ def _csr(matrix):
     return sp.csr_matrix(matrix.CSR(), shape=(matrix.height, matrix.width))
 
 
-def _compiled(cf, realcompile):
+def compiled(cf, realcompile):
     """cf.Compile(), to machine code if ``realcompile`` (falls back, with a warning, when
     there is no working C++ compiler)."""
     if realcompile:

@@ -191,7 +191,7 @@ def test_static_condensation_gives_the_same_steps():
 
 def test_realcompile_falls_back_without_a_compiler():
     """If compiling to machine code fails, the integrand is Compile()d with a warning."""
-    from ngcontact.system import _compiled
+    from ngcontact.system import compiled
 
     class NoCompiler:
         def Compile(self, realcompile=False, wait=False):
@@ -199,4 +199,4 @@ def test_realcompile_falls_back_without_a_compiler():
                 raise Exception("cannot compile: g++ not found")
             return "compiled"
     with pytest.warns(RuntimeWarning, match="realcompile failed.*g\\+\\+ not found"):
-        assert _compiled(NoCompiler(), True) == "compiled"
+        assert compiled(NoCompiler(), True) == "compiled"
