@@ -12,7 +12,7 @@ import warnings
 import ngsolve as ngs
 import numpy as np
 
-from . import forms, results
+from . import forms, parallel, results
 from .adhesion import BondingField
 from .admissible import GapCheck, PhysicsWarning, check_supports_at_start, flags
 from .backward_euler import BackwardEuler
@@ -20,7 +20,7 @@ from .checks import integer, number, uses_only
 from .contact_side import ContactSide
 from .electric_part import electric_parts, solves_potential
 from .enforcement import METHODS
-from .linear_solver import DirectSolver, KeptFactorization
+from .linear_solver import NAMES, DirectSolver, KeptFactorization
 from .loads import Loads, as_cf
 from .newton import Newton, NewtonError, NewtonResult, Timings
 from .observables import Gamma3, Recorder
@@ -78,6 +78,13 @@ class Simulation:
         only when that pays (``linear_solver.KeptFactorization``); False: factorise at every
         Newton iteration (also the default for Nitsche's θ = −1, see ``inverse``).
 
+    On a distributed mesh (``mpiexec``, ``ngcontact.parallel``) the corrections are solved by
+    NGSolve's "masterinverse" (the Jacobian gathered and factorised on rank 0) at every
+    Newton iteration; ``reuse_factorization`` and a static condensation by default are
+    switched off (``parallel_notes`` says why), and the nodal constraint
+    (``method="active_set"``), other ``inverse`` names, ``condense=True``, streaming
+    (``out=``, ``resume``) and ``vtk`` raise a ValueError.
+
     The state after the last step: ``t`` (s), ``u``, ``phi`` (components of ``gfu``), the
     bonding field ``beta`` (``beta.values``), and ``history``, one StepRecord per step.
     """
@@ -86,6 +93,9 @@ class Simulation:
                  rtol=1e-10, maxit=50, keep_states=True, predictor=False, condense=None, realcompile=None,
                  limit_steps=True, reuse_factorization=True, electric=None, physical_checks=True):
         self.body = body
+        self.parallel_notes = []                 # serial-only defaults switched off, and why
+        if parallel.is_distributed(body.mesh):
+            _check_distributed(body.mesh, contact, inverse, condense)
         self.loads = loads or Loads()
         self.loads.check(body)
         self.time = time if time is not None else ngs.Parameter(0.0)
@@ -102,6 +112,9 @@ class Simulation:
             realcompile = body.ndof >= (2_000 if body.dim == 3 else 50_000)
         self.realcompile = bool(realcompile)
         self.condense = has_interior_dofs(self.X) if condense is None else bool(condense)
+        if self.condense and parallel.is_distributed(body.mesh):      # only by default (else raised)
+            self.condense = False
+            self.parallel_notes.append("static condensation: off (not implemented on a distributed mesh)")
         if contact is not None and not METHODS[contact.method].condensable:
             self.condense = False
         kept = body.region("contact_side") if contact is not None else None
@@ -116,7 +129,13 @@ class Simulation:
         symmetric = contact is None or contact.symmetric
         self._inverse = inverse or ("sparsecholesky" if symmetric else "umfpack")
         skew = contact is not None and contact.method == "nitsche" and contact.theta == -1
-        if not reuse_factorization or (inverse is None and skew):
+        if parallel.is_distributed(body.mesh):
+            self._inverse = "masterinverse"
+            if reuse_factorization:
+                self.parallel_notes.append("reuse_factorization: off (its GMRES works on the rank's numpy "
+                                           "arrays); masterinverse factorises at every Newton iteration")
+            solver = DirectSolver(self._inverse)
+        elif not reuse_factorization or (inverse is None and skew):
             # θ = −1: GMRES needs 7 iterations with the symmetric part, UMFPACK at every
             # iteration is faster (docs/speed.md, "Symmetric preconditioning by θ")
             solver = DirectSolver(self._inverse)
@@ -163,10 +182,10 @@ class Simulation:
         self._gap_check = GapCheck(self.body, gamma3)
         self._gap_check(0.0)
         if sampled_normal is not None:
-            length = np.linalg.norm(side.sample(normal), axis=-1)
-            if np.abs(length - 1).max() > 1e-8:
+            length, mesh = np.linalg.norm(side.sample(normal), axis=-1), body.mesh
+            if parallel.maximum(mesh, np.abs(length - 1)) > 1e-8:
                 raise ValueError("Contact.obstacle: its normal must be a unit vector field on Γ3; |n_o| ranges "
-                                 f"over [{length.min():.6g}, {length.max():.6g}]")
+                                 f"over [{parallel.minimum(mesh, length):.6g}, {parallel.maximum(mesh, length):.6g}]")
         beta = BondingField(side, contact)
         enforcement = METHODS[contact.method](body, contact, side, gap=gap, u_old=self.system.u_old,
                                               inv_dt=self.system.inv_dt, normal=normal)
@@ -204,14 +223,14 @@ class Simulation:
             u0 = as_cf(u0, self.body.dim, "u0")
             mesh, square = self.body.mesh, ngs.InnerProduct(u0, u0)
             if self.body.boundaries["clamped"]:
-                on_gamma1 = ngs.Integrate(square * ngs.ds(self.body.region("clamped")), mesh)
-                if on_gamma1 > 1e-20 * (1 + ngs.Integrate(square, mesh)):
+                on_gamma1 = parallel.sum(mesh, ngs.Integrate(square * ngs.ds(self.body.region("clamped")), mesh))
+                if on_gamma1 > 1e-20 * (1 + parallel.sum(mesh, ngs.Integrate(square * ngs.dx, mesh))):
                     raise ValueError("u0 must vanish on the clamped boundary Γ1 "
                                      f"({self.body.region_names('clamped')!r})")
             if self.contact is not None:
-                excess = (self.side.normal_displacement(u0, self.gamma3.sampled_normal)
-                          - self.side.sample(self.gap)).max()
-                if excess > 1e-12 * (1 + np.abs(self.side.sample(u0)).max()):
+                excess = parallel.maximum(mesh, self.side.normal_displacement(u0, self.gamma3.sampled_normal)
+                                          - self.side.sample(self.gap))
+                if excess > 1e-12 * (1 + parallel.maximum(mesh, np.abs(self.side.sample(u0)))):
                     raise ValueError(f"u0 must be admissible, u0_ν <= g on Γ3; it exceeds g by {excess:.3g} m")
             self.u.Set(u0)
             clamped = ~np.array(list(self.body.V.FreeDofs()), dtype=bool)
@@ -330,11 +349,14 @@ class Simulation:
         steps = int(np.ceil((T - start) / dt - 1e-9))
         callbacks = [on_step] if on_step else []
         if out is not None:
+            parallel.serial_only(self.body.mesh, "run(out=...): streaming the results",
+                                 "each rank holds part of the state")
             stream = results.Stream(self, out, dt, T, start)
             if resumed is None:
                 stream(self.history[-1])                 # the state the run starts from
             callbacks.insert(0, stream)
         if vtk:
+            parallel.serial_only(self.body.mesh, "run(vtk=...)", "not tested distributed")
             writer = ngs.VTKOutput(self.body.mesh, coefs=[self.u, self.phi], names=["displacement", "potential"],
                                    filename=str(vtk), subdivision=max(self.body.order, self.body.order_phi) - 1)
             writer.Do(time=self.t)
@@ -343,7 +365,7 @@ class Simulation:
         def after(record):
             for callback in callbacks:
                 callback(record)
-        with bar(steps, "time steps", progress) as shown:
+        with bar(steps, "time steps", progress and parallel.rank() == 0) as shown:
             if progress:                        # a long step shows its Newton iterations
                 self.newton.on_iteration = lambda it, r: shown.set_postfix_str(
                     f"t -> {self.time.Get():.4g} s, Newton {it}, residual {r:.1e}")
@@ -373,6 +395,7 @@ class Simulation:
         interrupted: its last step on disk becomes this simulation's state and history (the
         simulation must be of the same scene, freshly built). Then ``run(dt, T, out=directory)``
         with the run's dt and T computes the rest. Returns self."""
+        parallel.serial_only(self.body.mesh, "resume()", "streaming the results is serial only")
         self._resumed = results.restore(self, directory)
         return self
 
@@ -390,6 +413,18 @@ class Simulation:
         free DOFs, as a scipy CSR matrix; ``scaled``: S J S with S = diag(s_u^-½, s_φ^-½), s_b
         the mean of |diagonal| over block b (the scaling of Newton's norms)."""
         return free_jacobian(self.system.uncondensed, self.gfu.vec, self.X, scaled)
+
+def _check_distributed(mesh, contact, inverse, condense):
+    """What a simulation on a distributed mesh cannot do: a ValueError naming the feature."""
+    if contact is not None and contact.method == "active_set":
+        parallel.serial_only(mesh, "Contact.method 'active_set' (the nodal constraint)",
+                             "its saddle point systems are scipy matrices of one rank; use 'nitsche' or 'penalty'")
+    if inverse is not None and inverse in NAMES:
+        parallel.serial_only(mesh, f"inverse={inverse!r}", "not a parallel solver; leave inverse=None "
+                             "(NGSolve's 'masterinverse' is used)")
+    if condense:
+        parallel.serial_only(mesh, "condense=True (static condensation)", "not implemented; pass condense=None or False")
+
 
 def _check_cutbacks(max_cutbacks):
     if int(max_cutbacks) != max_cutbacks or max_cutbacks < 0:
