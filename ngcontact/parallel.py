@@ -151,3 +151,20 @@ def serial_only(mesh, feature, why=""):
     if is_distributed(mesh):
         raise ValueError(f"{feature} does not run on a distributed mesh (mpiexec with "
                          f"{mesh.comm.size} ranks){': ' + why if why else ''}")
+
+
+def point_values(mesh, cf, points):
+    """cf at ``points`` (an array of coordinates, points × dim) as a numpy array (points ×
+    cf.dim), on every rank: on a distributed mesh each point is evaluated by the ranks whose
+    elements hold it and averaged over them (a continuous field agrees there to round-off).
+    A point outside the mesh raises a ValueError."""
+    points = np.atleast_2d(np.asarray(points, dtype=float))
+    values, found = np.zeros((len(points), cf.dim)), np.zeros(len(points))
+    for i, point in enumerate(points):
+        mapped = mesh(*point)
+        if mapped.nr >= 0:
+            values[i], found[i] = np.ravel(cf(mapped)), 1.0
+    values, found = sum(mesh, values), sum(mesh, found)
+    if not found.all():
+        raise ValueError(f"points {points[found == 0].tolist()} are outside the mesh")
+    return values / found[:, None]
