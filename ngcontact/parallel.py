@@ -121,6 +121,13 @@ def cumulated(vec):
     return vec.FV().NumPy().copy()
 
 
+def set_cumulated(vec, values):
+    """Set the values of a vector (numpy, as ``cumulated`` gives them) and mark it cumulated."""
+    vec.FV().NumPy()[:] = values
+    if vec.GetParallelStatus() == ngs.la.PARALLEL_STATUS.DISTRIBUTED:
+        vec.SetParallelStatus(ngs.la.PARALLEL_STATUS.CUMULATED)
+
+
 def distributed_values(template, values):
     """numpy ``values`` given as distributed contributions (summed over the ranks sharing a
     DOF), cumulated into a numpy array like ``cumulated``; ``template`` is a vector of the
@@ -168,3 +175,26 @@ def point_values(mesh, cf, points):
     if not found.all():
         raise ValueError(f"points {points[found == 0].tolist()} are outside the mesh")
     return values / found[:, None]
+
+
+def check_simulation(mesh, contact, inverse, condense, reuse_factorization):
+    """What a Simulation on a distributed mesh cannot do raises a ValueError naming the
+    feature: the nodal constraint (``method="active_set"``: scipy saddle point systems of one
+    rank), a serial ``inverse``, ``condense=True``. Returns the serial-only defaults switched
+    off, with the reason (``Simulation.parallel_notes``; [] on a serial mesh): the corrections
+    are solved by NGSolve's "masterinverse" (the Jacobian gathered and factorised on rank 0)
+    at every Newton iteration, without static condensation."""
+    if not is_distributed(mesh):
+        return []
+    if contact is not None and contact.method == "active_set":
+        serial_only(mesh, "Contact.method 'active_set' (the nodal constraint)",
+                    "its saddle point systems are scipy matrices of one rank; use 'nitsche' or 'penalty'")
+    if inverse is not None:
+        serial_only(mesh, f"inverse={inverse!r}", "leave inverse=None: NGSolve's 'masterinverse' is used")
+    if condense:
+        serial_only(mesh, "condense=True (static condensation)", "not implemented; pass condense=None or False")
+    notes = ["static condensation: off (not implemented on a distributed mesh)"]
+    if reuse_factorization:
+        notes.append("reuse_factorization: off (its GMRES works on the rank's numpy arrays); "
+                     "masterinverse factorises at every Newton iteration")
+    return notes

@@ -20,7 +20,7 @@ from .checks import integer, number, uses_only
 from .contact_side import ContactSide
 from .electric_part import electric_parts, solves_potential
 from .enforcement import METHODS
-from .linear_solver import NAMES, DirectSolver, KeptFactorization
+from .linear_solver import DirectSolver, KeptFactorization
 from .loads import Loads, as_cf
 from .newton import Newton, NewtonError, NewtonResult, Timings
 from .observables import Gamma3, Recorder
@@ -49,7 +49,7 @@ class Simulation:
         sparse Cholesky factorisation of its symmetric part as GMRES's preconditioner, and
         "umfpack" without, and for Nitsche's θ = −1 (its skew Γ3 part makes GMRES slower
         than factorising at every iteration). The nodal constraint (``method="active_set"``) solves its saddle
-        point systems itself. ``solver`` says what is used.
+        point systems itself. ``solver`` says what is used (distributed: ``parallel.check_simulation``).
     rtol, maxit : Newton tolerance (relative) and iteration limit per step.
     keep_states : keep a copy of (u, φ) of every step in the history.
     predictor : start Newton from the linear extrapolation of the last two states instead of
@@ -78,13 +78,6 @@ class Simulation:
         only when that pays (``linear_solver.KeptFactorization``); False: factorise at every
         Newton iteration (also the default for Nitsche's θ = −1, see ``inverse``).
 
-    On a distributed mesh (``mpiexec``, ``ngcontact.parallel``) the corrections are solved by
-    NGSolve's "masterinverse" (the Jacobian gathered and factorised on rank 0) at every
-    Newton iteration; ``reuse_factorization`` and a static condensation by default are
-    switched off (``parallel_notes`` says why), and the nodal constraint
-    (``method="active_set"``), other ``inverse`` names, ``condense=True``, streaming
-    (``out=``, ``resume``) and ``vtk`` raise a ValueError.
-
     The state after the last step: ``t`` (s), ``u``, ``phi`` (components of ``gfu``), the
     bonding field ``beta`` (``beta.values``), and ``history``, one StepRecord per step.
     """
@@ -93,9 +86,7 @@ class Simulation:
                  rtol=1e-10, maxit=50, keep_states=True, predictor=False, condense=None, realcompile=None,
                  limit_steps=True, reuse_factorization=True, electric=None, physical_checks=True):
         self.body = body
-        self.parallel_notes = []                 # serial-only defaults switched off, and why
-        if parallel.is_distributed(body.mesh):
-            _check_distributed(body.mesh, contact, inverse, condense)
+        self.parallel_notes = parallel.check_simulation(body.mesh, contact, inverse, condense, reuse_factorization)
         self.loads = loads or Loads()
         self.loads.check(body)
         self.time = time if time is not None else ngs.Parameter(0.0)
@@ -111,10 +102,8 @@ class Simulation:
         if realcompile is None:         # where it paid in docs/speed.md (the 3D Γ3 terms cost far more)
             realcompile = body.ndof >= (2_000 if body.dim == 3 else 50_000)
         self.realcompile = bool(realcompile)
-        self.condense = has_interior_dofs(self.X) if condense is None else bool(condense)
-        if self.condense and parallel.is_distributed(body.mesh):      # only by default (else raised)
-            self.condense = False
-            self.parallel_notes.append("static condensation: off (not implemented on a distributed mesh)")
+        distributed = parallel.is_distributed(body.mesh)     # see parallel.check_simulation, parallel_notes
+        self.condense = has_interior_dofs(self.X) and not distributed if condense is None else bool(condense)
         if contact is not None and not METHODS[contact.method].condensable:
             self.condense = False
         kept = body.region("contact_side") if contact is not None else None
@@ -127,13 +116,9 @@ class Simulation:
                 free[self.X.Range(1)] = False
         self.gamma3 = self._contact_side(contact) if contact is not None else None
         symmetric = contact is None or contact.symmetric
-        self._inverse = inverse or ("sparsecholesky" if symmetric else "umfpack")
+        self._inverse = "masterinverse" if distributed else inverse or ("sparsecholesky" if symmetric else "umfpack")
         skew = contact is not None and contact.method == "nitsche" and contact.theta == -1
-        if parallel.is_distributed(body.mesh):
-            self._inverse = "masterinverse"
-            if reuse_factorization:
-                self.parallel_notes.append("reuse_factorization: off (its GMRES works on the rank's numpy "
-                                           "arrays); masterinverse factorises at every Newton iteration")
+        if distributed:
             solver = DirectSolver(self._inverse)
         elif not reuse_factorization or (inverse is None and skew):
             # θ = −1: GMRES needs 7 iterations with the symmetric part, UMFPACK at every
@@ -224,7 +209,7 @@ class Simulation:
             mesh, square = self.body.mesh, ngs.InnerProduct(u0, u0)
             if self.body.boundaries["clamped"]:
                 on_gamma1 = parallel.sum(mesh, ngs.Integrate(square * ngs.ds(self.body.region("clamped")), mesh))
-                if on_gamma1 > 1e-20 * (1 + parallel.sum(mesh, ngs.Integrate(square * ngs.dx, mesh))):
+                if on_gamma1 > 1e-20 * (1 + ngs.Integrate(square, mesh)):     # (all ranks' sum)
                     raise ValueError("u0 must vanish on the clamped boundary Γ1 "
                                      f"({self.body.region_names('clamped')!r})")
             if self.contact is not None:
@@ -349,14 +334,11 @@ class Simulation:
         steps = int(np.ceil((T - start) / dt - 1e-9))
         callbacks = [on_step] if on_step else []
         if out is not None:
-            parallel.serial_only(self.body.mesh, "run(out=...): streaming the results",
-                                 "each rank holds part of the state")
             stream = results.Stream(self, out, dt, T, start)
             if resumed is None:
                 stream(self.history[-1])                 # the state the run starts from
             callbacks.insert(0, stream)
-        if vtk:
-            parallel.serial_only(self.body.mesh, "run(vtk=...)", "not tested distributed")
+        if vtk and not parallel.serial_only(self.body.mesh, "run(vtk=...)", "not tested distributed"):
             writer = ngs.VTKOutput(self.body.mesh, coefs=[self.u, self.phi], names=["displacement", "potential"],
                                    filename=str(vtk), subdivision=max(self.body.order, self.body.order_phi) - 1)
             writer.Do(time=self.t)
@@ -365,7 +347,7 @@ class Simulation:
         def after(record):
             for callback in callbacks:
                 callback(record)
-        with bar(steps, "time steps", progress and parallel.rank() == 0) as shown:
+        with bar(steps, "time steps", progress) as shown:
             if progress:                        # a long step shows its Newton iterations
                 self.newton.on_iteration = lambda it, r: shown.set_postfix_str(
                     f"t -> {self.time.Get():.4g} s, Newton {it}, residual {r:.1e}")
@@ -395,7 +377,6 @@ class Simulation:
         interrupted: its last step on disk becomes this simulation's state and history (the
         simulation must be of the same scene, freshly built). Then ``run(dt, T, out=directory)``
         with the run's dt and T computes the rest. Returns self."""
-        parallel.serial_only(self.body.mesh, "resume()", "streaming the results is serial only")
         self._resumed = results.restore(self, directory)
         return self
 
@@ -413,18 +394,6 @@ class Simulation:
         free DOFs, as a scipy CSR matrix; ``scaled``: S J S with S = diag(s_u^-½, s_φ^-½), s_b
         the mean of |diagonal| over block b (the scaling of Newton's norms)."""
         return free_jacobian(self.system.uncondensed, self.gfu.vec, self.X, scaled)
-
-def _check_distributed(mesh, contact, inverse, condense):
-    """What a simulation on a distributed mesh cannot do: a ValueError naming the feature."""
-    if contact is not None and contact.method == "active_set":
-        parallel.serial_only(mesh, "Contact.method 'active_set' (the nodal constraint)",
-                             "its saddle point systems are scipy matrices of one rank; use 'nitsche' or 'penalty'")
-    if inverse is not None and inverse in NAMES:
-        parallel.serial_only(mesh, f"inverse={inverse!r}", "not a parallel solver; leave inverse=None "
-                             "(NGSolve's 'masterinverse' is used)")
-    if condense:
-        parallel.serial_only(mesh, "condense=True (static condensation)", "not implemented; pass condense=None or False")
-
 
 def _check_cutbacks(max_cutbacks):
     if int(max_cutbacks) != max_cutbacks or max_cutbacks < 0:

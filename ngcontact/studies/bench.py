@@ -155,7 +155,7 @@ def run(out, *, orders=(1, 2, 3, 4), dim=2, max_ndof=1e6, steps=10, dt=2.5e-3, p
     out = writable_directory(out)
     cases = [(order, level) for order in orders for level in levels(order, dim, max_ndof)]
     rows = _done(out, dim, steps, dt) if resume else []
-    with bar(len(cases), "bench cases", progress and writes, unit="run") as shown:
+    with bar(len(cases), "bench cases", progress, unit="run") as shown:
         say = shown.write if writes else (lambda text: None)
         say(_header())
         for order, level in cases:
