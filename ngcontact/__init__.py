@@ -3,9 +3,10 @@ conductive foundation, with adhesion (Guettaf & Touzaline), on NGSolve.
 
 The public API is the names below; ``ngcontact.geometries`` (meshes with named
 boundaries), ``ngcontact.scenes`` (ready scenes and manufactured solutions) and
-``ngcontact.contact_laws`` (the laws p, R_ν, φ_L, ψ) are public modules too.
+``ngcontact.contact_laws`` (the laws p, R_ν, φ_L, ψ) and ``ngcontact.parallel`` (runs under
+mpiexec on a distributed mesh) are public modules too.
 """
-from . import contact_laws
+from . import contact_laws, parallel
 from .admissible import PhysicsWarning
 from .body import Body
 from .contact import Contact
@@ -18,4 +19,5 @@ from .simulation import Simulation
 from .webgui import save_html
 
 __all__ = ["Body", "Contact", "Loads", "Material", "Simulation", "History", "StepRecord", "ContactRecord",
-           "NewtonError", "PhysicsWarning", "METHODS", "EPS0", "academic", "pzt5a", "batio3", "save_html", "contact_laws"]
+           "NewtonError", "PhysicsWarning", "METHODS", "EPS0", "academic", "pzt5a", "batio3", "save_html", "contact_laws",
+           "parallel"]

@@ -14,6 +14,7 @@ previous displacement u_{n-1}, before (u_n, φ_n) are solved (k = dt in the pape
 import ngsolve as ngs
 import numpy as np
 
+from . import parallel
 from .contact_laws import positive_part
 
 
@@ -27,9 +28,10 @@ class BondingField:
         self.side, self.contact = side, contact
         self.gf = ngs.GridFunction(side.B, name="beta")
         beta0 = side.project(ngs.CF(contact.beta0))
-        if beta0.min() < -1e-12 or beta0.max() > 1 + 1e-12:
+        low, high = parallel.minimum(side.mesh, beta0), parallel.maximum(side.mesh, beta0)
+        if low < -1e-12 or high > 1 + 1e-12:
             raise ValueError(f"Contact.beta0 must lie in [0, 1] on Γ3; its facet averages range "
-                             f"over [{beta0.min():.3g}, {beta0.max():.3g}]")
+                             f"over [{low:.3g}, {high:.3g}]")
         self.values[:] = np.clip(beta0, 0, 1)
         self.unclipped = self.values.copy()
         self._forms = (None, None)

@@ -6,6 +6,8 @@ and the tolerance.
 import ngsolve as ngs
 import numpy as np
 
+from . import parallel
+
 
 class GapCheck:
     """The gap must be >= 0 on Γ3 (to 1e-8 of the body's size) at time t (the time Parameter
@@ -16,14 +18,14 @@ class GapCheck:
     that a time-dependent gap can be checked at every step."""
 
     def __init__(self, body, gamma3):
-        self.gamma3, self.tolerance = gamma3, 1e-8 * body.size
+        self.gamma3, self.tolerance, self.mesh = gamma3, 1e-8 * body.size, body.mesh
         gap = gamma3.gap
         self._negative = gamma3.side.facet_integrals(ngs.IfPos(-gap, -gap, 0.0))
 
     def __call__(self, t):
         g = self.gamma3
-        negative = max((self._negative() / g.side.measure).max(),
-                       0.0 if g.sampled_normal is None else -g.side.sample(g.gap).min())
+        negative = max(parallel.maximum(self.mesh, self._negative() / g.side.measure),
+                       0.0 if g.sampled_normal is None else -parallel.minimum(self.mesh, g.side.sample(g.gap)))
         if negative > self.tolerance:
             what = ("Contact.obstacle intersects the body at t = 0" if g.contact.obstacle is not None
                     else f"Contact.gap must be >= 0 on Γ3 at t = {t:.6g} s")
@@ -36,10 +38,12 @@ def check_supports_at_start(body, u, given):
     displacements at t = 0, which ``u`` holds."""
     held = ~np.array(list(body.V.FreeDofs()), dtype=bool)
     prescribed = u.vec.FV().NumPy()[held]
-    scale = max(np.abs(prescribed).max(initial=0.0), np.abs(given).max(initial=0.0))
-    if body.supports and np.abs(prescribed - given).max(initial=0.0) > 1e-8 * scale + 1e-14:
+    mesh = body.mesh
+    scale = max(parallel.maximum(mesh, np.abs(prescribed), 0.0), parallel.maximum(mesh, np.abs(given), 0.0))
+    difference = parallel.maximum(mesh, np.abs(prescribed - given), 0.0)
+    if body.supports and difference > 1e-8 * scale + 1e-14:
         raise ValueError("u0 must equal Loads.displacement on the supports at t = 0; they differ by "
-                         f"up to {np.abs(prescribed - given).max():.3g} m: start the prescribed "
+                         f"up to {difference:.3g} m: start the prescribed "
                          "displacements from 0 or pass a matching u0")
 
 
@@ -59,16 +63,16 @@ def flags(body, record, u, side=None):
     does not hold), non-finite fields."""
     found = []
     values = u.vec.FV().NumPy()
-    if not np.all(np.isfinite(values)):
+    if parallel.any_rank(body.mesh, not np.all(np.isfinite(values))):
         found.append(f"step {record.step}: the displacement has NaN or inf entries")
         return found
     size = body.size
-    largest = np.abs(values).max(initial=0.0)
+    largest = parallel.maximum(body.mesh, np.abs(values), 0.0)
     if largest > DISPLACEMENT_LIMIT * size:
         found.append(f"step {record.step} (t = {record.time:.6g} s): displacement {largest:.3g} m exceeds "
                      f"{DISPLACEMENT_LIMIT:g} of the body's size {size:.3g} m: the small-strain model does not hold")
     if record.contact is not None and side is not None:
-        facet = side.measure.min() ** (1 / (body.dim - 1))
+        facet = parallel.minimum(body.mesh, side.measure) ** (1 / (body.dim - 1))
         if record.contact.max_penetration > PENETRATION_LIMIT * facet:
             found.append(f"step {record.step} (t = {record.time:.6g} s): penetration {record.contact.max_penetration:.3g}"
                          f" m exceeds {PENETRATION_LIMIT:g} of the smallest facet of Γ3 ({facet:.3g} m): the "

@@ -11,6 +11,8 @@ from dataclasses import dataclass
 
 import ngsolve as ngs
 
+from . import parallel
+
 
 @dataclass(frozen=True)
 class Checkpoint:
@@ -69,7 +71,7 @@ class BackwardEuler:
     def checkpoint(self):
         """A copy of everything ``advance`` changes."""
         beta = self.beta
-        return Checkpoint(self.t, self.state.vec.FV().NumPy().copy(),
+        return Checkpoint(self.t, parallel.cumulated(self.state.vec).copy(),
                           None if beta is None else beta.values.copy(),
                           None if beta is None else beta.unclipped.copy(),
                           None if self.hook is None else self.hook.save(), self._last)
@@ -77,7 +79,7 @@ class BackwardEuler:
     def restore(self, saved):
         """Put back a checkpoint, bitwise; the time Parameter of the loads is set to its t."""
         self.t, self._last = saved.t, saved.last
-        self.state.vec.FV().NumPy()[:] = saved.state
+        parallel.set_cumulated(self.state.vec, saved.state)
         if self.beta is not None:
             self.beta.values[:] = saved.beta
             self.beta.unclipped = saved.beta_unclipped.copy()

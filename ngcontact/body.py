@@ -14,6 +14,7 @@ import functools
 import ngsolve as ngs
 import numpy as np
 
+from . import parallel
 from .checks import integer
 from .materials import Material
 from .supports import dirichlet_flags
@@ -123,6 +124,10 @@ class Body:
         """The diagonal of the mesh's bounding box (m): the scale of the checks of
         ``admissible``."""
         coordinates = self.mesh.ngmesh.Coordinates()
+        if parallel.is_distributed(self.mesh):               # each rank holds its part
+            high = [parallel.maximum(self.mesh, c) for c in coordinates.T]
+            low = [parallel.minimum(self.mesh, c) for c in coordinates.T]
+            return float(np.linalg.norm(np.subtract(high, low)))
         return float(np.linalg.norm(coordinates.max(axis=0) - coordinates.min(axis=0)))
 
     @property
@@ -141,8 +146,9 @@ class Body:
 
     @property
     def ndof(self):
-        """Number of DOFs of V × W (all, Dirichlet ones included)."""
-        return self.X.ndof
+        """Number of DOFs of V × W (all, Dirichlet ones included; over all ranks on a
+        distributed mesh)."""
+        return self.X.ndofglobal if parallel.is_distributed(self.mesh) else self.X.ndof
 
     def __repr__(self):
         return (f"Body({self.material.name or 'material'}, dim={self.dim}, order=({self.order}, "

@@ -59,7 +59,7 @@ class ContactSide:
         self.measure = self._integrate(ngs.CF(1.0))        # |facet| per dof of B^h
         # per dof of B^h: vertex numbers and coordinates of its facet
         order = {d: i for i, d in enumerate(np.flatnonzero(np.array(list(active))))}
-        points = np.array([v.point for v in mesh.vertices])
+        points = np.array([v.point for v in mesh.vertices]) if mesh.nv else np.zeros((0, self.dim))
         self.facet_vertex_numbers = np.zeros((self.B.ndof, self.dim), dtype=int)
         for el in elements:
             self.facet_vertex_numbers[order[facets.GetDofNrs(el)[0]]] = [v.nr for v in el.vertices]
@@ -129,7 +129,7 @@ class ContactSide:
         """cf at the sample points (facets × points per facet), evaluated on each facet of
         Γ3 (a facet's vertex with that facet's normal); no volume gradients."""
         values = cf(self._mesh_points)
-        return values.reshape(self.sample_points.shape[:2] + (-1,)).squeeze(-1) if cf.dim == 1 else \
+        return values.reshape(self.sample_points.shape[:2] + (1,)).squeeze(-1) if cf.dim == 1 else \
             values.reshape(self.sample_points.shape[:2] + (cf.dim,))
 
     def normal_displacement(self, u, normal=None):

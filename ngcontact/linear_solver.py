@@ -29,6 +29,10 @@ import numpy as np
 NAMES = ("sparsecholesky", "umfpack") + (("pardiso",) if ngsolve.config.USE_PARDISO else ())
 """The direct solvers of this NGSolve build (``inverse=`` names; "pardiso" only where NGSolve
 was built with MKL, which the PyPI wheel is not)."""
+PARALLEL_NAMES = ("masterinverse",)
+"""The direct solver of a ParallelMatrix on a distributed mesh: NGSolve gathers the matrix on
+rank 0 and factorises it there (exact for non-symmetric matrices; "umfpack" and
+"sparsecholesky" are not parallel, the PyPI wheel has no MUMPS)."""
 
 
 def untimed(phase):
@@ -41,12 +45,13 @@ class DirectSolver:
 
     Parameters
     ----------
-    name : one of ``NAMES``.
+    name : one of ``NAMES``, or of ``PARALLEL_NAMES`` for a distributed mesh.
     """
 
     def __init__(self, name):
-        if name not in NAMES:
-            raise ValueError(f"inverse must be one of {', '.join(map(repr, NAMES))}, got {name!r}")
+        if name not in NAMES + PARALLEL_NAMES:
+            raise ValueError(f"inverse must be one of {', '.join(map(repr, NAMES + PARALLEL_NAMES))}, "
+                             f"got {name!r}")
         self.name = name
         self.factorizations = 0
         self._inverse = self._matrix = self._freedofs = None

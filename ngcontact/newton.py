@@ -22,6 +22,7 @@ from typing import Protocol
 import numpy as np
 import scipy.sparse as sp
 
+from . import parallel
 from .linear_solver import DirectSolver, untimed
 
 LINEAR_COUNTS = ("factorizations", "krylov_iterations", "krylov_failures")
@@ -85,19 +86,30 @@ class Timings(dict):
 
 class ResidualNorm:
     """The scaled norms of residuals (dual) and states (primal) on the free DOFs of the u and
-    φ blocks of ``space``; the scales s_u, s_φ are set once, from a Jacobian diagonal."""
+    φ blocks of ``space``; the scales s_u, s_φ are set once, from a Jacobian diagonal.
+    On a distributed mesh the sums run over all ranks, each DOF counted once
+    (``parallel.owned``), with the values of distributed vectors cumulated."""
 
     def __init__(self, space, freedofs):
         free = np.array(list(freedofs), dtype=bool)
+        self.mesh = space.mesh
+        self.distributed = parallel.is_distributed(space.mesh)
+        if self.distributed:
+            free &= parallel.owned(space)
         self.blocks = [np.flatnonzero(free[space.Range(i).start:space.Range(i).stop]) + space.Range(i).start
                        for i in range(2)]
         self.scales = None
 
     def set_scales(self, diagonal):
-        """s_b = mean |diagonal| over block b (1 for an empty or zero block)."""
+        """s_b = mean |diagonal| over block b (1 for an empty or zero block); ``diagonal``
+        cumulated on a distributed mesh."""
         diagonal = np.abs(diagonal)
-        self.scales = [float(diagonal[b].mean()) if len(b) and diagonal[b].mean() > 0 else 1.0
-                       for b in self.blocks]
+        if self.distributed:
+            totals = parallel.sum(self.mesh, np.array([[diagonal[b].sum(), len(b)] for b in self.blocks]))
+            means = [total / count if count else 0.0 for total, count in totals]
+        else:
+            means = [diagonal[b].mean() if len(b) else 0.0 for b in self.blocks]
+        self.scales = [float(mean) if mean > 0 else 1.0 for mean in means]
         self.weights = np.zeros(len(diagonal))
         for block, scale in zip(self.blocks, self.scales):
             self.weights[block] = scale
@@ -106,15 +118,21 @@ class ResidualNorm:
     """s_b on the free DOFs of block b, 0 elsewhere (numpy): the primal norm is (Σ w x²)^½."""
 
     def _weighted(self, a, power):
-        return float(np.sqrt(sum(s ** power * np.dot(a[b], a[b]) for b, s in zip(self.blocks, self.scales))))
+        squares = parallel.sum(self.mesh, np.array([np.dot(a[b], a[b]) for b in self.blocks]))
+        return float(np.sqrt(sum(s ** power * square for square, s in zip(squares, self.scales))))
+
+    def _values(self, v):
+        if isinstance(v, np.ndarray):          # numpy: cumulated values
+            return v
+        return parallel.cumulated(v) if self.distributed else v.FV().NumPy()
 
     def dual(self, r):
         """‖r‖ = (Σ_b ‖r_b‖²/s_b)^½ of a residual (vector or numpy array), J^½."""
-        return self._weighted(r if isinstance(r, np.ndarray) else r.FV().NumPy(), -1)
+        return self._weighted(self._values(r), -1)
 
     def primal(self, x):
         """‖x‖ = (Σ_b s_b ‖x_b‖²)^½ of a state vector, J^½."""
-        return self._weighted(x.FV().NumPy(), 1)
+        return self._weighted(self._values(x), 1)
 
 
 class Hook(Protocol):

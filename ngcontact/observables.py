@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import ngsolve as ngs
 import numpy as np
 
-from . import forms
+from . import forms, parallel
 from .contact_side import element_boundary_layer
 from .records import ContactRecord, StepRecord
 from .supports import SLIP_GAMMA0
@@ -99,7 +99,8 @@ class Recorder:
         reactions = {name: np.array([ngs.InnerProduct(residual, w) for w in tests])
                      for name, tests in self._held.items()}
         for name, integrals in self._weak.items():
-            reactions[name] = np.array([ngs.Integrate(f, self.body.mesh) for f in integrals])
+            reactions[name] = parallel.sum(self.body.mesh, np.array([ngs.Integrate(f, self.body.mesh)
+                                                                   for f in integrals]))
         return reactions
 
     def _build_rigid_modes(self):
@@ -155,15 +156,22 @@ class Recorder:
         hook = g.enforcement.newton_hook
         if hook is not None:                         # the constraint forces Bᵀλ are Γ3 terms too
             residual = residual + hook.forces.FV().NumPy()
-        flux = [-float(np.dot(residual, w.FV().NumPy())) for w in self._rigid_modes]
-        averages = {name: integrals[name] / side.measure for name in
-                    ("pressure", "multiplier", "potential", "charge_flux_density")}
+        # a distributed residual times cumulated rigid modes: the ranks' dot products sum up
+        mesh = self.body.mesh
+        flux = [-float(f) for f in parallel.sum(mesh, np.array([np.dot(residual, w.FV().NumPy())
+                                                                for w in self._rigid_modes]))]
+        facets = {name: integrals[name] / side.measure for name in
+                  ("pressure", "multiplier", "potential", "charge_flux_density", "contact_area")}
+        facets.update(beta=g.beta.values.copy(), beta_unclipped=g.beta.unclipped.copy(),
+                      multiplier_points=side.at_gauss_points(self._multiplier))
+        # on a distributed mesh: every rank's facets, in rank order
+        facets = {name: parallel.gather(mesh, values) for name, values in facets.items()}
         u = self.state.components[0]
+        facets["contact_set"] = facets.pop("contact_area")
         return ContactRecord(
-            **averages, contact_set=integrals["contact_area"] / side.measure,
-            beta=g.beta.values.copy(), beta_unclipped=g.beta.unclipped.copy(),
-            charge_flux=flux[-1], contact_area=integrals["contact_area"].sum(),
-            max_penetration=float((side.normal_displacement(u, g.sampled_normal) - side.sample(g.gap)).max()),
-            complementarity=integrals["complementarity"].sum(), force=np.array(flux[:-1]),
-            multiplier_points=side.at_gauss_points(self._multiplier),
-            beta_clipped=g.beta.clipped)
+            **facets,
+            charge_flux=flux[-1], contact_area=parallel.sum(mesh, integrals["contact_area"].sum()),
+            max_penetration=parallel.maximum(mesh, side.normal_displacement(u, g.sampled_normal)
+                                             - side.sample(g.gap)),
+            complementarity=parallel.sum(mesh, integrals["complementarity"].sum()), force=np.array(flux[:-1]),
+            beta_clipped=parallel.sum(mesh, g.beta.clipped))

@@ -3,11 +3,14 @@ from contextlib import nullcontext
 
 from tqdm.auto import tqdm
 
+from . import parallel
+
 
 def bar(total, description, enabled=True, unit="step"):
     """A progress bar of ``total`` units (a context manager with ``update(n)`` and
-    ``set_postfix_str(text)``), or a silent stand-in when not ``enabled``."""
-    if not enabled:
+    ``set_postfix_str(text)``), or a silent stand-in when not ``enabled`` and on the MPI
+    ranks other than 0 (under mpiexec)."""
+    if not enabled or parallel.rank() != 0:
         return nullcontext(_Silent())
     return tqdm(total=total, desc=description, unit=unit, dynamic_ncols=True, leave=True)
 

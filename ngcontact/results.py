@@ -33,6 +33,7 @@ from importlib.metadata import PackageNotFoundError, version
 import ngsolve as ngs
 import numpy as np
 
+from . import parallel
 from .records import ContactRecord, History, StepRecord
 
 DICTS = ("boundary_reaction", "electrode_charge", "timings")
@@ -57,6 +58,7 @@ class Stream:
     """Writes the steps of a simulation's run into ``directory`` (see the module)."""
 
     def __init__(self, sim, directory, dt, T, start):
+        parallel.serial_only(sim.body.mesh, "run(out=...): streaming the results", "each rank holds part of the state")
         self.sim, self.dir = sim, pathlib.Path(directory)
         (self.dir / "steps").mkdir(parents=True, exist_ok=True)
         (self.dir / "vtk").mkdir(exist_ok=True)
@@ -205,6 +207,7 @@ def restore(sim, directory):
     scene): its history, time, state, β, the enforcement's unknowns, the predictor's memory.
     Returns the run info."""
     from .backward_euler import Checkpoint
+    parallel.serial_only(sim.body.mesh, "resume()", "streaming the results is serial only")
     info, history = read(directory)
     if not history:
         raise ValueError(f"{str(directory)!r} holds no computed step to resume from")

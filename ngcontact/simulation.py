@@ -12,7 +12,7 @@ import warnings
 import ngsolve as ngs
 import numpy as np
 
-from . import forms, results
+from . import forms, parallel, results
 from .adhesion import BondingField
 from .admissible import GapCheck, PhysicsWarning, check_supports_at_start, flags
 from .backward_euler import BackwardEuler
@@ -49,7 +49,7 @@ class Simulation:
         sparse Cholesky factorisation of its symmetric part as GMRES's preconditioner, and
         "umfpack" without, and for Nitsche's θ = −1 (its skew Γ3 part makes GMRES slower
         than factorising at every iteration). The nodal constraint (``method="active_set"``) solves its saddle
-        point systems itself. ``solver`` says what is used.
+        point systems itself. ``solver`` says what is used (distributed: ``parallel.check_simulation``).
     rtol, maxit : Newton tolerance (relative) and iteration limit per step.
     keep_states : keep a copy of (u, φ) of every step in the history.
     predictor : start Newton from the linear extrapolation of the last two states instead of
@@ -90,6 +90,8 @@ class Simulation:
                  rtol=1e-10, maxit=50, keep_states=True, predictor=False, condense=None, realcompile=None,
                  limit_steps=True, reuse_factorization=True, iterative=None, electric=None, physical_checks=True):
         self.body = body
+        self.parallel_notes = parallel.check_simulation(body.mesh, contact, inverse, condense, reuse_factorization,
+                                                       iterative)
         self.loads = loads or Loads()
         self.loads.check(body)
         self.time = time if time is not None else ngs.Parameter(0.0)
@@ -105,7 +107,8 @@ class Simulation:
         if realcompile is None:         # where it paid in docs/speed.md (the 3D Γ3 terms cost far more)
             realcompile = body.ndof >= (2_000 if body.dim == 3 else 50_000)
         self.realcompile = bool(realcompile)
-        self.condense = has_interior_dofs(self.X) if condense is None else bool(condense)
+        distributed = parallel.is_distributed(body.mesh)     # see parallel.check_simulation, parallel_notes
+        self.condense = has_interior_dofs(self.X) and not distributed if condense is None else bool(condense)
         if contact is not None and not METHODS[contact.method].condensable:
             self.condense = False
         kept = body.region("contact_side") if contact is not None else None
@@ -120,7 +123,7 @@ class Simulation:
         solver, self._potential_solver = choose(body, contact, self.system, self.X, inverse=inverse,
                                                 reuse_factorization=reuse_factorization, iterative=iterative,
                                                 electric=self.electric, condense=self.condense,
-                                                realcompile=self.realcompile)
+                                                realcompile=self.realcompile, distributed=distributed)
         hook = self.gamma3.enforcement.newton_hook if contact is not None else None
         limit = None
         if contact is not None and hook is None and limit_steps:
@@ -160,10 +163,10 @@ class Simulation:
         self._gap_check = GapCheck(self.body, gamma3)
         self._gap_check(0.0)
         if sampled_normal is not None:
-            length = np.linalg.norm(side.sample(normal), axis=-1)
-            if np.abs(length - 1).max() > 1e-8:
+            length, mesh = np.linalg.norm(side.sample(normal), axis=-1), body.mesh
+            if parallel.maximum(mesh, np.abs(length - 1)) > 1e-8:
                 raise ValueError("Contact.obstacle: its normal must be a unit vector field on Γ3; |n_o| ranges "
-                                 f"over [{length.min():.6g}, {length.max():.6g}]")
+                                 f"over [{parallel.minimum(mesh, length):.6g}, {parallel.maximum(mesh, length):.6g}]")
         beta = BondingField(side, contact)
         enforcement = METHODS[contact.method](body, contact, side, gap=gap, u_old=self.system.u_old,
                                               inv_dt=self.system.inv_dt, normal=normal)
@@ -201,14 +204,14 @@ class Simulation:
             u0 = as_cf(u0, self.body.dim, "u0")
             mesh, square = self.body.mesh, ngs.InnerProduct(u0, u0)
             if self.body.boundaries["clamped"]:
-                on_gamma1 = ngs.Integrate(square * ngs.ds(self.body.region("clamped")), mesh)
-                if on_gamma1 > 1e-20 * (1 + ngs.Integrate(square, mesh)):
+                on_gamma1 = parallel.sum(mesh, ngs.Integrate(square * ngs.ds(self.body.region("clamped")), mesh))
+                if on_gamma1 > 1e-20 * (1 + ngs.Integrate(square, mesh)):     # (all ranks' sum)
                     raise ValueError("u0 must vanish on the clamped boundary Γ1 "
                                      f"({self.body.region_names('clamped')!r})")
             if self.contact is not None:
-                excess = (self.side.normal_displacement(u0, self.gamma3.sampled_normal)
-                          - self.side.sample(self.gap)).max()
-                if excess > 1e-12 * (1 + np.abs(self.side.sample(u0)).max()):
+                excess = parallel.maximum(mesh, self.side.normal_displacement(u0, self.gamma3.sampled_normal)
+                                          - self.side.sample(self.gap))
+                if excess > 1e-12 * (1 + parallel.maximum(mesh, np.abs(self.side.sample(u0)))):
                     raise ValueError(f"u0 must be admissible, u0_ν <= g on Γ3; it exceeds g by {excess:.3g} m")
             self.u.Set(u0)
             clamped = ~np.array(list(self.body.V.FreeDofs()), dtype=bool)
@@ -331,7 +334,7 @@ class Simulation:
             if resumed is None:
                 stream(self.history[-1])                 # the state the run starts from
             callbacks.insert(0, stream)
-        if vtk:
+        if vtk and not parallel.serial_only(self.body.mesh, "run(vtk=...)", "not tested distributed"):
             writer = ngs.VTKOutput(self.body.mesh, coefs=[self.u, self.phi], names=["displacement", "potential"],
                                    filename=str(vtk), subdivision=max(self.body.order, self.body.order_phi) - 1)
             writer.Do(time=self.t)

@@ -4,12 +4,14 @@ reuse_factorization=, iterative=)``), chosen by the system's symmetry, size and 
 * ``iterative`` (``multigrid.MultigridSolver``, GMRES with Γ3 solves around block multigrid):
   by default in 3D from ``ITERATIVE_FROM`` DOFs on nested meshes (``multigrid.nested_mesh``)
   without static condensation; direct factorisations fill in like n^(4/3) there.
+* on a mesh distributed over MPI ranks: NGSolve's "masterinverse" (the Jacobian gathered
+  and factorised on rank 0) at every Newton iteration;
 * else a direct factorisation: kept between Newton iterations as GMRES's preconditioner
   (``linear_solver.KeptFactorization``; of the symmetric part for a non-symmetric Jacobian),
   or made at every iteration (``reuse_factorization=False``, and Nitsche's θ = −1, whose
   skew Γ3 part makes GMRES slower than factorising, docs/speed.md).
 """
-from .linear_solver import NAMES, DirectSolver, KeptFactorization
+from .linear_solver import NAMES, PARALLEL_NAMES, DirectSolver, KeptFactorization
 from .multigrid import MultigridSolver, refinements
 
 ITERATIVE_FROM = 100_000
@@ -22,14 +24,17 @@ def iterative_by_default(body, condense):
 
 
 def choose(body, contact, system, space, *, inverse, reuse_factorization, iterative, electric, condense,
-           realcompile=False):
+           realcompile=False, distributed=False):
     """(the Newton corrections' solver, the solver of the potential at t = 0) for ``body``
     and ``contact`` on the StepSystem ``system`` of the product ``space`` (``realcompile``: of
-    the multigrid hierarchy's integrands)."""
+    the multigrid hierarchy's integrands). ``distributed`` (a mesh over several MPI ranks):
+    NGSolve's "masterinverse" at every iteration (``parallel.check_simulation``)."""
     if inverse is not None and inverse not in NAMES:
         raise ValueError(f"inverse must be one of {', '.join(map(repr, NAMES))} or None, got {inverse!r}")
     if iterative not in (None, True, False):
         raise ValueError(f"iterative must be None (automatic), True or False, got {iterative!r}")
+    if distributed:                              # what cannot run there raised in parallel.check_simulation
+        return DirectSolver(PARALLEL_NAMES[0]), DirectSolver(PARALLEL_NAMES[0])
     if iterative is None:
         iterative = inverse is None and iterative_by_default(body, condense)
     if iterative:

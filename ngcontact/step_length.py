@@ -17,6 +17,8 @@ full steps, which converge there in two iterations.
 import ngsolve as ngs
 import numpy as np
 
+from . import parallel
+
 
 class StepLength:
     """The step length α ∈ (0, 1] of a Newton correction x ← x − α w.
@@ -62,9 +64,10 @@ class StepLength:
         self._direction.vec.data = w
         opening = side.normal_displacement(self.state.components[0], self.normal) - self._gap
         change = -side.normal_displacement(self._direction.components[0], self.normal)   # Δu_ν of −w
-        delta = self.eta * np.abs(change).max()
+        mesh = side.mesh                              # on a distributed mesh: over all ranks
+        delta = self.eta * parallel.maximum(mesh, np.abs(change))
         limited = (opening < 0) & (opening + change > delta)
-        if not limited.any():
+        if not parallel.any_rank(mesh, limited.any()):
             return 1.0
         self.cuts += 1
-        return float(((delta - opening[limited]) / change[limited]).min())
+        return parallel.minimum(mesh, (delta - opening[limited]) / change[limited])

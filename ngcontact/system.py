@@ -27,7 +27,7 @@ import ngsolve as ngs
 import numpy as np
 import scipy.sparse as sp
 
-from . import forms
+from . import forms, parallel
 from .contact_side import element_boundary_layer
 from .loads import as_cf
 from .newton import ResidualNorm
@@ -36,7 +36,8 @@ from .supports import SLIP_GAMMA0
 
 def has_interior_dofs(space):
     """True if ``space`` has free element-interior DOFs, which static condensation eliminates."""
-    return space.FreeDofs(coupling=True).NumSet() < space.FreeDofs().NumSet()
+    interior = space.FreeDofs().NumSet() - space.FreeDofs(coupling=True).NumSet()
+    return parallel.sum(space.mesh, interior) > 0
 
 
 def keep_interior_dofs(space, region):
@@ -169,9 +170,10 @@ class StepSystem:
         if dt != self._dt:
             self.inv_dt.Set(1.0 / dt)
             inv_dt = self.inv_dt.Get()
-            self.K.AsVector().data = self.K_el.mat.AsVector()
+            K = parallel.local_matrix(self.K).AsVector()
+            K.data = parallel.local_matrix(self.K_el.mat).AsVector()
             if self.K_A is not None:
-                self.K.AsVector().data += inv_dt * self.K_A.mat.AsVector()
+                K.data += inv_dt * parallel.local_matrix(self.K_A.mat).AsVector()
             if self.condense:
                 self._K_condensed.Assemble()
             self._absK = None
@@ -179,7 +181,7 @@ class StepSystem:
             self.generation += 1
         self.u_old.vec.data = u_old
         self.f.Assemble()
-        if not np.all(np.isfinite(self.f.vec.FV().NumPy())):
+        if parallel.any_rank(self.body.mesh, not np.all(np.isfinite(self.f.vec.FV().NumPy()))):
             culprit = self.loads.nonfinite(self.body) or "a load"
             raise ValueError(f"{culprit} is not finite at t = {t:.6g} s (NaN or inf)")
         self._constant.data = self.f.vec
@@ -237,17 +239,19 @@ class StepSystem:
         """The full Jacobian K + R_Γ3'(x) into ``_full`` (R_Γ3' added at the positions of
         its entries in K's pattern)."""
         self._linearize_boundary(x)
-        self._full.AsVector().data = self.K.AsVector()
+        parallel.local_matrix(self._full).AsVector().data = parallel.local_matrix(self.K).AsVector()
         if self.boundary is not None:
             self._add_boundary(self._full)
 
     def _add_boundary(self, target):
-        """target += R_Γ3' (target: K's pattern, or the Schur complement's)."""
+        """target += R_Γ3' (target: K's pattern, or the Schur complement's; the ranks' parts
+        on a distributed mesh)."""
+        target, boundary = parallel.local_matrix(target), parallel.local_matrix(self.boundary.mat)
         positions = self._positions.get(id(target))
         if positions is None:
-            positions = self._positions[id(target)] = _matching_positions(self.boundary.mat, target)
+            positions = self._positions[id(target)] = _matching_positions(boundary, target)
         source, into = positions
-        target.AsVector().FV().NumPy()[into] += self.boundary.mat.AsVector().FV().NumPy()[source]
+        target.AsVector().FV().NumPy()[into] += boundary.AsVector().FV().NumPy()[source]
 
     @property
     def harmonic_extension(self):
@@ -273,19 +277,29 @@ class StepSystem:
 
     # ----------------------------------------------------------------------- for Newton's norms
     def jacobian_diagonal(self, x):
-        """The diagonal of the full Jacobian K + R_Γ3'(x) (numpy), assembled at x."""
+        """The diagonal of the full Jacobian K + R_Γ3'(x) (numpy), assembled at x (cumulated
+        on a distributed mesh)."""
         diagonal = _csr(self.K).diagonal()
         self._linearize_boundary(x)
         if self.boundary is not None:
             diagonal = diagonal + _csr(self.boundary.mat).diagonal()
+        if parallel.is_distributed(self.body.mesh):          # the ranks' parts of the diagonal
+            diagonal = parallel.distributed_values(self._constant, diagonal)
         return diagonal
 
     def magnitude(self, x):
         """|K| |x| + |R_Γ3'| |x| + |f + K_A x_{n−1}/dt| (numpy), with the Γ3 Jacobian of the
         last linearisation: the size of the terms that sum to R(x), whose round-off limits
-        how far Newton can reduce it."""
+        how far Newton can reduce it. On a distributed mesh (cumulated values) |K| is the sum
+        of the ranks' |K_p|, an upper bound of |K| at interface DOFs."""
         if self._absK is None:
             self._absK = abs(_csr(self.K))
+        if parallel.is_distributed(self.body.mesh):
+            size = np.abs(parallel.cumulated(x))
+            total = self._absK @ size
+            if self._linearized:
+                total += abs(_csr(self.boundary.mat)) @ size
+            return parallel.distributed_values(self._constant, total) + np.abs(parallel.cumulated(self._constant))
         size = np.abs(x.FV().NumPy())
         total = self._absK @ size + np.abs(self._constant.FV().NumPy())
         if self._linearized:
@@ -312,7 +326,8 @@ class _Uncondensed:
 def free_jacobian(system, x, space, scaled=True):
     """R'(x) of ``system`` (full Jacobian protocol) on the free DOFs of ``space`` as a scipy
     CSR matrix; ``scaled``: S J S with S = diag(s_u^-½, s_φ^-½), s_b the mean of |diagonal|
-    over block b (the scaling of Newton's norms)."""
+    over block b (the scaling of Newton's norms). Serial meshes only."""
+    parallel.serial_only(space.mesh, "the Jacobian as a scipy matrix (Simulation.jacobian)")
     system.AssembleLinearization(x)
     J = sp.csr_matrix(system.mat.CSR(), shape=(system.mat.height, system.mat.width))
     free = np.flatnonzero(np.array(list(space.FreeDofs()), dtype=bool))
@@ -327,7 +342,8 @@ def free_jacobian(system, x, space, scaled=True):
 
 
 def _csr(matrix):
-    """An NGSolve sparse matrix as a scipy CSR matrix."""
+    """An NGSolve sparse matrix (the rank's part of a ParallelMatrix) as a scipy CSR matrix."""
+    matrix = parallel.local_matrix(matrix)
     return sp.csr_matrix(matrix.CSR(), shape=(matrix.height, matrix.width))
 
 

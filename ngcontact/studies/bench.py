@@ -18,6 +18,10 @@ states (relative to the largest entry).
 
 ``python -m ngcontact bench --out DIR`` writes bench.csv, bench.json and time_per_step.png.
 Times are wall-clock seconds on the machine that runs it; nothing here asserts a time.
+
+Under ``mpiexec -n N`` every case runs on a distributed mesh (``ngcontact.parallel``; ranks
+1 .. N−1 hold the elements) and rank 0 prints and writes; ``ranks`` in a row is N, the times
+are rank 0's (it takes part in every collective step, and factorises in "masterinverse").
 """
 import json
 import pathlib
@@ -29,6 +33,7 @@ import ngsolve as ngs
 import numpy as np
 from matplotlib.figure import Figure
 
+from ngcontact import parallel
 from ngcontact.progress import bar
 from ngcontact.scenes import reference
 
@@ -37,14 +42,15 @@ from .common import fitted_slope, writable_directory, write_csv
 COLUMNS = ("dim", "order", "level", "ndof", "records", "newton_mean", "newton_max", "step_s",
            "assembly_s", "factorization_s", "solve_s", "residual_s", "other_s", "one_solve_s",
            "overhead", "setup_s", "factorizations", "krylov_per_newton", "path", "speedup", "state_diff",
-           "solver", "condense", "realcompile", "threads", "peak_mib", "hierarchy_s")
+           "solver", "condense", "realcompile", "threads", "peak_mib", "hierarchy_s", "ranks")
 """Columns of bench.csv; times in s, per step except one_solve_s and setup_s; ``records``:
 the steps computed (cut-backs included); ``factorizations``: per step; ``path``: "new" or
 "old" (``OLD_PATH``); ``speedup`` (old step_s / new step_s) and ``state_diff`` (max |x_old −
 x_new| / max |x_old| over the final state vectors, u and φ) on the new row of a comparison;
-``peak_mib``: the process's peak resident memory after the case (MiB; cases run in ascending
-size, so it is the case's own peak unless a comparison's old path ran before it);
-``hierarchy_s``: the multigrid solver's setup (replica hierarchy) inside the steps, s."""
+``peak_mib``: the peak resident memory after the case (MiB, summed over the MPI ranks;
+cases run in ascending size, so it is the case's own peak unless a comparison's old path
+ran before it); ``hierarchy_s``: the multigrid solver's setup (replica hierarchy) inside the
+steps, s; ``ranks``: the MPI ranks of the run (1: serial)."""
 OLD_PATH = dict(reuse_factorization=False, limit_steps=False)
 """The Simulation options of the path before issue 12: factorise at every Newton iteration,
 full Newton steps."""
@@ -96,9 +102,24 @@ def measure(order, level, *, dim=2, steps=10, dt=2.5e-3, inverse=None, realcompi
                 setup_s=setup, factorizations=float(np.mean([r.factorizations for r in records])),
                 krylov_per_newton=krylov / max(int(iterations.sum()), 1), path=path, speedup=None,
                 state_diff=None, solver=sim.solver, condense=sim.condense, realcompile=sim.realcompile,
-                threads=threads, peak_mib=peak_mib(),
-                hierarchy_s=getattr(sim.newton.solver, "setup_s", 0.0))
+                threads=threads, peak_mib=parallel.sum(body.mesh, peak_mib()),
+                hierarchy_s=getattr(sim.newton.solver, "setup_s", 0.0), ranks=_ranks())
     return row, sim.gfu.vec.FV().NumPy().copy()
+
+
+def _ranks():
+    comm = parallel.world()
+    return 1 if comm is None else comm.size
+
+
+def _state_diff(old, new):
+    """max |old − new| / max |old| over the final states (each rank's part under mpiexec)."""
+    diff, size = np.abs(old - new).max(initial=0.0), np.abs(old).max(initial=0.0)
+    comm = parallel.world()
+    if comm is not None:
+        from mpi4py import MPI
+        diff, size = comm.allreduce(diff, op=MPI.MAX), comm.allreduce(size, op=MPI.MAX)
+    return float(diff / size)
 
 
 def one_linear_solve(sim, repeat=2):
@@ -160,27 +181,32 @@ def run(out, *, orders=(1, 2, 3, 4), dim=2, max_ndof=1e6, steps=10, dt=2.5e-3, p
     after each case (long runs keep what they measured). ``compare``: each case also on the
     old path, right after the new one. ``resume``: the cases already in ``out/bench.json``
     (same dim, steps and dt) are kept and not measured again."""
+    writes = parallel.rank() == 0                    # under mpiexec: rank 0 prints and writes
     out = writable_directory(out)
     cases = [(order, level) for order in orders for level in levels(order, dim, max_ndof)]
     rows = _done(out, dim, steps, dt) if resume else []
     with bar(len(cases), "bench cases", progress, unit="run") as shown:
-        shown.write(_header())
+        say = shown.write if writes else (lambda text: None)
+        say(_header())
         for order, level in cases:
             if any((r["order"], r["level"], r.get("path", "new")) == (order, level, "new") for r in rows):
                 shown.update()
                 continue
             new, state = measure(order, level, dim=dim, steps=steps, dt=dt, **options)
             rows.append(new)
-            shown.write(_line(new))
+            say(_line(new))
             if compare:
                 old, old_state = measure(order, level, dim=dim, steps=steps, dt=dt, **{**options, "path": "old"})
                 new["speedup"] = old["step_s"] / new["step_s"]
-                new["state_diff"] = float(np.abs(old_state - state).max() / np.abs(old_state).max())
+                new["state_diff"] = _state_diff(old_state, state)
                 rows.append(old)
-                shown.write(_line(old) + f"   old/new {new['speedup']:.2f}x, states differ by "
+                say(_line(old) + f"   old/new {new['speedup']:.2f}x, states differ by "
                             f"{new['state_diff']:.1e}")
             shown.update()
-            _write(out, rows, dim, steps, dt)
+            if writes:
+                _write(out, rows, dim, steps, dt)
+    if not writes:
+        return rows, None
     exponents = _write(out, rows, dim, steps, dt)
     print("time per step ~ ndof^a (fit over ndof >= 1e4): "
           + ", ".join(f"P{p}: a = {a:.2f}" for p, a in exponents.items()))

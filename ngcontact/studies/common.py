@@ -7,6 +7,7 @@ kept as a row too, with ``failure_kind`` of its residual history.
 import csv
 import json
 import math
+import os
 import pathlib
 import re
 
@@ -20,7 +21,7 @@ def writable_directory(out):
     out = pathlib.Path(out)
     try:
         out.mkdir(parents=True, exist_ok=True)
-        probe = out / ".ngcontact-write-test"
+        probe = out / f".ngcontact-write-test-{os.getpid()}"      # one per process (mpiexec)
         probe.write_text("")
         probe.unlink()
     except OSError as err:

@@ -1,0 +1,204 @@
+"""Distributed meshes: what ngcontact needs to run under ``mpiexec -n N`` (N >= 2).
+
+Under mpiexec the geometries mesh on rank 0 and distribute the mesh (``distributed_mesh``):
+rank 0 keeps no elements, ranks 1 .. N−1 share them (NGSolve's convention), so that
+``mpiexec -n 2`` computes on one rank and ``-n 3`` on two. Serial runs never import mpi4py
+and take the unchanged serial code paths.
+
+On a distributed mesh
+
+* numpy views of vectors (``vec.FV().NumPy()``) hold the rank's own DOFs; a DOF on the
+  interface of two ranks appears on both. A vector is *cumulated* (every copy holds the
+  value: GridFunctions, solutions) or *distributed* (the copies sum to the value: assembled
+  residuals and load vectors); ``cumulated`` gives a numpy copy of the values;
+* a global sum over DOFs counts each DOF once, on the rank that ``owned`` marks;
+* ``Integrate(f * dx, mesh)`` and facet arrays on Γ3 are the rank's part (the facets of Γ3
+  belong to one rank each): ``sum``, ``maximum``, ``minimum`` combine them over the ranks;
+* matrices are NGSolve ``ParallelMatrix``; ``local_matrix`` is the rank's part, whose
+  diagonal is distributed.
+
+Every helper takes the mesh (or a space or vector on it) and is the identity on a serial mesh.
+"""
+import os
+
+import ngsolve as ngs
+import numpy as np
+
+_SIZE_VARIABLES = ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE", "MPI_LOCALNRANKS")
+
+
+def world():
+    """mpi4py's COMM_WORLD when this process is one of several MPI ranks (started by
+    mpiexec), else None (mpi4py is then not imported)."""
+    if not any(os.environ.get(name, "1").isdigit() and int(os.environ.get(name, "1")) > 1
+               for name in _SIZE_VARIABLES):
+        return None
+    from mpi4py import MPI
+    return MPI.COMM_WORLD if MPI.COMM_WORLD.size > 1 else None
+
+
+def rank():
+    """This process's rank in COMM_WORLD (0 in a serial run)."""
+    comm = world()
+    return 0 if comm is None else comm.rank
+
+
+def distributed_mesh(make, refine, comm):
+    """An ``ngsolve.Mesh`` distributed over ``comm`` (mpi4py): rank 0 builds the netgen mesh
+    by ``make()``, refines it ``refine`` times (``Mesh.Refine`` of a distributed mesh gives a
+    broken parallel topology in NGSolve 6.2.2608: wrong global DOF counts, hangs) and
+    distributes it; the other ranks receive their parts."""
+    from netgen.meshing import Mesh as NetgenMesh
+    if comm.rank == 0:
+        ngmesh = make()
+        serial = ngs.Mesh(ngmesh)
+        for _ in range(refine):
+            serial.Refine()
+        ngmesh = ngmesh.Distribute(comm)
+    else:
+        ngmesh = NetgenMesh.Receive(comm)
+    return ngs.Mesh(ngmesh)
+
+
+def is_distributed(mesh):
+    """True if ``mesh`` is distributed over several MPI ranks."""
+    return mesh.comm.size > 1
+
+
+def comm_of(mesh):
+    """The mpi4py communicator of a distributed mesh, None for a serial one."""
+    return mesh.comm.mpi4py if is_distributed(mesh) else None
+
+
+def _reduce(mesh, value, op):
+    comm = comm_of(mesh)
+    if comm is None:
+        return value
+    from mpi4py import MPI
+    return comm.allreduce(value, op=getattr(MPI, op))
+
+
+def sum(mesh, value):             # noqa: A001 (the name says what it does)
+    """The sum over the ranks of a number or numpy array (``value`` itself when serial)."""
+    return _reduce(mesh, value, "SUM")
+
+
+def maximum(mesh, values, initial=-np.inf):
+    """max of a numpy array over all ranks (``initial`` where every rank's part is empty)."""
+    return float(_reduce(mesh, float(np.max(values, initial=initial)), "MAX"))
+
+
+def minimum(mesh, values, initial=np.inf):
+    """min of a numpy array over all ranks (``initial`` where every rank's part is empty)."""
+    return float(_reduce(mesh, float(np.min(values, initial=initial)), "MIN"))
+
+
+def any_rank(mesh, flag):
+    """True if ``flag`` is true on some rank."""
+    return bool(_reduce(mesh, bool(flag), "LOR"))
+
+
+def gather(mesh, values):
+    """The numpy arrays of all ranks, concatenated in rank order along the first axis
+    (``values`` itself when serial): per-facet arrays of Γ3 as one array on every rank."""
+    comm = comm_of(mesh)
+    if comm is None:
+        return values
+    return np.concatenate(comm.allgather(np.asarray(values)), axis=0)
+
+
+def cumulated(vec):
+    """A numpy copy of the values of an NGSolve vector, with the copies of an interface DOF
+    summed if the vector is distributed (a view of the vector when it is not parallel)."""
+    status = vec.GetParallelStatus()
+    if status == ngs.la.PARALLEL_STATUS.NOT_PARALLEL:
+        return vec.FV().NumPy()
+    if status == ngs.la.PARALLEL_STATUS.DISTRIBUTED:
+        copy = vec.CreateVector()
+        copy.data = vec
+        copy.Cumulate()
+        return copy.FV().NumPy().copy()
+    return vec.FV().NumPy().copy()
+
+
+def set_cumulated(vec, values):
+    """Set the values of a vector (numpy, as ``cumulated`` gives them) and mark it cumulated."""
+    vec.FV().NumPy()[:] = values
+    if vec.GetParallelStatus() == ngs.la.PARALLEL_STATUS.DISTRIBUTED:
+        vec.SetParallelStatus(ngs.la.PARALLEL_STATUS.CUMULATED)
+
+
+def distributed_values(template, values):
+    """numpy ``values`` given as distributed contributions (summed over the ranks sharing a
+    DOF), cumulated into a numpy array like ``cumulated``; ``template`` is a vector of the
+    space whose parallel DOFs are used."""
+    vec = template.CreateVector()
+    vec.FV().NumPy()[:] = values
+    vec.SetParallelStatus(ngs.la.PARALLEL_STATUS.DISTRIBUTED)
+    vec.Cumulate()
+    return vec.FV().NumPy().copy()
+
+
+def owned(space):
+    """Boolean numpy array over the DOFs of ``space``: those this rank counts in global sums
+    (each DOF on exactly one rank, NGSolve's master DOFs); all True for a serial space."""
+    parallel_dofs = space.ParallelDofs()
+    if parallel_dofs is None or space.mesh.comm.size == 1:
+        return np.ones(space.ndof, dtype=bool)
+    return np.array(list(parallel_dofs.MasterDofs()), dtype=bool)
+
+
+def local_matrix(matrix):
+    """The rank's part of a ParallelMatrix, the matrix itself when it is not parallel."""
+    return getattr(matrix, "local_mat", matrix)
+
+
+def serial_only(mesh, feature, why=""):
+    """Raise a ValueError naming ``feature`` when ``mesh`` is distributed."""
+    if is_distributed(mesh):
+        raise ValueError(f"{feature} does not run on a distributed mesh (mpiexec with "
+                         f"{mesh.comm.size} ranks){': ' + why if why else ''}")
+
+
+def point_values(mesh, cf, points):
+    """cf at ``points`` (an array of coordinates, points × dim) as a numpy array (points ×
+    cf.dim), on every rank: on a distributed mesh each point is evaluated by the ranks whose
+    elements hold it and averaged over them (a continuous field agrees there to round-off).
+    A point outside the mesh raises a ValueError."""
+    points = np.atleast_2d(np.asarray(points, dtype=float))
+    values, found = np.zeros((len(points), cf.dim)), np.zeros(len(points))
+    for i, point in enumerate(points):
+        mapped = mesh(*point)
+        if mapped.nr >= 0:
+            values[i], found[i] = np.ravel(cf(mapped)), 1.0
+    values, found = sum(mesh, values), sum(mesh, found)
+    if not found.all():
+        raise ValueError(f"points {points[found == 0].tolist()} are outside the mesh")
+    return values / found[:, None]
+
+
+def check_simulation(mesh, contact, inverse, condense, reuse_factorization, iterative=None):
+    """What a Simulation on a distributed mesh cannot do raises a ValueError naming the
+    feature: the nodal constraint (``method="active_set"``: scipy saddle point systems of one
+    rank), a serial ``inverse``, ``condense=True``, ``iterative=True`` (GMRES with multigrid:
+    NGSolve 6.2.2608 cannot refine a distributed mesh, so it has no nested meshes). Returns the serial-only defaults switched
+    off, with the reason (``Simulation.parallel_notes``; [] on a serial mesh): the corrections
+    are solved by NGSolve's "masterinverse" (the Jacobian gathered and factorised on rank 0)
+    at every Newton iteration, without static condensation."""
+    if not is_distributed(mesh):
+        return []
+    if contact is not None and contact.method == "active_set":
+        serial_only(mesh, "Contact.method 'active_set' (the nodal constraint)",
+                    "its saddle point systems are scipy matrices of one rank; use 'nitsche' or 'penalty'")
+    if inverse is not None:
+        serial_only(mesh, f"inverse={inverse!r}", "leave inverse=None: NGSolve's 'masterinverse' is used")
+    if condense:
+        serial_only(mesh, "condense=True (static condensation)", "not implemented; pass condense=None or False")
+    if iterative:
+        serial_only(mesh, "iterative=True (GMRES with multigrid)", "a distributed mesh has no nested meshes "
+                    "(NGSolve 6.2.2608 cannot refine it); leave iterative=None")
+    notes = ["static condensation: off (not implemented on a distributed mesh)"]
+    if reuse_factorization:
+        notes.append("reuse_factorization: off (its GMRES works on the rank's numpy arrays); "
+                     "masterinverse factorises at every Newton iteration")
+    return notes
