@@ -10,6 +10,7 @@ import numpy as np
 from matplotlib import ticker, tri
 from matplotlib.figure import Figure
 
+from . import parallel
 from .progress import write
 from .scenes import reference
 from .studies.bench import THREADS_FROM
@@ -60,47 +61,64 @@ def run(order=1, out="results", maxh=None, steps=200, theta=1, gamma0=10.0, resu
         raise ValueError(f"dim must be 2 or 3, got {dim!r}")
     maxh = (0.005 if dim == 2 else 0.01) if maxh is None else maxh
     out = writable_directory(out)
+    lead = parallel.rank() == 0                      # under mpiexec rank 0 prints and writes
+    say = print if lead else _quiet
     sim = reference.simulation(order, maxh, refine, dim, contact=reference.contact(theta, gamma0),
                                keep_states=dim == 2)
     body, mesh = sim.body, sim.body.mesh
-    tip = mesh(reference.L1, 0.0) if dim == 2 else mesh(reference.L1, reference.WIDTH / 2, 0.0)
+    distributed = parallel.is_distributed(mesh)
+    tip = [(reference.L1, 0.0) if dim == 2 else (reference.L1, reference.WIDTH / 2, 0.0)]
     deflection = {}                                  # step -> vertical displacement at the tip
-    print(f"{body}, solver {sim.solver}\n{header(dim)}")
-    if resume:
+    say(f"{body}, solver {sim.solver}" + "".join(f"\n{note}" for note in sim.parallel_notes) + f"\n{header(dim)}")
+    if distributed:                                  # each rank holds part of the state: no stream
+        if resume:
+            raise ValueError("resume does not run on a distributed mesh (mpiexec): the stream of results "
+                             "is written by serial runs only")
+        fields = ngs.VTKOutput(mesh, coefs=[sim.u, sim.phi], names=["u", "phi"], filename=str(out / "fields"),
+                               legacy=False)
+        every = max(1, steps // 20)
+    elif resume:
         if not (out / "run" / "run.json").exists():
             raise ValueError(f"resume: {str(out / 'run')!r} holds no run to continue; run without --resume")
         sim.resume(out / "run")
-        print(f"resumed at step {len(sim.history) - 1}, t = {sim.t:.4f} s")
-    elif (out / "run").exists():
+        say(f"resumed at step {len(sim.history) - 1}, t = {sim.t:.4f} s")
+    if not distributed and not resume and (out / "run").exists():
         shutil.rmtree(out / "run")                   # a new run replaces the old one
 
     area = 1e3 if dim == 2 else 1e6                  # m -> mm, m² -> mm²
 
     def report(rec):
         c = rec.contact
-        deflection[rec.step] = sim.u(tip)[dim - 1]
-        write(f"{rec.step:5d} {rec.time:7.4f} {rec.newton_iterations:6d} {area * c.contact_area:13.3f} "
+        deflection[rec.step] = parallel.point_values(mesh, sim.u, tip)[0, dim - 1]
+        if distributed and rec.step % every == 0:
+            fields.Do(time=rec.time)                 # ParaView: fields.pvd, one file per rank and time
+        if lead:
+            write(f"{rec.step:5d} {rec.time:7.4f} {rec.newton_iterations:6d} {area * c.contact_area:13.3f} "
               f"{1e-6 * max(c.pressure.max(), 0.0):11.3f} {c.beta.min():8.4f} {c.charge_flux:+17.4e}")
     start = wallclock.perf_counter()
     T = reference.LOAD_HISTORY[-1][0]
     with ngs.TaskManager() if body.ndof >= THREADS_FROM else nullcontext():
-        history = sim.run(T / steps, T, on_step=report, out=out / "run")
+        history = sim.run(T / steps, T, on_step=report, out=None if distributed else out / "run")
     wall = wallclock.perf_counter() - start
     rows = [_row(rec, deflection.get(n, np.nan)) for n, rec in enumerate(history) if n > 0]
     columns = {key: [row[key] for row in rows] for key in rows[0]}
     max_penetration = max(columns.pop("max_penetration"))
     peak = 1 + int(np.argmax(columns["contact_length"]))
-    _plot_overview(out / "history.png", columns, history)
-    _plot_gamma3(out / "beta.png", out / "pressure.png", sim, history)
-    if dim == 2:
+    midpoints = parallel.gather(mesh, sim.side.midpoints)        # in the order of the records' facets
+    if lead:
+        _plot_overview(out / "history.png", columns, history)
+        _plot_gamma3(out / "beta.png", out / "pressure.png", midpoints, history)
+    if dim == 2 and not distributed:
         _plot_potential(out / "potential_at_peak.png", mesh, sim.state(peak), history[peak].time)
-    summary = dict(order=order, maxh=maxh, dim=dim, refine=refine, ndof=body.ndof, solver=sim.solver, L1=reference.L1, L2=reference.L2,
+    summary = dict(order=order, maxh=maxh, dim=dim, refine=refine, ndof=body.ndof, solver=sim.solver,
+                   ranks=parallel.sum(mesh, 1) if distributed else 1, L1=reference.L1, L2=reference.L2,
                    pressure=reference.PRESSURE, relaxation_time=reference.RELAXATION_TIME,
                    contact=reference.CONTACT, theta=theta, gamma0=gamma0, steps=steps, wall_s=wall,
                    max_penetration=max_penetration, beta_min=float(history[-1].contact.beta.min()),
                    beta_max=float(history[-1].contact.beta.max()), **columns)
-    (out / "summary.json").write_text(json.dumps(summary, indent=1))
-    print(f"{len(rows)} steps, ndof {body.ndof}, {sum(columns['newton_iterations'])} Newton iterations, "
+    if lead:
+        (out / "summary.json").write_text(json.dumps(summary, indent=1))
+    say(f"{len(rows)} steps, ndof {body.ndof}, {sum(columns['newton_iterations'])} Newton iterations, "
           f"wall {wall:.2f} s; results in {out}")
     return summary
 
@@ -137,10 +155,14 @@ def _plot_overview(path, columns, history):
     fig.savefig(path, dpi=120)
 
 
-def _plot_gamma3(beta_path, pressure_path, sim, history):
+def _quiet(*args, **kwargs):
+    """``print`` on the ranks other than 0."""
+
+
+def _plot_gamma3(beta_path, pressure_path, midpoints, history):
     """β along Γ3 over time (x-t map), and the contact pressure along Γ3 at several times
     (in 3D: means over the facets in each of 40 slices across the width)."""
-    x, average = _along_x(sim.side.midpoints[:, 0])
+    x, average = _along_x(midpoints[:, 0])
     times = history.times
     beta = average(history.contact_column("beta"))
     fig = Figure(figsize=(7, 4), layout="constrained")

@@ -1,0 +1,26 @@
+"""Run under mpiexec by tests/test_parallel.py: what does not run distributed raises a
+ValueError naming it; prints one line per case on rank 0."""
+import ngsolve as ngs
+
+from ngcontact import parallel
+from ngcontact.scenes import reference
+
+cases = {"active_set": dict(contact=reference.contact(method="active_set")), "iterative": dict(iterative=True),
+         "inverse": dict(inverse="umfpack"), "condense": dict(condense=True)}
+for name, options in cases.items():
+    try:
+        reference.simulation(1, 0.02, dim=3, **options)
+        message = "no error"
+    except ValueError as err:
+        message = str(err)
+    if parallel.rank() == 0:
+        print(f"{name}: {message}", flush=True)
+sim = reference.simulation(1, 0.02, dim=3)
+try:
+    sim.run(2.5e-3, 2.5e-3, out="unused")
+    message = "no error"
+except ValueError as err:
+    message = str(err)
+if parallel.rank() == 0:
+    print(f"out: {message}", flush=True)
+ngs.Parameter(0.0)

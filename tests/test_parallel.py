@@ -1,0 +1,74 @@
+"""The same scripts on several MPI processes (mpiexec from the mpich wheel of the test
+extra): the 3D demo distributed equals the serial run, and what does not run distributed
+says so. NGSolve distributes from rank 0, which keeps no elements: ``-n 2`` computes on one
+rank (the distributed code paths without shared DOFs), ``-n 3`` on two (shared DOFs)."""
+import json
+import os
+import pathlib
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from ngcontact import demo
+
+HERE = pathlib.Path(__file__).parent
+DEMO = ["-m", "ngcontact", "demo", "--dim", "3", "--maxh", "0.02", "--steps", "20"]
+
+
+def mpiexec():
+    """The mpiexec next to this Python (the mpich wheel puts it in the environment's bin/)."""
+    found = pathlib.Path(sys.executable).parent / "mpiexec"
+    found = str(found) if found.exists() else shutil.which("mpiexec")
+    assert found, "mpiexec not found: install the test extra (pip install '.[test]' brings mpich and mpi4py)"
+    return found
+
+
+def launch(ranks, *args, timeout=600):
+    env = dict(os.environ, PYTHONWARNINGS="ignore")
+    done = subprocess.run([mpiexec(), "-n", str(ranks), sys.executable, *args], capture_output=True, text=True,
+                          timeout=timeout, env=env, cwd=HERE.parent)
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    return done.stdout
+
+
+@pytest.fixture(scope="module")
+def serial(tmp_path_factory):
+    out = tmp_path_factory.mktemp("serial")
+    demo.run(dim=3, maxh=0.02, steps=20, out=out)
+    return json.loads((out / "summary.json").read_text())
+
+
+@pytest.mark.parametrize("ranks", [2, 3])
+def test_distributed_demo_equals_the_serial_run(serial, tmp_path, ranks):
+    """``mpiexec -n N python -m ngcontact demo --dim 3``: per step the contact force, the tip
+    displacement (a probe point), the charge flux, the peak pressure, the contact area and
+    min β (push, hold, pull: β falls to ~0.007; Newton iterations ±1) equal the serial run to 1e-8 relative; rank
+    0 alone writes the summary and charts, every computing rank its VTK part."""
+    launch(ranks, *DEMO, "--out", str(tmp_path))
+    distributed = json.loads((tmp_path / "summary.json").read_text())
+    assert distributed["ranks"] == ranks and serial["ranks"] == 1
+    for key in ("contact_force_y", "tip_deflection", "charge_flux", "max_pressure", "contact_length"):
+        a, b = np.array(serial[key], float), np.array(distributed[key], float)
+        assert a.shape == b.shape and np.abs(a).max() > 0, key
+        assert np.abs(a - b).max() <= 1e-8 * np.abs(a).max(), key
+    # Newton: the serial run's kept factorisation with GMRES may stop one iteration apart
+    assert np.abs(np.subtract(serial["newton_iterations"], distributed["newton_iterations"])).max() <= 1
+    assert min(serial["beta_min"], distributed["beta_min"]) < 0.05
+    assert abs(serial["beta_min"] - distributed["beta_min"]) <= 1e-8
+    assert (tmp_path / "history.png").exists() and (tmp_path / "fields.pvd").exists()
+    assert len(list(tmp_path.glob("fields_proc*_step00001.vtu"))) == ranks - 1
+
+
+def test_what_does_not_run_distributed_says_so():
+    """The nodal active set, GMRES with multigrid, a serial inverse, static condensation and
+    the stream of results raise a ValueError naming the feature under mpiexec."""
+    lines = dict(line.split(": ", 1) for line in launch(3, str(HERE / "distributed_errors.py")).splitlines()
+                 if ": " in line)
+    assert "'active_set'" in lines["active_set"] and "distributed mesh" in lines["active_set"]
+    assert "iterative=True" in lines["iterative"] and "nested meshes" in lines["iterative"]
+    assert "inverse='umfpack'" in lines["inverse"]
+    assert "condense=True" in lines["condense"]
+    assert "distributed" in lines["out"]
