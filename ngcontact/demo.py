@@ -100,6 +100,9 @@ def run(order=1, out="results", maxh=None, steps=200, theta=1, gamma0=10.0, resu
     with ngs.TaskManager() if body.ndof >= THREADS_FROM else nullcontext():
         history = sim.run(T / steps, T, on_step=report, out=None if distributed else out / "run")
     wall = wallclock.perf_counter() - start
+    for n in range(1, len(history)):                 # steps of a resumed run: from their kept states
+        if n not in deflection and sim.keep_states:
+            deflection[n] = parallel.point_values(mesh, sim.state(n).components[0], tip)[0, dim - 1]
     rows = [_row(rec, deflection.get(n, np.nan)) for n, rec in enumerate(history) if n > 0]
     columns = {key: [row[key] for row in rows] for key in rows[0]}
     max_penetration = max(columns.pop("max_penetration"))
