@@ -13,9 +13,9 @@ is non-symmetric (glue, conduction) and indefinite (the negated electric equatio
       S: an exact (UMFPACK) solve of J on the free DOFs of the Γ3 facets (a surface problem,
          ~n^(2/3) DOFs; it carries the Γ3 terms, whose Nitsche stiffness γ ~ 10 p² E/h dwarfs
          the bulk's and changes at every Newton iteration),
-      B: block-diagonal multigrid diag(MG_u, −MG_φ): NGSolve's ``Preconditioner(form,
-         "multigrid")`` (V-cycles on the nested meshes, smoothing with NGSolve's block
-         smoothers, a direct solve on the coarsest mesh) for the SPD forms
+      B: block-diagonal diag(MG_u, −MG_φ): NGSolve's ``Preconditioner(form, "multigrid")``
+         (V-cycles on the nested meshes, a direct solve on the coarsest mesh) for P1, its
+         "bddc" for P2 and higher (``bulk_kind``), for the SPD forms
 
            u: (F̃ ε(u), ε(v)) + (1/dt)(A ε(u), ε(v)),  F̃ = F + Eᵀ C⁻¹ E (piezo-stiffened),
            φ: (C ∇φ, ∇ξ),
@@ -67,22 +67,40 @@ def refinements(mesh):
     return None if kept is None else kept[1]
 
 
+def bulk_kind(body):
+    """The bulk preconditioner of ``body``'s fields: "multigrid" when u or φ is P1 (BDDC's
+    coarse space would be the whole P1 space), else NGSolve's "bddc" (P2 block, GMRES with
+    S B S: 16 iterations at 20 420 and at 142 404 DOFs, against 30 and 39 with multigrid and
+    block smoothing, 72 with its default smoother; docs/scale.md)."""
+    return "multigrid" if min(body.order, body.order_phi) == 1 else "bddc"
+
+
+def needs_nested_mesh(body):
+    """True if the bulk preconditioner is multigrid (``bulk_kind``), which needs nested meshes."""
+    return bulk_kind(body) == "multigrid"
+
+
 class Hierarchy:
-    """The replica hierarchy: V and W of ``body`` on a copy of its coarse mesh, refined as the
-    body's, with the multigrid preconditioners of the u and φ forms (module docstring) at
-    1/dt = ``inv_dt`` (1/s). ``set_inv_dt`` changes 1/dt on the finest level only: the
+    """The bulk preconditioners B of the u and φ forms (module docstring) at 1/dt =
+    ``inv_dt`` (1/s), on V and W of ``body``: for multigrid (``bulk_kind``) on the replica
+    hierarchy, a copy of the coarse mesh refined as the body's; for BDDC on the body's own
+    mesh (one level). ``set_inv_dt`` changes 1/dt on the finest level only: the
     coarse levels keep the first one (a spectrally equivalent coarse correction: the viscous
     term scales the elastic one by 1 + τ/dt for Kelvin-Voigt A = τF), which saves rebuilding
     the hierarchy at a cut-back. ``realcompile``: compile the integrands to machine code (the
     3D Voigt-matrix integrands assemble ~3× faster)."""
 
     def __init__(self, body, inv_dt, realcompile=False):
+        self.kind = bulk_kind(body)
         kept = getattr(body.mesh, COARSE, None)
-        if kept is None:
+        if self.kind == "bddc":
+            self.mesh, levels = body.mesh, 0
+        elif kept is None:
             raise ValueError("the multigrid solver needs nested meshes: build the mesh with "
                              "ngcontact.multigrid.nested_mesh(ngmesh, refine) (ngcontact.geometries do)")
-        coarse, levels = kept
-        self.mesh = ngs.Mesh(coarse.Copy())
+        else:
+            coarse, levels = kept
+            self.mesh = ngs.Mesh(coarse.Copy())
         T = body.tensors
         self.V = ngs.VectorH1(self.mesh, order=body.order,
                               **dirichlet_flags(body.boundaries["clamped"], body.supports, body.dim))
@@ -98,8 +116,8 @@ class Hierarchy:
         self.form_u += compiled(integrand, realcompile) * ngs.dx
         self.form_phi = ngs.BilinearForm(self.W, symmetric=True)
         self.form_phi += compiled(forms.c(T, phi, xi), realcompile) * ngs.dx
-        self.pre_u = ngs.Preconditioner(self.form_u, "multigrid")
-        self.pre_phi = ngs.Preconditioner(self.form_phi, "multigrid")
+        self.pre_u = ngs.Preconditioner(self.form_u, self.kind)
+        self.pre_phi = ngs.Preconditioner(self.form_phi, self.kind)
         self._assemble()
         for _ in range(levels):
             self.mesh.Refine()
@@ -203,6 +221,8 @@ class MultigridSolver:
 
     @property
     def name(self):
+        if bulk_kind(self.body) == "bddc":
+            return "GMRES preconditioned by Γ3 solves around block BDDC"
         levels = f"{self.hierarchy.levels} levels" if self.hierarchy else "nested meshes"
         return f"GMRES preconditioned by Γ3 solves around block multigrid ({levels})"
 

@@ -77,10 +77,10 @@ class Simulation:
         factorisation of an earlier Jacobian of the same time step size, factorising again
         only when that pays (``linear_solver.KeptFactorization``); False: factorise at every
         Newton iteration (also the default for Nitsche's θ = −1, see ``inverse``).
-    iterative : GMRES preconditioned by multigrid on nested meshes (``multigrid``) instead of
-        a factorisation: None (default) in 3D from 10⁵ DOFs when the mesh was made by
-        ``multigrid.nested_mesh`` (``ngcontact.geometries`` do) and nothing is condensed
-        (``solver_choice``); True or False to choose.
+    iterative : GMRES preconditioned by Γ3 solves around block multigrid (P1, nested meshes)
+        or BDDC (P2+) instead of a factorisation (``multigrid``): None (default) in 3D from
+        10⁵ DOFs, for P1 when the mesh was made by ``multigrid.nested_mesh``
+        (``ngcontact.geometries`` do), without condensation (``solver_choice``); True or False.
 
     The state after the last step: ``t`` (s), ``u``, ``phi`` (components of ``gfu``), the
     bonding field ``beta`` (``beta.values``), and ``history``, one StepRecord per step.

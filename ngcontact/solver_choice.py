@@ -1,9 +1,10 @@
 """Which linear solver makes the Newton corrections of a simulation (``Simulation(inverse=,
 reuse_factorization=, iterative=)``), chosen by the system's symmetry, size and dimension.
 
-* ``iterative`` (``multigrid.MultigridSolver``, GMRES with Γ3 solves around block multigrid):
-  by default in 3D from ``ITERATIVE_FROM`` DOFs on nested meshes (``multigrid.nested_mesh``)
-  without static condensation; direct factorisations fill in like n^(4/3) there.
+* ``iterative`` (``multigrid.MultigridSolver``, GMRES with Γ3 solves around block multigrid
+  for P1, block BDDC for P2 and higher): by default in 3D from ``ITERATIVE_FROM`` DOFs
+  without static condensation, for P1 on nested meshes (``multigrid.nested_mesh``); direct
+  factorisations fill in like n^(4/3) there.
 * on a mesh distributed over MPI ranks: NGSolve's "masterinverse" (the Jacobian gathered
   and factorised on rank 0) at every Newton iteration;
 * else a direct factorisation: kept between Newton iterations as GMRES's preconditioner
@@ -12,15 +13,16 @@ reuse_factorization=, iterative=)``), chosen by the system's symmetry, size and 
   skew Γ3 part makes GMRES slower than factorising, docs/speed.md).
 """
 from .linear_solver import NAMES, PARALLEL_NAMES, DirectSolver, KeptFactorization
-from .multigrid import MultigridSolver, refinements
+from .multigrid import MultigridSolver, needs_nested_mesh, refinements
 
 ITERATIVE_FROM = 100_000
 """DOFs from which 3D simulations on nested meshes solve iteratively by default (docs/scale.md)."""
 
 
 def iterative_by_default(body, condense):
-    """The default of ``iterative``: 3D, ≥ ITERATIVE_FROM DOFs, nested meshes, no condensation."""
-    return body.dim == 3 and body.ndof >= ITERATIVE_FROM and (refinements(body.mesh) or 0) >= 1 and not condense
+    """The default of ``iterative``: 3D, ≥ ITERATIVE_FROM DOFs, nested meshes for P1, no condensation."""
+    nested = (refinements(body.mesh) or 0) >= 1 or not needs_nested_mesh(body)
+    return body.dim == 3 and body.ndof >= ITERATIVE_FROM and nested and not condense
 
 
 def choose(body, contact, system, space, *, inverse, reuse_factorization, iterative, electric, condense,
@@ -42,7 +44,7 @@ def choose(body, contact, system, space, *, inverse, reuse_factorization, iterat
             raise ValueError(f"iterative=True solves by GMRES with multigrid; it takes no inverse= (got {inverse!r})")
         if condense:
             raise ValueError("iterative=True needs condense=False (the multigrid preconditioner acts on all DOFs)")
-        if refinements(body.mesh) is None:
+        if needs_nested_mesh(body) and refinements(body.mesh) is None:
             raise ValueError("iterative=True needs nested meshes: make the mesh with "
                              "ngcontact.multigrid.nested_mesh(ngmesh, refine) (ngcontact.geometries do)")
         layer = space.GetDofs(body.region("contact_side")) if contact is not None else None
