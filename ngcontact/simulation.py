@@ -229,6 +229,7 @@ class Simulation:
             newton = Newton(self.system.uncondensed, self.gfu, solver=self._potential_solver,
                             freedofs=phi_only, rtol=self.newton.rtol, maxit=self.newton.maxit)
             result = newton.solve(step=0, time=0.0, timer=timings)
+            self._potential_solver = None        # used once: its factorisation or hierarchy is freed
         else:                                    # nothing to solve: φ0 = 0
             residual = self.gfu.vec.CreateVector()
             self.system.Apply(self.gfu.vec, residual)
@@ -309,7 +310,8 @@ class Simulation:
         max_cutbacks : the cut-back policy of ``advance`` for each nominal step (the next
             nominal step uses dt again).
         progress : show a progress bar.
-        vtk : file name stem for NGSolve's VTKOutput of u and φ (one file per step), or None.
+        vtk : file name stem for NGSolve's VTKOutput of u and φ (one file per step; under
+            mpiexec one per computing rank and step, collected by ``<vtk>.pvd``), or None.
         on_step : called with each new StepRecord, right after its step (cut-back steps
             included).
         out : a directory to stream every step into as it is computed (``results``: records,
@@ -334,9 +336,10 @@ class Simulation:
             if resumed is None:
                 stream(self.history[-1])                 # the state the run starts from
             callbacks.insert(0, stream)
-        if vtk and not parallel.serial_only(self.body.mesh, "run(vtk=...)", "not tested distributed"):
+        if vtk:                                  # distributed: one .vtu per computing rank and step, one .pvd
             writer = ngs.VTKOutput(self.body.mesh, coefs=[self.u, self.phi], names=["displacement", "potential"],
-                                   filename=str(vtk), subdivision=max(self.body.order, self.body.order_phi) - 1)
+                                   filename=str(vtk), subdivision=max(self.body.order, self.body.order_phi) - 1,
+                                   legacy=False)
             writer.Do(time=self.t)
             callbacks.insert(0, lambda record: writer.Do(time=record.time))
 

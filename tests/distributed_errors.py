@@ -1,5 +1,9 @@
 """Run under mpiexec by tests/test_parallel.py: what does not run distributed raises a
-ValueError naming it; prints one line per case on rank 0."""
+ValueError naming it; prints one line per case on rank 0. Then two steps with
+``run(vtk=<argv[1]>/fields)`` (the ParaView series, one file per computing rank and step)."""
+import pathlib
+import sys
+
 import ngsolve as ngs
 
 from ngcontact import parallel
@@ -23,4 +27,7 @@ except ValueError as err:
     message = str(err)
 if parallel.rank() == 0:
     print(f"out: {message}", flush=True)
+sim.run(2.5e-3, 5e-3, vtk=pathlib.Path(sys.argv[1]) / "fields")
+if parallel.rank() == 0:
+    print(f"vtk: {len(sim.history) - 1} steps", flush=True)
 ngs.Parameter(0.0)

@@ -62,13 +62,23 @@ def test_distributed_demo_equals_the_serial_run(serial, tmp_path, ranks):
     assert len(list(tmp_path.glob("fields_proc*_step00001.vtu"))) == ranks - 1
 
 
-def test_what_does_not_run_distributed_says_so():
+def test_what_does_not_run_distributed_says_so(tmp_path):
     """The nodal active set, GMRES with multigrid, a serial inverse, static condensation and
-    the stream of results raise a ValueError naming the feature under mpiexec."""
-    lines = dict(line.split(": ", 1) for line in launch(3, str(HERE / "distributed_errors.py")).splitlines()
-                 if ": " in line)
+    the stream of results raise a ValueError naming the feature under mpiexec; ``run(vtk=)``
+    writes one ParaView file per computing rank and step (the initial state and 2 steps),
+    with u and φ, collected by one .pvd."""
+    lines = dict(line.split(": ", 1) for line in launch(3, str(HERE / "distributed_errors.py"), str(tmp_path))
+                 .splitlines() if ": " in line)
     assert "'active_set'" in lines["active_set"] and "distributed mesh" in lines["active_set"]
     assert "iterative=True" in lines["iterative"] and "nested meshes" in lines["iterative"]
     assert "inverse='umfpack'" in lines["inverse"]
     assert "condense=True" in lines["condense"]
     assert "distributed" in lines["out"]
+    assert lines["vtk"] == "2 steps"
+    parts = sorted(path.name for path in tmp_path.glob("fields_proc*.vtu"))
+    assert len(parts) == 2 * 3, parts                # 2 computing ranks × (initial state + 2 steps)
+    collection = (tmp_path / "fields.pvd").read_text()
+    assert all(part in collection for part in parts)
+    for part in parts:
+        text = (tmp_path / part).read_text(errors="replace")
+        assert 'Name="displacement"' in text and 'Name="potential"' in text
