@@ -88,9 +88,11 @@ class Hierarchy:
     coarse levels keep the first one (a spectrally equivalent coarse correction: the viscous
     term scales the elastic one by 1 + τ/dt for Kelvin-Voigt A = τF), which saves rebuilding
     the hierarchy at a cut-back. ``realcompile``: compile the integrands to machine code (the
-    3D Voigt-matrix integrands assemble ~3× faster)."""
+    3D Voigt-matrix integrands assemble ~3× faster). ``displacement=False``: the φ part only
+    (the potential at t = 0 solves for φ with u held: no u hierarchy, ~9× the φ one's size,
+    is built for it; ``pre_u`` is then None)."""
 
-    def __init__(self, body, inv_dt, realcompile=False):
+    def __init__(self, body, inv_dt, realcompile=False, displacement=True):
         self.kind = bulk_kind(body)
         kept = getattr(body.mesh, COARSE, None)
         if self.kind == "bddc":
@@ -112,11 +114,13 @@ class Hierarchy:
         integrand = ngs.InnerProduct(forms.matrix_cf(stiffened) * strain(u), strain(v))
         if T.viscous:
             integrand = integrand + self.inv_dt * forms.a(T, u, v)
-        self.form_u = ngs.BilinearForm(self.V, symmetric=True)
-        self.form_u += compiled(integrand, realcompile) * ngs.dx
+        self.form_u = self.pre_u = None
+        if displacement:
+            self.form_u = ngs.BilinearForm(self.V, symmetric=True)
+            self.form_u += compiled(integrand, realcompile) * ngs.dx
+            self.pre_u = ngs.Preconditioner(self.form_u, self.kind)
         self.form_phi = ngs.BilinearForm(self.W, symmetric=True)
         self.form_phi += compiled(forms.c(T, phi, xi), realcompile) * ngs.dx
-        self.pre_u = ngs.Preconditioner(self.form_u, self.kind)
         self.pre_phi = ngs.Preconditioner(self.form_phi, self.kind)
         self._assemble()
         for _ in range(levels):
@@ -134,7 +138,8 @@ class Hierarchy:
         self.levels = levels + 1
 
     def _assemble(self):
-        self.form_u.Assemble()
+        if self.form_u is not None:
+            self.form_u.Assemble()
         if self.W.ndof:
             self.form_phi.Assemble()
 
@@ -142,7 +147,8 @@ class Hierarchy:
         """1/dt (1/s) of the u form's finest level (module docstring)."""
         if inv_dt != self.inv_dt.Get():
             self.inv_dt.Set(inv_dt)
-            self.form_u.Assemble()
+            if self.form_u is not None:
+                self.form_u.Assemble()
 
 
 class Preconditioner(ngs.BaseMatrix):
@@ -154,7 +160,7 @@ class Preconditioner(ngs.BaseMatrix):
         self.n_u = hierarchy.V.ndof
         self.free = np.array(list(freedofs), dtype=bool) if free is None else free    # numpy mask of freedofs
         self.surface = matrix.Inverse(layer, inverse="umfpack") if layer.NumSet() else None
-        self._u_in, self._u_out = (hierarchy.form_u.mat.CreateColVector() for _ in range(2))
+        self._u_in, self._u_out = (ngs.GridFunction(hierarchy.V).vec for _ in range(2))
         self._phi_in, self._phi_out = (ngs.GridFunction(hierarchy.W).vec for _ in range(2))
         self._defect = matrix.CreateColVector()
 
@@ -170,9 +176,10 @@ class Preconditioner(ngs.BaseMatrix):
     def _bulk(self, x, y):
         """y += diag(MG_u, −MG_φ) x on the free DOFs."""
         values, out, n_u, free = x.FV().NumPy(), y.FV().NumPy(), self.n_u, self.free
-        self._u_in.FV().NumPy()[:] = values[:n_u]
-        self._u_out.data = self.hierarchy.pre_u.mat * self._u_in
-        out[:n_u] += np.where(free[:n_u], self._u_out.FV().NumPy(), 0.0)
+        if self.hierarchy.pre_u is not None:
+            self._u_in.FV().NumPy()[:] = values[:n_u]
+            self._u_out.data = self.hierarchy.pre_u.mat * self._u_in
+            out[:n_u] += np.where(free[:n_u], self._u_out.FV().NumPy(), 0.0)
         if self.electric:
             self._phi_in.FV().NumPy()[:] = values[n_u:]
             self._phi_out.data = self.hierarchy.pre_phi.mat * self._phi_in
@@ -208,10 +215,14 @@ class MultigridSolver:
         where that suffices, inexact Newton).
     maxiter : GMRES iterations before a solve counts as failed (its best iterate is used).
     realcompile : compile the hierarchy's integrands to machine code.
+    displacement : whether u has free DOFs in the solves (False for the potential at t = 0:
+        the hierarchy of the φ form only).
     """
 
-    def __init__(self, body, system, layer=None, *, electric=True, tol=1e-8, maxiter=300, realcompile=False):
+    def __init__(self, body, system, layer=None, *, electric=True, tol=1e-8, maxiter=300, realcompile=False,
+                 displacement=True):
         self.body, self.system, self.layer, self.electric = body, system, layer, electric
+        self.displacement = displacement
         self.realcompile = realcompile
         self.tol, self.maxiter = tol, int(maxiter)
         self.factorizations = self.krylov_iterations = self.krylov_failures = 0
@@ -233,7 +244,8 @@ class MultigridSolver:
             if self.hierarchy is None or generation != self._generation:
                 start = wallclock.perf_counter()
                 if self.hierarchy is None:
-                    self.hierarchy = Hierarchy(self.body, self.system.inv_dt.Get(), self.realcompile)
+                    self.hierarchy = Hierarchy(self.body, self.system.inv_dt.Get(), self.realcompile,
+                                               self.displacement)
                 else:
                     self.hierarchy.set_inv_dt(self.system.inv_dt.Get())
                 self._generation = generation

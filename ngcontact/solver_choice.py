@@ -50,7 +50,7 @@ def choose(body, contact, system, space, *, inverse, reuse_factorization, iterat
         layer = space.GetDofs(body.region("contact_side")) if contact is not None else None
 
         newton = MultigridSolver(body, system, layer, electric=electric, realcompile=realcompile)
-        potential = MultigridSolver(body, system, layer, electric=True, realcompile=realcompile)
+        potential = MultigridSolver(body, system, layer, electric=True, realcompile=realcompile, displacement=False)
         return newton, potential
     symmetric = contact is None or contact.symmetric
     name = inverse or ("sparsecholesky" if symmetric else "umfpack")
