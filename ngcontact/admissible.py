@@ -33,6 +33,21 @@ class GapCheck:
                              "1e-8 of the body's size)")
 
 
+def check_initial_displacement(body, u0, gamma3=None):
+    """u0 (a CoefficientFunction, m) must vanish on Γ1 and be admissible on Γ3 (u0_ν <= g, with
+    the contact normal of ``gamma3``, an ``observables.Gamma3`` or None)."""
+    mesh, square = body.mesh, ngs.InnerProduct(u0, u0)
+    if body.boundaries["clamped"]:
+        on_gamma1 = parallel.sum(mesh, ngs.Integrate(square * ngs.ds(body.region("clamped")), mesh))
+        if on_gamma1 > 1e-20 * (1 + ngs.Integrate(square, mesh)):     # (all ranks' sum)
+            raise ValueError(f"u0 must vanish on the clamped boundary Γ1 ({body.region_names('clamped')!r})")
+    if gamma3 is not None:
+        side = gamma3.side
+        excess = parallel.maximum(mesh, side.normal_displacement(u0, gamma3.sampled_normal) - side.sample(gamma3.gap))
+        if excess > 1e-12 * (1 + parallel.maximum(mesh, np.abs(side.sample(u0)))):
+            raise ValueError(f"u0 must be admissible, u0_ν <= g on Γ3; it exceeds g by {excess:.3g} m")
+
+
 def check_supports_at_start(body, u, given):
     """u0 (``given`` at the held DOFs, 0 if not given) must equal the supports' prescribed
     displacements at t = 0, which ``u`` holds."""
@@ -51,16 +66,39 @@ class PhysicsWarning(UserWarning):
     """A computed step that makes no physical sense for the model (``flags``)."""
 
 
-PENETRATION_LIMIT = 0.1      # of the smallest facet of Γ3
+NITSCHE_ACCURATE_FROM = {1: 3.0, 0: 0.1, -1: 3.0}
+"""γ0 from which each Nitsche variant θ gave the contact force within 1 % on the reference plate
+(docs/stability.md, section 1): below, θ = 1 and θ = 0 may converge to forces 20–130 % off or
+fail (their coercivity needs γ0 above a trace-inequality constant), θ = −1 is stable but
+imposes contact only weakly (8 % off at 0.1, 25 % at 0.001)."""
+PENETRATION_LIMIT = 0.1      # of the smallest facet of Γ3, and of the largest displacement
 DISPLACEMENT_LIMIT = 0.05    # of the body's size (small strain)
+
+
+def scene_flags(contact):
+    """What in the data of a scene makes its results unreliable, as messages (flagged once,
+    when the simulation is built): a Nitsche γ0 below ``NITSCHE_ACCURATE_FROM`` of its θ."""
+    if contact is None or contact.method != "nitsche":
+        return []
+    bound = NITSCHE_ACCURATE_FROM[contact.theta]
+    if contact.gamma0 >= bound:
+        return []
+    why = ("skew-symmetric Nitsche is stable for every γ0 but imposes contact only weakly" if contact.theta == -1
+           else f"Nitsche with θ = {contact.theta} is not coercive for small γ0: it may converge to a wrong contact "
+                "force")
+    return [f"Contact.gamma0 = {contact.gamma0:g} is below {bound:g}, where θ = {contact.theta} gave the contact "
+            f"force within 1 % (docs/stability.md): {why}; use γ0 >= {bound:g}"]
 
 
 def flags(body, record, u, side=None):
     """What in a computed step makes no physical sense for the model, as messages naming the
     step, the quantity, its value and the threshold: penetration into the foundation beyond
-    ``PENETRATION_LIMIT`` of the smallest facet of Γ3 (the contact law is not met), a
-    displacement beyond ``DISPLACEMENT_LIMIT`` of the body's size (the small-strain model
-    does not hold), non-finite fields."""
+    ``PENETRATION_LIMIT`` of the smallest facet of Γ3 or of the largest displacement of the
+    body (the contact law is not met: the body goes through the foundation by a sizeable part
+    of its own motion, e.g. of the gap it closed), a displacement beyond
+    ``DISPLACEMENT_LIMIT`` of the body's size (the small-strain model does not hold), a
+    bonding field that the explicit update (4.5) pushed out of [0, 1] (clipped: the update is
+    unstable at this time step, dt γ_ν L² > 1), non-finite fields."""
     found = []
     values = u.vec.FV().NumPy()
     if parallel.any_rank(body.mesh, not np.all(np.isfinite(values))):
@@ -73,8 +111,15 @@ def flags(body, record, u, side=None):
                      f"{DISPLACEMENT_LIMIT:g} of the body's size {size:.3g} m: the small-strain model does not hold")
     if record.contact is not None and side is not None:
         facet = parallel.minimum(body.mesh, side.measure) ** (1 / (body.dim - 1))
-        if record.contact.max_penetration > PENETRATION_LIMIT * facet:
-            found.append(f"step {record.step} (t = {record.time:.6g} s): penetration {record.contact.max_penetration:.3g}"
-                         f" m exceeds {PENETRATION_LIMIT:g} of the smallest facet of Γ3 ({facet:.3g} m): the "
-                         "contact law is not met (a larger γ0 or penalty, or a finer mesh)")
+        penetration = record.contact.max_penetration
+        for limit, what in ((facet, "the smallest facet of Γ3"), (largest, "the largest displacement of the body")):
+            if penetration > PENETRATION_LIMIT * limit:
+                found.append(f"step {record.step} (t = {record.time:.6g} s): penetration {penetration:.3g} m "
+                             f"exceeds {PENETRATION_LIMIT:g} of {what} ({limit:.3g} m): the contact law is not "
+                             "met (a larger γ0 or penalty, or a finer mesh)")
+                break
+        if record.contact.beta_clipped:
+            found.append(f"step {record.step} (t = {record.time:.6g} s): the explicit β update (4.5) left [0, 1] on "
+                         f"{record.contact.beta_clipped} facets and was clipped: it is unstable at this time step "
+                         "(dt γ_ν L² > 1); a smaller dt, or Contact(beta_update='implicit')")
     return found

@@ -19,9 +19,9 @@ Both solvers have ``solve(matrix, freedofs, r, w, generation=..., timer=..., wei
 terms, e.g. a new time step size; ``weights`` per DOF for GMRES's inner product) and count
 ``factorizations``, ``krylov_iterations`` and ``krylov_failures``.
 """
-import time as wallclock
-from contextlib import nullcontext
+from contextlib import contextmanager, nullcontext
 
+import ngsolve as ngs
 import ngsolve.config
 import numpy as np
 
@@ -33,6 +33,47 @@ PARALLEL_NAMES = ("masterinverse",)
 """The direct solver of a ParallelMatrix on a distributed mesh: NGSolve gathers the matrix on
 rank 0 and factorises it there (exact for non-symmetric matrices; "umfpack" and
 "sparsecholesky" are not parallel, the PyPI wheel has no MUMPS)."""
+
+
+def factorization_worth(ndof, dim):
+    """How many GMRES iterations preconditioned by a kept factorisation cost as much as one
+    factorisation, for a step system of ``ndof`` DOFs in ``dim`` D: a rule fitted to the ratio
+    factorisation time / GMRES iteration time measured on the reference scene (one thread,
+    sparse Cholesky of the symmetric part, medians over 8 steps; PyPI NGSolve 6.2.2608):
+
+    ====  =====================================================================
+    2D    P1: 230 at 167 free DOFs, 121 at 2 216, 29 at 8 560, 3.0 at 33 632, 4.5 at 133 312;
+          P2: 99 at 2 216, 55 at 8 560, 3.8 at 33 632; P3: 54 at 4 872
+    3D    P1: 139 at 632, 32 at 4 056, 9.8 at 28 880; P2: 30 at 632
+    ====  =====================================================================
+
+    clamped to [4, 40] (the kept factorisation's ``max_budget``). A rule, not a clock: the
+    solver's decisions, and so its results, are the same in every run (the wall-time ratio it
+    replaces made identical runs differ at Newton's tolerance)."""
+    worth = 30 * (8_500 / ndof) ** 1.3 if dim == 2 else 32 * (4_000 / ndof) ** 0.6
+    return int(min(40, max(4, worth)))
+
+
+@contextmanager
+def reproducible():
+    """Outside a TaskManager, run NGSolve's factorisations and solves on one thread.
+
+    NGSolve's "sparsecholesky" starts threads of its own (``ngsglobals.numthreads``, 2 on the
+    project's machines) even when no TaskManager is active, and adds their contributions in
+    the order the threads finish: the same matrix then gave solutions that differ at round-off
+    in 2 of 16 processes (121 851 DOFs: 309db0 on one thread every time; 35747d, e62b77 on two).
+    On one thread it is as fast at these sizes (0.65–0.70 s against 0.60–1.11 s at 121 851
+    DOFs). Inside a TaskManager (``ngsolve.GetNumThreads() > 1``) nothing changes: the user
+    asked for threads, and results there are reproducible only to round-off."""
+    if ngs.GetNumThreads() > 1:
+        yield
+        return
+    configured = ngs.ngsglobals.numthreads
+    ngs.SetNumThreads(1)
+    try:
+        yield
+    finally:
+        ngs.SetNumThreads(configured)
 
 
 def untimed(phase):
@@ -64,14 +105,15 @@ class DirectSolver:
     def factor(self, matrix, freedofs):
         """Factorise ``matrix`` restricted to ``freedofs`` (a BitArray); the same matrix
         object and free DOFs as last time: update the factorisation in place."""
-        if self._inverse is not None and matrix is self._matrix and freedofs is self._freedofs:
-            try:
-                self._inverse.Update()
-                self.factorizations += 1
-                return
-            except Exception:                     # an inverse without Update: factorise anew
-                pass
-        self._inverse = matrix.Inverse(freedofs, inverse=self.name)
+        with reproducible():
+            if self._inverse is not None and matrix is self._matrix and freedofs is self._freedofs:
+                try:
+                    self._inverse.Update()
+                    self.factorizations += 1
+                    return
+                except Exception:                     # an inverse without Update: factorise anew
+                    pass
+            self._inverse = matrix.Inverse(freedofs, inverse=self.name)
         self._matrix, self._freedofs = matrix, freedofs
         self.factorizations += 1
 
@@ -79,7 +121,7 @@ class DirectSolver:
         """w = A⁻¹ r with a new factorisation of A (exact: ``weights`` and ``tol`` are not used)."""
         with timer("factorization"):
             self.factor(matrix, freedofs)
-        with timer("solve"):
+        with timer("solve"), reproducible():
             w.data = self._inverse * r
 
     def __repr__(self):
@@ -91,8 +133,8 @@ class KeptFactorization:
 
     The factorisation is made anew (``DirectSolver.factor``) when there is none, when
     ``generation`` or the free DOFs changed, when the last solve needed more than half of the
-    budget of GMRES iterations that one factorisation costs (measured: factorisation time /
-    time per GMRES iteration) beyond what the first solve after the last factorisation needed
+    ``budget`` of GMRES iterations that one factorisation costs (``factorization_worth``)
+    beyond what the first solve after the last factorisation needed
     for the same accuracy (what a new one would need; per decade of ``tol``: with the
     symmetric part that is never 1 iteration), or when GMRES with the kept factorisation does
     not reach ``tol`` within that count plus the budget (``krylov_failures`` counts those
@@ -106,14 +148,15 @@ class KeptFactorization:
         for a Jacobian that is nearly symmetric: the non-symmetric terms live on Γ3 only).
     tol : relative reduction of the preconditioned residual in GMRES, measured in the
         ``weights`` inner product of ``solve`` when given.
+    budget : the GMRES iterations that cost one factorisation (``factorization_worth``).
     max_budget : the most GMRES iterations allowed before refactorising.
     """
 
-    def __init__(self, direct, *, symmetric=False, tol=1e-8, max_budget=40):
+    def __init__(self, direct, *, symmetric=False, tol=1e-8, budget=20, max_budget=40):
         self.direct, self.symmetric, self.tol, self.max_budget = direct, symmetric, tol, max_budget
+        self.budget = int(min(max_budget, max(1, budget)))
         self.krylov_iterations = self.krylov_failures = self.fallbacks = 0
         self._generation = self._freedofs = self._symmetric_part = self._source = None
-        self._factor_time = self._iteration_time = None
         self._stale, self._baseline = True, None
 
     @property
@@ -125,15 +168,7 @@ class KeptFactorization:
     def factorizations(self):
         return self.direct.factorizations + self.fallbacks
 
-    @property
-    def budget(self):
-        """GMRES iterations that cost one factorisation (between 4 and ``max_budget``)."""
-        if not self._factor_time or not self._iteration_time:
-            return self.max_budget // 2
-        return int(min(self.max_budget, max(4, self._factor_time / self._iteration_time)))
-
     def _factor(self, matrix, freedofs, timer):
-        start = wallclock.perf_counter()
         with timer("factorization"):
             if self.symmetric:
                 if matrix is not self._source:                 # a new matrix: its own pattern
@@ -144,15 +179,12 @@ class KeptFactorization:
                 self.direct.factor(self._symmetric_part, freedofs)
             else:
                 self.direct.factor(matrix, freedofs)
-        self._factor_time = wallclock.perf_counter() - start
         self._stale, self._baseline = False, None
 
     def _gmres(self, matrix, r, w, maxiter, weights, tol, timer):
-        start = wallclock.perf_counter()
-        with timer("solve"):
+        with timer("solve"), reproducible():
             converged, iterations = gmres(matrix, self.direct.inverse, r, w, weights, tol, maxiter)
         self.krylov_iterations += iterations
-        self._iteration_time = (wallclock.perf_counter() - start) / max(iterations, 1)
         return converged, iterations
 
     def solve(self, matrix, freedofs, r, w, generation=None, timer=untimed, weights=None, tol=None):
@@ -176,9 +208,9 @@ class KeptFactorization:
         if not converged:                               # the preconditioner does not fit A
             self.krylov_failures += 1
             self.fallbacks += 1
-            with timer("factorization"):
+            with timer("factorization"), reproducible():
                 exact = matrix.Inverse(freedofs, inverse="umfpack")
-            with timer("solve"):
+            with timer("solve"), reproducible():
                 w.data = exact * r
             self._stale = True
             return

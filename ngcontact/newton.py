@@ -2,11 +2,18 @@
 
 Forces (N) and charges (C) are not comparable, so residuals are measured in the norm
 ‖r‖² = ‖r_u‖²/s_u + ‖r_φ‖²/s_φ (``ResidualNorm``), where s_u, s_φ are the mean diagonal
-entries of the two blocks of the first Jacobian (N/m and C/V): each term is an energy, in J.
-A solve has converged when ‖r‖ ≤ rtol ‖r_0‖ (r_0: the residual at its start), or when ‖r‖
-is down to round-off: ‖r‖ ≤ max(1e-13 ‖x‖, 10 ε ‖ |J||x| + |b| ‖) with ε the machine
-epsilon and |J||x| + |b| the size of the terms that sum to the residual
-(``StepSystem.magnitude``), so that the floor grows with a stiff contact term.
+entries of the two blocks of the bulk's K at the first step (N/m and C/V; the Γ3 terms left out,
+so that a stiff contact term cannot set the units): each term is an energy, in J.
+When a solve may stop is decided by ``stopping.ConvergenceTest``: the residual against the
+step's force scale (loads and bulk forces, never the contact terms or the size of the state),
+or against its round-off floor where that floor is small; a residual stuck at a floor above
+that fails as "cannot be certified".
+
+A correction w that is not finite, or much larger than the residual r it answers
+(‖r‖/‖w‖ < ``SINGULAR_RATIO`` in the scaled norms), comes from a singular Jacobian (a body
+held only by the contact, whose rigid motion nothing fixes while the contact is open): the
+solve fails at once and says so. Such failures, and an uncertifiable residual, are not ``recoverable``: a smaller time step
+would fail the same way, so the cut-back policy of ``Simulation.advance`` does not retry them.
 
 Every enforcement method runs in this one loop; a method with unknowns of its own (the
 nodal multipliers of the active set method) takes part through a ``Hook``, and a
@@ -24,11 +31,17 @@ import scipy.sparse as sp
 
 from . import parallel
 from .linear_solver import DirectSolver, untimed
+from .stopping import ConvergenceTest
 
 LINEAR_COUNTS = ("factorizations", "krylov_iterations", "krylov_failures")
 """The linear solver's counters that a solve reports."""
-ROUNDOFF = 10 * np.finfo(float).eps
-"""Factor of the round-off floor on ‖ |J||x| + |b| ‖."""
+SINGULAR_RATIO = 1e-12
+"""A correction w with ‖r‖/‖w‖ below this (scaled dual over primal norm: the smallest singular
+value of the scaled Jacobian it reveals, 5e-5 to 6e-2 on the meshes of the test suite) comes
+from a singular Jacobian: the factorisation divided by a pivot at round-off."""
+SINGULAR = "stopped: the system is singular (the Jacobian has no unique solution)"
+SINGULAR_HINT = ("supports that hold the body: a body held only by the contact has no unique displacement "
+                 "while the contact is open; or a start u0 that touches the obstacle")
 
 
 class NewtonError(RuntimeError):
@@ -37,12 +50,15 @@ class NewtonError(RuntimeError):
     ``history`` holds the steps computed before the failure (set by the simulation);
     ``factorizations``, ``krylov_iterations``, ``krylov_failures``: the linear solver's work
     in the failed solve, ``linear_history`` the same per Newton iteration (dicts);
-    ``residuals_limited``: the residual history of a first try with shortened steps, if any.
+    ``residuals_limited``: the residual history of a first try with shortened steps, if any;
+    ``recoverable``: whether a smaller time step may succeed (False for a singular Jacobian
+    and a residual that cannot be certified: the cut-back policy does not retry those).
     """
 
-    def __init__(self, reason, *, iteration, residuals, step=None, time=None, hint=""):
+    def __init__(self, reason, *, iteration, residuals, step=None, time=None, hint="", recoverable=True):
         self.reason, self.iteration, self.residuals = reason, iteration, residuals
         self.step, self.time, self.history = step, time, None
+        self.recoverable = recoverable
         self.residuals_limited = None    # the history of a first try with shortened steps
         self.factorizations = self.krylov_iterations = self.krylov_failures = 0   # the linear solver's work
         self.linear_history = []    # per Newton iteration: the linear solver's counts (LINEAR_COUNTS)
@@ -98,6 +114,11 @@ class ResidualNorm:
             free &= parallel.owned(space)
         self.blocks = [np.flatnonzero(free[space.Range(i).start:space.Range(i).stop]) + space.Range(i).start
                        for i in range(2)]
+        # every DOF (held ones too) of the blocks that have free DOFs: where forces act
+        mine = parallel.owned(space) if self.distributed else np.ones(len(free), dtype=bool)
+        self.whole_blocks = [np.flatnonzero(mine[space.Range(i).start:space.Range(i).stop]) + space.Range(i).start
+                             if parallel.sum(self.mesh, len(block)) else np.zeros(0, dtype=int)
+                             for i, block in enumerate(self.blocks)]
         self.scales = None
 
     def set_scales(self, diagonal):
@@ -117,8 +138,8 @@ class ResidualNorm:
     weights = None
     """s_b on the free DOFs of block b, 0 elsewhere (numpy): the primal norm is (Σ w x²)^½."""
 
-    def _weighted(self, a, power):
-        squares = parallel.sum(self.mesh, np.array([np.dot(a[b], a[b]) for b in self.blocks]))
+    def _weighted(self, a, power, blocks=None):
+        squares = parallel.sum(self.mesh, np.array([np.dot(a[b], a[b]) for b in blocks or self.blocks]))
         return float(np.sqrt(sum(s ** power * square for square, s in zip(squares, self.scales))))
 
     def _values(self, v):
@@ -129,6 +150,12 @@ class ResidualNorm:
     def dual(self, r):
         """‖r‖ = (Σ_b ‖r_b‖²/s_b)^½ of a residual (vector or numpy array), J^½."""
         return self._weighted(self._values(r), -1)
+
+    def dual_everywhere(self, r):
+        """The dual norm of ``r`` over every DOF of the blocks that have free DOFs, the held ones
+        included (where a force vector holds the reactions of the supports and the charges of
+        the electrodes), J^½."""
+        return self._weighted(self._values(r), -1, self.whole_blocks)
 
     def primal(self, x):
         """‖x‖ = (Σ_b s_b ‖x_b‖²)^½ of a state vector, J^½."""
@@ -165,13 +192,13 @@ class Newton:
     system : the residual R: a BilinearForm (nonlinear in the trial function) or a
         ``StepSystem``: ``Apply``, ``AssembleLinearization``, ``mat`` and ``condense`` (with
         ``harmonic_extension``, ``harmonic_extension_trans``, ``inner_solve``); the optional
-        ``jacobian_diagonal(x)`` (for the scales when ``mat`` is condensed) and
-        ``magnitude(x)`` (for the round-off floor).
+        ``bulk_diagonal()`` (for the scales of the norms, without the Γ3 terms),
+        ``force_scale(norm)`` and ``magnitude(x)`` (for ``stopping.ConvergenceTest``).
     gfu : GridFunction on the product space V × W (components u, φ).
     solver : the linear solver of the corrections, ``linear_solver.DirectSolver`` (default:
         UMFPACK) or ``KeptFactorization``.
     freedofs : BitArray of the unknowns (default: the space's free DOFs).
-    rtol : relative residual reduction per solve.
+    rtol : the residual to reach, relative to the step's force scale (``stopping``).
     maxit : maximum number of linear solves per solve.
     hook : a ``Hook`` of the enforcement method, or None.
     step_length : None, or a callable w ↦ α ∈ (0, 1]: the correction is x − α w (with
@@ -192,6 +219,7 @@ class Newton:
         space = gfu.space
         self.freedofs = freedofs if freedofs is not None else space.FreeDofs()
         self.norm = ResidualNorm(space, self.freedofs)
+        self.test = ConvergenceTest(system, self.norm)
         self.r = gfu.vec.CreateVector()
         self.w = gfu.vec.CreateVector()
         self.condense = bool(getattr(system, "condense", False))
@@ -242,6 +270,15 @@ class Newton:
             hook.start()
         if limit and hasattr(self.step_length, "start"):
             self.step_length.start()
+
+        def fail(reason, it, hint, recoverable=True):
+            error = NewtonError(reason, iteration=it, residuals=residuals, step=step, time=time, hint=hint,
+                                recoverable=recoverable)
+            for name, value in self._linear_counts(since=counts).items():
+                setattr(error, name, value)
+            error.linear_history = linear
+            return error
+
         for it in range(self.maxit + 1):
             with timer("residual"):
                 self.system.Apply(x, r)
@@ -252,35 +289,44 @@ class Newton:
             if self.on_iteration is not None:
                 self.on_iteration(it, value)
             if not np.isfinite(value):
-                error = NewtonError("diverged (non-finite residual)", iteration=it, residuals=residuals,
-                                    step=step, time=time, hint="a smaller time step")
-                error.linear_history = linear
-                raise error
-            if settled and self._converged(value, residuals[0], x):
+                raise fail("diverged (non-finite residual)", it, "a smaller time step")
+            verdict = self.test(x, residuals, self.rtol)
+            if settled and verdict.converged:
                 if hook is not None:
                     hook.finish()
                 return NewtonResult(it, residuals, r, **self._linear_counts(since=counts))
+            if verdict.uncertifiable:
+                reason, hint = verdict.explain()
+                raise fail(reason, it, hint, recoverable=False)
             if it == self.maxit:
                 break
             if hook is not None:
                 with timer("assembly"):
                     self.system.AssembleLinearization(x)
                 hook.correct(self.system, x, r, timer)
+                if not np.all(np.isfinite(x.FV().NumPy())):
+                    raise fail(SINGULAR + " (the correction is not finite)", it + 1, SINGULAR_HINT, False)
             else:
-                # inexact Newton: the correction needs the accuracy that brings ‖r‖ to the tolerance
+                # inexact Newton: the correction needs the accuracy that brings ‖r‖ to the target
                 before = self._linear_counts()
-                self.linear_solve(x, timer, tol=min(1e-3, max(1e-12, 0.1 * self.rtol * residuals[0] / value)))
+                self.linear_solve(x, timer, tol=min(1e-3, max(1e-12, 0.1 * verdict.target / value)))
                 linear.append(self._linear_counts(since=before))
+                self._check_correction(fail, it)
                 alpha = self.step_length(self.w) if limit else 1.0
                 x.data -= alpha * self.w
-        error = NewtonError(f"did not converge in {self.maxit} iterations", iteration=self.maxit,
-                            residuals=residuals, step=step, time=time,
-                            hint="a smaller time step, a larger Nitsche parameter gamma0, theta = -1, "
-                                 "or a larger maxit")
-        for name, value in self._linear_counts(since=counts).items():
-            setattr(error, name, value)
-        error.linear_history = linear
-        raise error
+        raise fail(f"did not converge in {self.maxit} iterations", self.maxit,
+                   "a smaller time step, a larger Nitsche parameter gamma0, theta = -1, or a larger maxit")
+
+    def _check_correction(self, fail, it):
+        """Raise (through ``fail``) if the correction w is not finite or far larger than the
+        residual it answers: the Jacobian is singular."""
+        w = parallel.cumulated(self.w) if self.norm.distributed else self.w.FV().NumPy()
+        if parallel.any_rank(self.norm.mesh, not np.all(np.isfinite(w))):
+            raise fail(SINGULAR + " (the correction is not finite)", it + 1, SINGULAR_HINT, False)
+        size = self.norm.primal(w)
+        if size > 0 and self.norm.dual(self.r) < SINGULAR_RATIO * size:
+            raise fail(f"{SINGULAR}: the correction is {size / self.norm.dual(self.r):.3g} times larger than the "
+                       "residual it answers (scaled norms)", it + 1, SINGULAR_HINT, False)
 
     def _linear_counts(self, since=None):
         """The linear solver's counters (``LINEAR_COUNTS``), minus ``since``."""
@@ -288,16 +334,10 @@ class Newton:
         return now if since is None else {name: now[name] - since[name] for name in LINEAR_COUNTS}
 
     def _diagonal(self, x):
-        if hasattr(self.system, "jacobian_diagonal"):
-            return self.system.jacobian_diagonal(x)
+        if hasattr(self.system, "bulk_diagonal"):
+            return self.system.bulk_diagonal()
         self.system.AssembleLinearization(x)
         return sp.csr_matrix(self.system.mat.CSR()).diagonal()
-
-    def _converged(self, value, first, x):
-        if value <= self.rtol * first or value <= 1e-13 * self.norm.primal(x):
-            return True
-        magnitude = getattr(self.system, "magnitude", None)
-        return magnitude is not None and value <= ROUNDOFF * self.norm.dual(magnitude(x))
 
     def linear_solve(self, x, timer=None, tol=None):
         """One Newton correction w = R'(x)⁻¹ r (``self.w``, ``self.r``): assembly,

@@ -14,7 +14,8 @@ import numpy as np
 
 from . import forms, parallel, results
 from .adhesion import BondingField
-from .admissible import GapCheck, PhysicsWarning, check_supports_at_start, flags
+from .admissible import (GapCheck, PhysicsWarning, check_initial_displacement, check_supports_at_start, flags,
+                         scene_flags)
 from .backward_euler import BackwardEuler
 from .checks import integer, number, uses_only
 from .contact_side import ContactSide
@@ -69,9 +70,10 @@ class Simulation:
         coupling, conduction on Γ3, charges or electrode potentials), else u alone (φ = 0 is
         not an unknown: its DOFs are left out of every solve); True keeps φ; False with an
         electric part raises. ``model`` says which.
-    physical_checks : warn (``PhysicsWarning``, listed in ``flags``) of steps that make no
-        physical sense: penetration beyond 0.1 of a facet of Γ3, displacements beyond 0.05 of
-        the body's size (``admissible.flags``); False for scale-free tests (manufactured
+    physical_checks : warn (``PhysicsWarning``, listed in ``flags``) of data and steps that
+        make no physical sense: a Nitsche γ0 too small for its θ, penetration beyond 0.1 of a
+        facet of Γ3 or of the largest displacement, displacements beyond 0.05 of the body's
+        size, a clipped β update (``admissible``); False for scale-free tests (manufactured
         solutions of unit size).
     reuse_factorization : solve the Newton corrections by GMRES preconditioned with the
         factorisation of an earlier Jacobian of the same time step size, factorising again
@@ -136,8 +138,10 @@ class Simulation:
         self.recorder = Recorder(body, self.gfu, self.system, self.gamma3)
         self.history = History()
         self.cutbacks = []
-        self.flags = []                          # messages of steps that make no physical sense
         self.physical_checks = bool(physical_checks)
+        self.flags = scene_flags(contact) if self.physical_checks else []     # what makes no physical sense
+        for message in self.flags:
+            warnings.warn(message, PhysicsWarning, stacklevel=2)
         self._resumed = None                     # the run info of resume()
         self._start(u0)
 
@@ -202,17 +206,7 @@ class Simulation:
         """Step 0: u0 (checked), φ0 from the electric equation at t = 0, and its record."""
         if u0 is not None:
             u0 = as_cf(u0, self.body.dim, "u0")
-            mesh, square = self.body.mesh, ngs.InnerProduct(u0, u0)
-            if self.body.boundaries["clamped"]:
-                on_gamma1 = parallel.sum(mesh, ngs.Integrate(square * ngs.ds(self.body.region("clamped")), mesh))
-                if on_gamma1 > 1e-20 * (1 + ngs.Integrate(square, mesh)):     # (all ranks' sum)
-                    raise ValueError("u0 must vanish on the clamped boundary Γ1 "
-                                     f"({self.body.region_names('clamped')!r})")
-            if self.contact is not None:
-                excess = parallel.maximum(mesh, self.side.normal_displacement(u0, self.gamma3.sampled_normal)
-                                          - self.side.sample(self.gap))
-                if excess > 1e-12 * (1 + parallel.maximum(mesh, np.abs(self.side.sample(u0)))):
-                    raise ValueError(f"u0 must be admissible, u0_ν <= g on Γ3; it exceeds g by {excess:.3g} m")
+            check_initial_displacement(self.body, u0, self.gamma3)
             self.u.Set(u0)
             clamped = ~np.array(list(self.body.V.FreeDofs()), dtype=bool)
             given = self.u.vec.FV().NumPy()[clamped].copy()
@@ -292,7 +286,7 @@ class Simulation:
             n = len(self.history)
             self.cutbacks.append(dict(step=n, time=target, dt=dt, iterations=err.iteration,
                                       residuals=err.residuals))
-            if cutbacks_left == 0:
+            if cutbacks_left == 0 or not err.recoverable:     # (not recoverable: a smaller step fails too)
                 tried = ", ".join(f"{c['dt']:.3g}" for c in self.cutbacks if c["step"] == n)
                 err.args = (f"{err.args[0]}. Time steps tried for step {n} (t -> {target:.6g} s): "
                             f"dt = {tried} s; the state is that of step {n - 1}",)

@@ -12,7 +12,7 @@ reuse_factorization=, iterative=)``), chosen by the system's symmetry, size and 
   or made at every iteration (``reuse_factorization=False``, and Nitsche's θ = −1, whose
   skew Γ3 part makes GMRES slower than factorising, docs/speed.md).
 """
-from .linear_solver import NAMES, PARALLEL_NAMES, DirectSolver, KeptFactorization
+from .linear_solver import NAMES, PARALLEL_NAMES, DirectSolver, KeptFactorization, factorization_worth
 from .multigrid import MultigridSolver, needs_nested_mesh, refinements
 
 ITERATIVE_FROM = 100_000
@@ -57,6 +57,7 @@ def choose(body, contact, system, space, *, inverse, reuse_factorization, iterat
     skew = contact is not None and contact.method == "nitsche" and contact.theta == -1
     if not reuse_factorization or (inverse is None and skew):
         return DirectSolver(name), DirectSolver(name)
+    budget = factorization_worth(body.ndof, body.dim)
     if inverse is None and not symmetric:       # LDLᵀ of the symmetric part: the skew part lives on Γ3
-        return KeptFactorization(DirectSolver("sparsecholesky"), symmetric=True), DirectSolver(name)
-    return KeptFactorization(DirectSolver(name)), DirectSolver(name)
+        return KeptFactorization(DirectSolver("sparsecholesky"), symmetric=True, budget=budget), DirectSolver(name)
+    return KeptFactorization(DirectSolver(name), budget=budget), DirectSolver(name)

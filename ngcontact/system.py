@@ -115,6 +115,7 @@ class StepSystem:
         self._constant = self._x_old.vec.CreateVector()       # f + (1/dt) K_A x_{n−1}
         self.boundary_residual = self._x_old.vec.CreateVector()
         self.boundary_residual[:] = 0.0
+        self._internal = self._x_old.vec.CreateVector()       # K x − (1/dt) K_A x_{n−1}
         self._dt, self._linearized = None, False
         self._positions = {}
         self.generation = 0                                    # counts the changes of K
@@ -215,6 +216,7 @@ class StepSystem:
         """r = R(x)."""
         r.data = self.K * x
         r.data -= self._constant
+        self._internal.data = r + self.f.vec
         if self.boundary is not None:
             self.state.vec.data = x
             self._boundary_linear.Assemble()
@@ -276,35 +278,44 @@ class StepSystem:
         return self._schur
 
     # ----------------------------------------------------------------------- for Newton's norms
-    def jacobian_diagonal(self, x):
-        """The diagonal of the full Jacobian K + R_Γ3'(x) (numpy), assembled at x (cumulated
-        on a distributed mesh)."""
+    def force_scale(self, norm):
+        """S = max(‖f_n‖, ‖K x − (1/dt) K_A x_{n−1}‖) at the x of the last ``Apply``, in the
+        scaled norm ``norm`` (a ``newton.ResidualNorm``) over every DOF, held ones included:
+        the step's loads and the bulk's internal forces (at held DOFs: the reactions of the
+        supports and the charges of the electrodes), without the Γ3 terms (``stopping``)."""
+        return max(norm.dual_everywhere(self.f.vec), norm.dual_everywhere(self._internal))
+
+    def contact_magnitude(self, x):
+        """|R_Γ3'| |x| (numpy, cumulated on a distributed mesh) with the Γ3 Jacobian of the
+        last linearisation (zeros before any): the Γ3 part of ``magnitude``."""
+        if not self._linearized:
+            return np.zeros(len(x))
+        size = np.abs(parallel.cumulated(x))
+        total = abs(_csr(self.boundary.mat)) @ size
+        if parallel.is_distributed(self.body.mesh):
+            return parallel.distributed_values(self._constant, total)
+        return total
+
+    def bulk_diagonal(self):
+        """The diagonal of the bulk's K = K_el + K_A/dt (numpy, cumulated on a distributed
+        mesh): the scales of Newton's norms come from it (``newton.ResidualNorm``), not from the
+        Γ3 terms, so that a stiff contact term cannot set the units it is measured in."""
         diagonal = _csr(self.K).diagonal()
-        self._linearize_boundary(x)
-        if self.boundary is not None:
-            diagonal = diagonal + _csr(self.boundary.mat).diagonal()
         if parallel.is_distributed(self.body.mesh):          # the ranks' parts of the diagonal
             diagonal = parallel.distributed_values(self._constant, diagonal)
         return diagonal
 
     def magnitude(self, x):
-        """|K| |x| + |R_Γ3'| |x| + |f + K_A x_{n−1}/dt| (numpy), with the Γ3 Jacobian of the
-        last linearisation: the size of the terms that sum to R(x), whose round-off limits
-        how far Newton can reduce it. On a distributed mesh (cumulated values) |K| is the sum
-        of the ranks' |K_p|, an upper bound of |K| at interface DOFs."""
+        """|K| |x| + |f + K_A x_{n−1}/dt| + |R_Γ3'| |x| (numpy), with the Γ3 Jacobian of the
+        last linearisation (``contact_magnitude``): the size of the terms that sum to R(x),
+        whose round-off limits how far Newton can reduce it. On a distributed mesh (cumulated
+        values) |K| is the sum of the ranks' |K_p|, an upper bound of |K| at interface DOFs."""
         if self._absK is None:
             self._absK = abs(_csr(self.K))
+        bulk = self._absK @ np.abs(parallel.cumulated(x))
         if parallel.is_distributed(self.body.mesh):
-            size = np.abs(parallel.cumulated(x))
-            total = self._absK @ size
-            if self._linearized:
-                total += abs(_csr(self.boundary.mat)) @ size
-            return parallel.distributed_values(self._constant, total) + np.abs(parallel.cumulated(self._constant))
-        size = np.abs(x.FV().NumPy())
-        total = self._absK @ size + np.abs(self._constant.FV().NumPy())
-        if self._linearized:
-            total += abs(_csr(self.boundary.mat)) @ size
-        return total
+            bulk = parallel.distributed_values(self._constant, bulk)
+        return bulk + np.abs(parallel.cumulated(self._constant)) + self.contact_magnitude(x)
 
     @property
     def uncondensed(self):
@@ -319,7 +330,8 @@ class _Uncondensed:
     condense = False
 
     def __init__(self, system):
-        self.Apply, self.jacobian_diagonal, self.magnitude = system.Apply, system.jacobian_diagonal, system.magnitude
+        self.Apply, self.bulk_diagonal, self.magnitude = system.Apply, system.bulk_diagonal, system.magnitude
+        self.force_scale, self.contact_magnitude = system.force_scale, system.contact_magnitude
         self.AssembleLinearization, self.mat = system._assemble_full, system._full
 
 

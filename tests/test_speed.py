@@ -78,15 +78,19 @@ def run_reference(steps=6, **kw):
 
 def test_predictor_changes_the_start_not_the_solution():
     """With the linear predictor Newton reaches the same states (to its tolerance) in the
-    reference scene's first steps, first contact included; with full Newton steps in no
-    more iterations (with the step-length limit the predictor's own step is not limited, and
-    it costs iterations at first contact: docs/speed.md)."""
+    reference scene's first steps, first contact included. With full Newton steps the
+    extrapolated start penetrates deep at first contact (first residual 10.6 and 64.8 against
+    9e-3 from the warm start): a test relative to the first residual would stop there at
+    residuals 1e-9, 1e-7 of the step's force scale; the certified test asks the same of both
+    starts, and the predictor then costs iterations (26 against 24 in these 6 steps)."""
     plain, predicted = run_reference(predictor=False), run_reference(predictor=True)
     for a, b in zip(plain.history[1:], predicted.history[1:]):
         assert np.abs(a.state - b.state).max() < 1e-7 * np.abs(a.state).max()
         assert b.contact.force[1] == pytest.approx(a.contact.force[1], rel=1e-7, abs=1e-6)
     plain, predicted = (run_reference(predictor=p, limit_steps=False) for p in (False, True))
-    assert predicted.history.newton_iterations.sum() <= plain.history.newton_iterations.sum()
+    for a, b in zip(plain.history[1:], predicted.history[1:]):
+        assert np.abs(a.state - b.state).max() < 1e-7 * np.abs(a.state).max()
+    assert max(predicted.history[3].residuals[0], predicted.history[4].residuals[0]) > 1e3 * plain.history[4].residuals[0]
 
 
 def test_first_contact_iterations_do_not_grow_with_the_mesh():

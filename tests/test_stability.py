@@ -94,7 +94,7 @@ def test_large_gamma0_penetrates_less_and_oscillates_more(nitsche):
 
 def test_huge_gamma0_converges_to_round_off():
     """γ0 = 1e4: the residual stalls at round-off, 1e10 below its start but above rtol; the
-    round-off floor grows with the Γ3 stiffness (``newton.ROUNDOFF``), so the solve counts as
+    round-off floor grows with the Γ3 stiffness (``stopping.ROUNDOFF``), so the solve counts as
     converged, with the right force and a penetration ~ 1/γ0 (3.5e-12 m)."""
     (row,) = nitsche_map.run(gamma0s=(1e4,), thetas=(1,), progress=False)
     assert row["status"] == "ok" and row["force_error"] < 1e-4

@@ -1,0 +1,122 @@
+"""When a Newton solve may stop: a convergence test that a wrong state cannot pass at any scale.
+
+The residual R(x) of a step sums forces (N; N/m in 2D) and charges (C); Newton measures it in
+the scaled norm ‖·‖ of ``newton.ResidualNorm`` (J^½). The test compares it with the step's
+**force scale**
+
+    S(x) = max(‖f_n‖, ‖K x − (1/k) K_A x_{n−1}‖),
+
+the loads of the step and the internal forces of the bulk at x (elastic, viscous and
+electric), measured over every DOF, the held ones included: there the internal forces are
+the reactions of the supports and the charges of the electrodes, so that a body driven only
+by prescribed displacements or potentials has its scale too (``StepSystem.force_scale``). The terms on Γ3 (Nitsche's
+γ, the penalty, the glue, the compliant layer, the conduction) are *not* part of S: a state
+that penetrates the foundation, or a contact term made absurdly stiff, cannot inflate the
+scale it is measured against, and a rigid motion of the body adds nothing to K x. At a
+solution the bulk's internal forces balance the loads and the contact forces, so S is the
+size of every force that acts.
+
+A solve has converged at x when
+
+1. ``‖R(x)‖ <= rtol · S(x)``, or
+2. the residual is down to round-off and small against S:
+   ``‖R(x)‖ <= F(x)`` and ``‖R(x)‖ <= FLOOR_LIMIT · S(x)``, with
+   ``F(x) = ROUNDOFF · ‖ |K||x| + |b| + |R_Γ3'||x| ‖`` the size of the terms that sum to R
+   (``StepSystem.magnitude``) times 10 machine epsilons. Newton cannot reduce a residual
+   below the round-off of its terms, which on fine meshes or with a stiff contact term may lie
+   above rtol · S; F is an upper bound of that round-off, so it only says when to stop trying,
+   and what is certified is the residual actually reached, at most ``FLOOR_LIMIT`` of S. (The
+   error of x is then bounded through the bulk's smallest eigenvalue: a stiff contact term
+   adds large eigenvalues only.)
+
+A zero-iteration convergence is the same test at the start, with the step's own data (its
+loads, its prescribed values, its time step). A residual above ``FLOOR_LIMIT · S`` that stalls
+at its round-off floor cannot be certified: ``Verdict.uncertifiable`` is then set and the
+solve fails (``newton.NewtonError``) naming the share of the Γ3 terms in that floor. The
+test never uses the initial residual or the size of x: both grow with a bad start or an
+exploded state.
+
+A system without ``force_scale`` (a plain nonlinear ``BilinearForm``) gets the classical
+relative test ``‖R(x)‖ <= rtol ‖R(x_0)‖``.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+ROUNDOFF = 10 * np.finfo(float).eps
+"""Factor of the round-off floor F on ‖ |J||x| + |b| ‖."""
+FLOOR_LIMIT = 1e-6
+"""The largest residual, relative to the force scale S, that is certified where round-off stops
+Newton short of rtol: a state out of equilibrium by more than 1e-6 of the forces that act is
+not taken for a solution."""
+
+
+@dataclass
+class Verdict:
+    """The outcome of the test at one iterate: ``converged``; ``residual`` ‖R‖ and ``target``,
+    the residual to reach (rtol S, or rtol ‖R_0‖ for the classical test), J^½; ``scale`` S
+    (None for the classical test); ``floor`` F (None where it was not needed) and
+    ``contact_share``, the share of the Γ3 terms in F (0 to 1, None where unknown);
+    ``uncertifiable``: the residual stalls at its round-off floor above ``FLOOR_LIMIT`` S."""
+    converged: bool
+    residual: float
+    target: float
+    scale: float = None
+    floor: float = None
+    contact_share: float = None
+    uncertifiable: bool = False
+
+    def explain(self):
+        """(why the residual cannot be certified, what to try), for ``NewtonError``."""
+        share = self.contact_share
+        where = "" if share is None else f"; the terms on Γ3 make up {100 * share:.3g} % of that floor"
+        advice = ("a smaller Nitsche gamma0, penalty, adhesion or compliance (the contact terms are too "
+                  "stiff for double precision)" if share is not None and share > 0.5 else
+                  "supports that hold the body, or data of a sensible scale (the terms of the residual are "
+                  "far larger than the forces that act)")
+        ratio = f"{self.residual / self.scale:.3g} times" if self.scale > 0 else "above"
+        return (f"cannot be certified: the residual {self.residual:.3e}, {ratio} the step's force scale "
+                f"{self.scale:.3e} (at most {FLOOR_LIMIT:g} of it is certified), stalls at its round-off "
+                f"floor {self.floor:.3e}{where}", advice)
+
+
+STALL = 3
+"""Iterations without halving the residual after which a solve counts as stalled."""
+
+
+class ConvergenceTest:
+    """The stopping test of ``newton.Newton`` (see the module).
+
+    Parameters
+    ----------
+    system : the step system: ``force_scale(norm)`` (S at the last ``Apply``) and
+        ``magnitude(x)`` (the size of the terms of R, numpy), with the optional
+        ``contact_magnitude(x)`` (their Γ3 part); without ``force_scale`` the classical relative
+        test is used.
+    norm : ``newton.ResidualNorm`` of the solve.
+    """
+
+    def __init__(self, system, norm):
+        self.system, self.norm = system, norm
+        self.certified = hasattr(system, "force_scale")
+
+    def __call__(self, x, residuals, rtol):
+        """The Verdict at the iterate x for the relative tolerance ``rtol``; ``residuals``: the
+        scaled residuals of the solve so far, the last one x's (right after ``system.Apply``).
+        A solve stalls when its residual has not halved over the last ``STALL`` iterations."""
+        value, first = residuals[-1], residuals[0]
+        if not self.certified:
+            return Verdict(value <= rtol * first, value, rtol * first)
+        scale = self.system.force_scale(self.norm)
+        verdict = Verdict(value <= rtol * scale, value, rtol * scale, scale)
+        small = value <= FLOOR_LIMIT * scale
+        stalling = len(residuals) > STALL and value > 0.5 * residuals[-STALL - 1]
+        if verdict.converged or not (small or stalling):
+            return verdict                                   # the floor cannot decide
+        verdict.floor = ROUNDOFF * self.norm.dual(self.system.magnitude(x))
+        contact = getattr(self.system, "contact_magnitude", None)
+        if contact is not None and verdict.floor > 0:
+            verdict.contact_share = min(1.0, ROUNDOFF * self.norm.dual(contact(x)) / verdict.floor)
+        if value <= verdict.floor:                           # round-off: no iteration can do better
+            verdict.converged, verdict.uncertifiable = small, not small
+        return verdict

@@ -1,0 +1,161 @@
+"""Certified convergence: a state Newton calls converged is one a wrong state cannot imitate at
+any scale (``ngcontact.stopping``), a singular Jacobian is named, extreme contact data converge
+to the right answer or fail with the reason, and meaningless results are flagged."""
+import warnings
+
+import ngsolve as ngs
+import numpy as np
+import pytest
+
+import ngcontact as ngc
+from ngcontact.geometries import plate
+from ngcontact.obstacles import Plane
+from ngcontact.scenes import hertz
+from ngcontact.scenes import reference as scene
+from ngcontact.studies.stability import time_step_sweep
+
+DT = 2.5e-3
+
+
+def reference(steps=8, **contact):
+    sim = scene.simulation(1, 0.01, contact=scene.contact(**contact), keep_states=False)
+    sim.run(DT, steps * DT)
+    return sim
+
+
+@pytest.fixture(scope="module")
+def plain():
+    return reference()
+
+
+def test_a_wrong_state_fails_the_test_at_any_scale(plain):
+    """At a converged step the test passes; the same state scaled by 1 ± 1e-6, by 1e3 or by
+    1e-3 (an exploded or a collapsed state: the old test's floors 1e-13‖x‖ and ε|K||x| grew
+    with the first) does not."""
+    sim = plain
+    x = sim.gfu.vec
+    solution = x.FV().NumPy().copy()
+    test = sim.newton.test
+
+    def verdict(factor):
+        x.FV().NumPy()[:] = factor * solution
+        sim.system.Apply(x, sim.newton.r)
+        return test(x, [sim.newton.norm.dual(sim.newton.r)], sim.newton.rtol)
+    assert verdict(1.0).converged
+    for factor in (1 + 1e-6, 1 - 1e-6, 1e3, 1e-3, 1e8):
+        v = verdict(factor)
+        assert not v.converged and v.residual > 1e3 * v.target, factor
+    x.FV().NumPy()[:] = solution
+
+
+def test_the_scale_comes_from_loads_and_bulk_forces_not_from_the_contact_terms(plain):
+    """S is the same to 1 % whatever the contact stiffness (γ0 1e6 times larger), and it is the size
+    of the forces that act: within a factor 10 of the loads' dual norm."""
+    stiff = reference(gamma0=1e7)
+    for sim in (plain, stiff):
+        sim.system.Apply(sim.gfu.vec, sim.newton.r)          # S is that of the last Apply
+    s_plain = plain.system.force_scale(plain.newton.norm)
+    s_stiff = stiff.system.force_scale(stiff.newton.norm)
+    assert s_stiff == pytest.approx(s_plain, rel=0.02)          # the states differ by the penetration
+    loads = plain.newton.norm.dual_everywhere(plain.system.f.vec)
+    assert loads <= s_plain <= 10 * loads
+
+
+def test_huge_gamma0_fails_with_the_reason_and_no_cutbacks():
+    """γ0 = 1e30 (the old test "converged" in 0 iterations, with a contact force 13x too small):
+    the residual stalls at the round-off of the Γ3 terms, far above 1e-6 of the forces; the
+    failure says so, names the contact terms and is not retried with smaller steps."""
+    sim = scene.simulation(1, 0.01, contact=scene.contact(gamma0=1e30), keep_states=False)
+    with pytest.raises(ngc.NewtonError, match=r"cannot be certified.*the terms on Γ3 make up \d+.* % of that "
+                                             r"floor.*Try: a smaller Nitsche gamma0") as err:
+        sim.run(DT, 8 * DT)
+    assert not err.value.recoverable
+    failed = err.value.step
+    assert [c["step"] for c in sim.cutbacks] == [failed]          # tried once, not halved 6 times
+    assert len(sim.history) == failed
+
+
+def test_huge_adhesion_gives_the_reference_push():
+    """γ_ν = 1e30 Pa/m (the old test "converged" in 0 iterations with a plate that did not move):
+    in the push the glue is not stretched, so the contact force equals the one with the
+    scene's glue (1e11 Pa/m) to the tolerance. (The Γ3 terms no longer set the units of
+    Newton's norms: with them, the glue's 1e30 made every correction look singular.)"""
+    glued, plain = reference(adhesion=1e30), reference()
+    assert glued.history[-1].contact.force[1] == pytest.approx(plain.history[-1].contact.force[1], rel=1e-8)
+    assert glued.history[-1].contact.contact_area > 0
+
+
+def test_a_body_held_only_by_the_contact_is_named_singular():
+    """A half-disk held in x only, pushed onto a plane by a traction: while the contact is open,
+    nothing fixes its vertical motion. The first correction is 1e16 times the residual it
+    answers; Newton says the system is singular and what to give (the old test "converged" in 1
+    iteration at |u| = 5.5e11 m)."""
+    body = ngc.Body(hertz.mesh(2, 0.05), hertz.material(), supports={"top": "x"}, contact_side="contact")
+    t = ngs.Parameter(0.0)
+    sim = ngc.Simulation(body, ngc.Loads(f2={"top": (0, -0.01 * t)}), time=t,
+                         contact=ngc.Contact(obstacle=Plane((0, 0), (0, 1))))
+    with pytest.raises(ngc.NewtonError, match=r"singular.*correction is .* times larger than the residual.*"
+                                             r"Try: supports that hold the body") as err:
+        sim.run(1.0, 1.0)
+    assert not err.value.recoverable and len(sim.cutbacks) == 1 and len(sim.history) == 1
+
+
+def test_an_absurd_load_is_not_called_singular():
+    """2e14 Pa on a clamped plate moves it by kilometres: a regular system with absurd data
+    (flagged), not a singular one."""
+    body = ngc.Body(plate(maxh=0.01), ngc.pzt5a(), clamped="left", grounded="top", contact_side="bottom")
+    t = ngs.Parameter(0.0)
+    sim = ngc.Simulation(body, ngc.Loads(f2={"top": (0, -2e14 * t)}), time=t)
+    with pytest.warns(ngc.PhysicsWarning, match="displacement .* exceeds 0.05 of the body's size"):
+        sim.run(1.0, 1.0)
+
+
+def test_the_test_is_scale_free():
+    """The clamped plate (no contact) under 2e-3, 2e3 and 2e9 Pa: the same Newton iterations,
+    residual histories proportional to the load (a scale-dependent floor would stop one of
+    them early or late)."""
+    histories = []
+    for pressure in (2e-3, 2e3, 2e9):
+        body = ngc.Body(plate(maxh=0.01), ngc.pzt5a(2e-3), clamped="left", grounded="top")
+        t = ngs.Parameter(0.0)
+        sim = ngc.Simulation(body, ngc.Loads(f2={"top": (0, -pressure * t)}), time=t, physical_checks=False)
+        sim.run(0.5, 1.0)
+        histories.append([np.array(r.residuals) / pressure for r in sim.history[1:]])
+    for other in histories[1:]:
+        for a, b in zip(histories[0], other):
+            assert len(a) == len(b)
+            assert a[0] == pytest.approx(b[0], rel=1e-9)
+
+
+def test_small_penalty_is_flagged_against_the_displacement():
+    """penalty = 1e-9: the plate goes through the foundation by about two gaps (below 0.1 of a
+    facet of Γ3, so the facet rule alone did not flag it): flagged against the largest
+    displacement."""
+    with pytest.warns(ngc.PhysicsWarning, match="penetration .* exceeds 0.1 of the largest displacement"):
+        sim = reference(method="penalty", penalty=1e-9)
+    penetration = sim.history[-1].contact.max_penetration
+    assert scene.CONTACT["gap"] < penetration < 0.1 * sim.side.measure.min()
+
+
+@pytest.mark.parametrize("theta, gamma0", [(1, 0.1), (0, 0.01), (-1, 0.5)])
+def test_a_gamma0_too_small_for_its_theta_is_flagged(theta, gamma0):
+    """θ = 1 at γ0 = 0.1 converges to a force 20 % off without any other sign (docs/stability.md):
+    flagged when the simulation is built, as for θ = 0 and −1 below their bounds."""
+    with pytest.warns(ngc.PhysicsWarning, match=rf"Contact.gamma0 = {gamma0:g} is below .* θ = {theta}"):
+        sim = scene.simulation(1, 0.01, contact=scene.contact(theta=theta, gamma0=gamma0))
+    assert len(sim.flags) == 1
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ngc.PhysicsWarning)
+        scene.simulation(1, 0.01, contact=scene.contact(theta=theta, gamma0=10.0))
+
+
+def test_a_clipped_explicit_beta_update_is_flagged():
+    """dt γ_ν L² = 8 on the pulled plate: the explicit update (4.5) leaves [0, 1] and is clipped;
+    the step says so (the implicit update does not need it)."""
+    dt = 8 / time_step_sweep.RATE
+    for update, flagged in (("explicit", True), ("implicit", False)):
+        sim = time_step_sweep.pulled_plate(update, 0.01, -0.2)
+        with warnings.catch_warnings(record=True):
+            warnings.simplefilter("always")
+            sim.run(dt, 10 * dt)
+        assert any("β update (4.5) left [0, 1]" in m for m in sim.flags) == flagged, update
