@@ -28,8 +28,10 @@ def header(dim):
 def run(order=1, out="results", maxh=None, steps=200, theta=1, gamma0=10.0, resume=False, dim=2, refine=0):
     """Run the reference scene (``scenes.reference``) over its load history in ``steps``
     time steps, print a line per step, write summary.json and charts into ``out``. Every
-    step is streamed into ``out/run`` as it is computed (``ngcontact.results``); ``resume``
-    continues a run interrupted there (same settings) instead of starting again.
+    step is streamed into ``out/run`` as it is computed (``ngcontact.results``), with these
+    settings in ``out/run/demo.json``; ``resume`` continues a run interrupted there instead of
+    starting again: other settings are refused before meshing, naming them, and
+    ``Simulation.resume`` checks the scene itself.
 
     Parameters
     ----------
@@ -61,6 +63,9 @@ def run(order=1, out="results", maxh=None, steps=200, theta=1, gamma0=10.0, resu
         raise ValueError(f"dim must be 2 or 3, got {dim!r}")
     maxh = (0.005 if dim == 2 else 0.01) if maxh is None else maxh
     out = writable_directory(out)
+    settings = dict(order=order, maxh=maxh, dim=dim, refine=refine, steps=steps, theta=theta, gamma0=gamma0)
+    if resume:                                       # before meshing
+        _check_resumable(out / "run", settings)
     lead = parallel.rank() == 0                      # under mpiexec rank 0 prints and writes
     say = print if lead else _quiet
     sim = reference.simulation(order, maxh, refine, dim, contact=reference.contact(theta, gamma0),
@@ -78,12 +83,13 @@ def run(order=1, out="results", maxh=None, steps=200, theta=1, gamma0=10.0, resu
                                legacy=False)
         every = max(1, steps // 20)
     elif resume:
-        if not (out / "run" / "run.json").exists():
-            raise ValueError(f"resume: {str(out / 'run')!r} holds no run to continue; run without --resume")
         sim.resume(out / "run")
         say(f"resumed at step {len(sim.history) - 1}, t = {sim.t:.4f} s")
-    if not distributed and not resume and (out / "run").exists():
-        shutil.rmtree(out / "run")                   # a new run replaces the old one
+    else:
+        if (out / "run").exists():
+            shutil.rmtree(out / "run")               # a new run replaces the old one
+        (out / "run").mkdir()
+        (out / "run" / "demo.json").write_text(json.dumps(settings, indent=1))
 
     area = 1e3 if dim == 2 else 1e6                  # m -> mm, m² -> mm²
 
@@ -124,6 +130,23 @@ def run(order=1, out="results", maxh=None, steps=200, theta=1, gamma0=10.0, resu
     say(f"{len(rows)} steps, ndof {body.ndof}, {sum(columns['newton_iterations'])} Newton iterations, "
           f"wall {wall:.2f} s; results in {out}")
     return summary
+
+
+def _check_resumable(directory, settings):
+    """Raise unless ``directory`` holds a demo run to continue with these ``settings`` (its
+    ``demo.json``; ``Simulation.resume`` then checks the scene itself)."""
+    if not (directory / "run.json").exists():
+        raise ValueError(f"resume: {str(directory)!r} holds no run to continue; run without --resume")
+    try:
+        stored = json.loads((directory / "demo.json").read_text())
+    except (OSError, ValueError):
+        stored = {}                                  # none or unreadable: resume's scene check decides
+    changed = [key for key in settings if key in stored and stored[key] != settings[key]]
+    if changed:
+        raise ValueError(f"resume: {str(directory)!r} holds a demo run with "
+                         + ", ".join(f"--{key} {stored[key]}" for key in changed) + "; this one has "
+                         + ", ".join(f"--{key} {settings[key]}" for key in changed)
+                         + ": resume with the settings of the interrupted run, or run without --resume")
 
 
 def _row(rec, deflection):

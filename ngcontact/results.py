@@ -2,8 +2,10 @@
 
 ``Simulation.run(dt, T, out=DIR)`` writes into DIR:
 
-* ``run.json``: the run (dt, T, its start time, ndof, dimension, ngcontact version);
-* ``steps/NNNNNN.npz``: one NumPy archive per computed step (cut-back steps included), with
+* ``run.json``: the run (dt, T, its start time, ndof, dimension, ngcontact version) and the
+  fingerprint of its scene (``ngcontact.fingerprint``);
+* ``steps/NNNNNN.npz``: one NumPy archive per computed step (cut-back steps included),
+  numbered from 0 without gaps (a run begun after some steps stores their records first), with
   every field of its StepRecord (``time``, ``newton_iterations``, ``residuals``,
   ``reaction``, ``boundary_reaction/<name>``, ``electrode_charge/<name>``, ``timings/<phase>``,
   ...), of its ContactRecord as ``contact/<field>``, and the state a restart needs as
@@ -23,17 +25,22 @@ archives; ``read(DIR)`` stacks them into arrays.
 ``Simulation.resume(DIR)`` puts the last step on disk back into a simulation of the same scene
 (history, time, state, β, the enforcement's unknowns, the predictor's memory), and
 ``run(dt, T, out=DIR)`` with the same dt and T then computes only the nominal steps not yet
-reached.
+reached. Both check first that DIR holds this scene (the fingerprints agree, and at resume
+the state at t = 0 too) and ``read``, ``resume`` and a continued stream that every step
+archive is there and readable: a ValueError names each differing field with both values, or
+the archive that is missing or damaged and what to do.
 """
 import json
 import os
 import pathlib
+import zipfile
 from importlib.metadata import PackageNotFoundError, version
 
 import ngsolve as ngs
 import numpy as np
 
 from . import parallel
+from .fingerprint import fingerprint, mismatch
 from .records import ContactRecord, History, StepRecord
 
 DICTS = ("boundary_reaction", "electrode_charge", "timings")
@@ -55,37 +62,55 @@ def _atomic_write(path, write):
 
 
 class Stream:
-    """Writes the steps of a simulation's run into ``directory`` (see the module)."""
+    """Writes the steps of a simulation's run into ``directory`` (see the module).
 
-    def __init__(self, sim, directory, dt, T, start):
+    dt, T, start : the run's nominal time step, final time and start time (s).
+    resumed : the run info ``restore`` returned if the simulation was resumed, else None.
+        Resumed from ``directory``, the stream continues the steps on disk; otherwise it
+        starts the directory afresh with the simulation's history so far (the records of
+        the earlier steps, the last one with its restart state), replacing a run of the same
+        scene, dt and T there. A directory holding another run (dt, T, start or scene) is
+        refused before anything is written."""
+
+    def __init__(self, sim, directory, dt, T, start, resumed=None):
         parallel.serial_only(sim.body.mesh, "run(out=...): streaming the results", "each rank holds part of the state")
         self.sim, self.dir = sim, pathlib.Path(directory)
+        info = dict(dt=dt, T=T, start=start, ndof=sim.X.ndof, dim=sim.body.dim, ngcontact=_version(),
+                    model=sim.model, format="one numpy archive per step, see ngcontact.results",
+                    fingerprint=fingerprint(sim, T))
+        existing = _run_info(self.dir)
+        if existing is not None:
+            if any(existing.get(k) != info[k] for k in ("dt", "T", "start")):
+                raise ValueError(f"out: {str(self.dir)!r} holds another run (dt {existing.get('dt')}, T "
+                                 f"{existing.get('T')}, start {existing.get('start')}); resume it with the same dt "
+                                 "and T, or write to a new directory")
+            _check_scene(existing, info["fingerprint"], self.dir, "out")
+        continuing = resumed is not None and pathlib.Path(resumed["directory"]).resolve() == self.dir.resolve()
+        self._times = {}                              # step -> time of the steps of this run on disk
+        if continuing:
+            self._times = {record.step: record.time for record in read(self.dir)[1]}
+        else:
+            for path in self.dir.glob("steps/[0-9]*.npz"):
+                path.unlink()                         # a new run replaces the old one
         (self.dir / "steps").mkdir(parents=True, exist_ok=True)
         (self.dir / "vtk").mkdir(exist_ok=True)
-        info = dict(dt=dt, T=T, start=start, ndof=sim.X.ndof, dim=sim.body.dim, ngcontact=_version(),
-                    model=sim.model, format="one numpy archive per step, see ngcontact.results")
-        existing = self._info()
-        if existing is not None and any(existing[k] != info[k] for k in ("dt", "T", "start", "ndof", "dim")):
-            raise ValueError(f"out: {str(self.dir)!r} holds another run (dt {existing['dt']}, T {existing['T']}, "
-                             f"start {existing['start']}, ndof {existing['ndof']}); resume it with the same dt "
-                             "and T, or write to a new directory")
         _atomic_write(self.dir / "run.json", lambda p: p.write_text(json.dumps(info, indent=1)))
-        self._times = {}                              # step -> time of the steps on disk
-        for path in (self.dir / "steps").glob("[0-9]*.npz"):
-            with np.load(path) as data:
-                self._times[int(path.stem)] = float(data["time"])
-
-    def _info(self):
-        path = self.dir / "run.json"
-        return json.loads(path.read_text()) if path.exists() else None
+        if not continuing:
+            for record in sim.history[:-1]:           # steps computed before this run: records only
+                self._save(record, restart=False)
+            self(sim.history[-1])                     # the state the run starts from
 
     def __call__(self, record):
         """Write one step: its archive last, so that a step on disk has its VTK files too."""
-        n = record.step
-        self._write_vtk(n, record)
+        self._write_vtk(record.step, record)
+        self._save(record, restart=True)
+
+    def _save(self, record, restart):
+        """The archive of a step: its record, and with ``restart`` the simulation's restart state."""
         arrays = record_arrays(record)
-        arrays.update({f"restart/{k}": v for k, v in restart_arrays(self.sim).items()})
-        _atomic_write(self.dir / "steps" / f"{n:06d}.npz", lambda p: _savez(p, arrays))
+        if restart:
+            arrays.update({f"restart/{k}": v for k, v in restart_arrays(self.sim).items()})
+        _atomic_write(self.dir / "steps" / f"{record.step:06d}.npz", lambda p: _savez(p, arrays))
 
     def _write_vtk(self, n, record):
         sim = self.sim
@@ -190,35 +215,134 @@ def restart_arrays(sim):
 
 def read(directory):
     """The steps on disk as (run info, History): the run.json dictionary and the StepRecords
-    of every complete step, in order."""
-    directory = pathlib.Path(directory)
-    if not (directory / "run.json").exists():
-        raise ValueError(f"{str(directory)!r} holds no streamed run (no run.json)")
-    info = json.loads((directory / "run.json").read_text())
-    history = History()
-    for path in sorted((directory / "steps").glob("[0-9]*.npz")):
-        with np.load(path) as data:
-            history.append(record_from_arrays(data))
+    of every step, in order. Raises a ValueError naming the file if run.json is missing, a
+    step archive is missing (they are numbered 0..N without gaps) or cannot be read."""
+    info, history, _ = _read(pathlib.Path(directory))
     return info, history
 
 
 def restore(sim, directory):
-    """Put the last step of ``directory`` back into ``sim`` (a new simulation of the same
-    scene): its history, time, state, β, the enforcement's unknowns, the predictor's memory.
-    Returns the run info."""
+    """Put the last step of ``directory`` back into ``sim``, a freshly built simulation of the
+    same scene: its history, time, state, β, the enforcement's unknowns, the predictor's
+    memory. Returns the run info, with ``directory``.
+
+    The scene is checked first: the fingerprint stored in run.json (``fingerprint``) must be
+    this simulation's, and the state at t = 0 (u0 and the potential it gives) the one of step
+    0 on disk; a difference is a ValueError naming each differing field with both values. A
+    run.json without a fingerprint (written before ngcontact stored one) is refused: its
+    scene cannot be checked, and continuing it with another scene is the silent wrong result
+    this check exists to prevent; such a run is computed again into a new directory."""
     from .backward_euler import Checkpoint
     parallel.serial_only(sim.body.mesh, "resume()", "streaming the results is serial only")
-    info, history = read(directory)
+    directory = pathlib.Path(directory)
+    if len(sim.history) != 1:
+        raise ValueError(f"resume: the simulation has computed {len(sim.history) - 1} step(s) already; resume "
+                         f"{str(directory)!r} into a freshly built simulation of its scene")
+    info = _run_info(directory)
+    if info is None:
+        raise ValueError(f"resume: {str(directory)!r} holds no streamed run (no run.json)")
+    _check_scene(info, fingerprint(sim, info["T"]), directory, "resume")
+    info, history, paths = _read(directory)
     if not history:
-        raise ValueError(f"{str(directory)!r} holds no computed step to resume from")
-    if info["ndof"] != sim.X.ndof or info["dim"] != sim.body.dim:
-        raise ValueError(f"{str(directory)!r} holds a run with {info['ndof']} DOFs in {info['dim']}D; this "
-                         f"simulation has {sim.X.ndof} in {sim.body.dim}D: not the same scene")
-    last = sorted(pathlib.Path(directory, "steps").glob("[0-9]*.npz"))[-1]
-    with np.load(last) as data:
-        r = {k[len("restart/"):]: data[k] for k in data if k.startswith("restart/")}
+        raise ValueError(f"resume: {str(directory)!r} holds no computed step to resume from")
+    first = _load(paths[0], 0, len(paths) - 1)[1]
+    _check_start(sim, first.get("restart/state", first.get("state")), directory)
+    r = {k[len("restart/"):]: v for k, v in _load(paths[-1], len(paths) - 1, len(paths) - 1)[1].items()
+         if k.startswith("restart/")}
+    if "t" not in r:
+        raise ValueError(f"resume: {str(paths[-1])!r} holds no restart state (the run was stopped while the "
+                         "steps before it were written); run again into a new directory")
     saved = Checkpoint(float(r["t"]), r["state"], r.get("beta"), r.get("beta_unclipped"),
                        r.get("hook"), (r["last_state"], float(r["last_dt"])) if "last_state" in r else None)
     sim.scheme.restore(saved)
     sim.history[:] = history
+    return dict(info, directory=str(directory))
+
+
+# ----------------------------------------------------------------------- checks of a directory
+
+def _run_info(directory):
+    """The run.json of ``directory`` as a dictionary, or None if there is none."""
+    path = directory / "run.json"
+    if not path.exists():
+        return None
+    try:
+        info = json.loads(path.read_text())
+    except (OSError, ValueError) as err:
+        raise ValueError(f"{str(path)!r} cannot be read ({err}); it is not a run of ngcontact.results") from None
+    if not isinstance(info, dict) or not {"dt", "T", "start"} <= set(info):
+        raise ValueError(f"{str(path)!r} lacks dt, T or start: it is not a run of ngcontact.results")
     return info
+
+
+def _check_scene(info, current, directory, who):
+    """Raise unless the fingerprint ``current`` is the one stored in the run ``info``."""
+    if "fingerprint" not in info:
+        raise ValueError(f"{who}: {str(directory)!r} holds a run written before ngcontact stored the scene of a "
+                         "run (no fingerprint in run.json): whether this simulation is its scene cannot be "
+                         "checked; run again into a new directory")
+    found = mismatch(info["fingerprint"], current)
+    if found:
+        raise ValueError(f"{who}: {str(directory)!r} was computed with {found}: not the same scene")
+
+
+def _check_start(sim, saved, directory):
+    """Raise unless ``saved``, the state of step 0 on disk (or None), is ``sim``'s state at t = 0
+    to 1e-8 of its size, for u and φ apart (u0, and φ0 from the data at t = 0)."""
+    if saved is None or len(saved) != sim.X.ndof:
+        return
+    now = sim.gfu.vec.FV().NumPy()
+    for i, (name, unit) in enumerate((("u", "m"), ("φ", "V"))):
+        part = slice(sim.X.Range(i).start, sim.X.Range(i).stop)
+        difference = np.abs(saved[part] - now[part]).max(initial=0.0)
+        size = max(np.abs(saved[part]).max(initial=0.0), np.abs(now[part]).max(initial=0.0))
+        if difference > 1e-8 * size:
+            raise ValueError(f"resume: {str(directory)!r} starts from another state at t = 0: {name} differs from "
+                             f"this simulation's by up to {difference:.3g} {unit} (of {size:.3g} {unit}; another "
+                             "u0?): not the same scene")
+
+
+def _read(directory):
+    """(run info, History, archive paths) of ``directory``, every archive checked."""
+    info = _run_info(directory)
+    if info is None:
+        raise ValueError(f"{str(directory)!r} holds no streamed run (no run.json)")
+    paths = _archives(directory)
+    history = History()
+    for n, path in enumerate(paths):
+        history.append(_load(path, n, len(paths) - 1)[0])
+    return info, history, paths
+
+
+def _archives(directory):
+    """The step archives of ``directory`` in order, numbered 0..N without gaps."""
+    found = {int(p.stem): p for p in directory.glob("steps/*.npz") if p.stem.isdigit()}
+    last = max(found, default=-1)
+    missing = [n for n in range(last + 1) if n not in found]
+    if missing:
+        names = ", ".join(f"steps/{n:06d}.npz" for n in missing[:5]) + (", ..." if len(missing) > 5 else "")
+        verb = "are" if len(missing) > 1 else "is"
+        first = missing[0]
+        what = ("run again into a new directory" if first == 0 else
+                f"delete the archives after steps/{first - 1:06d}.npz to resume from step {first - 1}")
+        raise ValueError(f"{str(directory)!r}: {names} {verb} missing (the step archives are numbered "
+                         f"000000 to {last:06d} without gaps); {what}")
+    return [found[n] for n in range(last + 1)]
+
+
+def _load(path, n, last):
+    """(StepRecord, arrays) of the archive ``path`` of step n (of 0..last), or a ValueError
+    naming the file, what is wrong and what to do."""
+    try:
+        with np.load(path) as data:
+            arrays = {key: data[key] for key in data}
+        record = record_from_arrays(arrays)
+    except (OSError, EOFError, ValueError, KeyError, TypeError, zipfile.BadZipFile) as err:
+        problem = f"cannot be read ({type(err).__name__}: {err}): it was cut short or overwritten"
+    else:
+        if record.step == n:
+            return record, arrays
+        problem = f"holds step {record.step}, not {n}"
+    later = f" and the later ones (to {last:06d}.npz)" if last > n else ""
+    what = "run again into a new directory" if n == 0 else f"delete it{later} to resume from step {n - 1}"
+    raise ValueError(f"{str(path)!r}: the step archive {problem}; {what}")

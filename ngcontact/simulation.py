@@ -325,11 +325,8 @@ class Simulation:
         start = resumed["start"] if resumed and (resumed["dt"], resumed["T"]) == (dt, T) else self.t
         steps = int(np.ceil((T - start) / dt - 1e-9))
         callbacks = [on_step] if on_step else []
-        if out is not None:
-            stream = results.Stream(self, out, dt, T, start)
-            if resumed is None:
-                stream(self.history[-1])                 # the state the run starts from
-            callbacks.insert(0, stream)
+        if out is not None:                      # checks the directory, writes the history so far
+            callbacks.insert(0, results.Stream(self, out, dt, T, start, resumed))
         if vtk:                                  # distributed: one .vtu per computing rank and step, one .pvd
             writer = ngs.VTKOutput(self.body.mesh, coefs=[self.u, self.phi], names=["displacement", "potential"],
                                    filename=str(vtk), subdivision=max(self.body.order, self.body.order_phi) - 1,
@@ -368,8 +365,9 @@ class Simulation:
     def resume(self, directory):
         """Continue a run streamed into ``directory`` (``run(..., out=directory)``) that was
         interrupted: its last step on disk becomes this simulation's state and history (the
-        simulation must be of the same scene, freshly built). Then ``run(dt, T, out=directory)``
-        with the run's dt and T computes the rest. Returns self."""
+        simulation must be freshly built, of the same scene: ``results.restore`` checks it and
+        the step archives). Then ``run(dt, T, out=directory)`` with the run's dt and T computes
+        the rest. Returns self."""
         self._resumed = results.restore(self, directory)
         return self
 

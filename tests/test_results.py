@@ -3,16 +3,19 @@ its files to the states of an uninterrupted run; the files are what ``results`` 
 import json
 import os
 import pathlib
+import re
 import signal
 import subprocess
 import sys
 import time
 import xml.etree.ElementTree as ElementTree
 
+import ngsolve as ngs
 import numpy as np
 import pytest
 
-from ngcontact import results
+import ngcontact as ngc
+from ngcontact import demo, fingerprint, results
 from ngcontact.scenes import reference
 
 DT, T = 2.5e-3, 0.1          # 40 steps of the reference scene: first contact and spreading
@@ -107,6 +110,28 @@ def test_the_demo_resumes(tmp_path):
         time.sleep(0.005)
     process.wait()
     assert not (tmp_path / "a" / "summary.json").exists()
+    # other settings: refused before meshing, naming the setting, and nothing written
+    run = tmp_path / "a" / "run"
+    written = {p: p.stat().st_mtime_ns for p in run.rglob("*")}
+    changes = dict(order=2, maxh=0.02, steps=40, theta=0, gamma0=100.0, dim=3, refine=1)
+    for key, value in changes.items():
+        settings = {**dict(order=1, maxh=0.01, steps=20), key: value}
+        with pytest.raises(ValueError, match=f"with --{key} .*; this one has --{key} {value}: resume with"):
+            demo.run(out=tmp_path / "a", resume=True, **settings)
+    again = subprocess.run(command + ["--out", str(tmp_path / "a"), "--resume", "--gamma0", "100"],
+                           capture_output=True, text=True)
+    assert again.returncode == 2 and again.stdout == ""
+    assert again.stderr == (f"ngcontact demo: error: resume: {str(run)!r} holds a demo run with --gamma0 10.0; "
+                            "this one has --gamma0 100.0: resume with the settings of the interrupted run, or run "
+                            "without --resume\n")
+    (run / "demo.json").unlink()                 # the settings lost: the scene's own check refuses
+    again = subprocess.run(command + ["--out", str(tmp_path / "a"), "--resume", "--gamma0", "100"],
+                           capture_output=True, text=True)
+    assert again.returncode == 2 and again.stderr.count("\n") == 1
+    assert again.stderr.endswith(f"{str(run)!r} was computed with contact.gamma0 = 10.0; this simulation has "
+                                 "contact.gamma0 = 100.0: not the same scene\n")
+    assert {p: p.stat().st_mtime_ns for p in run.rglob("*")} == {p: t for p, t in written.items()
+                                                                 if p.name != "demo.json"}
     subprocess.run(command + ["--out", str(tmp_path / "a"), "--resume"], check=True, stdout=subprocess.DEVNULL)
     subprocess.run(command + ["--out", str(tmp_path / "b")], check=True, stdout=subprocess.DEVNULL)
     a, b = (json.loads((tmp_path / d / "summary.json").read_text()) for d in "ab")
@@ -147,3 +172,161 @@ def test_the_reference_convergence_study_resumes(tmp_path):
     again = convergence.reference_study(**settings, store=CaseStore(tmp_path, resume=True))
     assert again[0].error_max == first[0].error_max and len(written) == 5
     assert {p: p.stat().st_mtime_ns for p in (fine / "steps").glob("*.npz")} == written
+
+
+# ----------------------------------------------------------------------- the scene is checked
+
+COARSE = 0.01                # mesh size of the runs whose directories are checked below (62 vertices)
+ELASTIC = ngc.Material.isotropic(1e9, 0.3, 1e-9)     # no piezoelectric coupling
+
+
+@pytest.fixture(scope="module")
+def stored(tmp_path_factory):
+    """Two steps of the reference scene on a coarse mesh, streamed into a directory; and two
+    of an elastic plate on an insulating foundation, which solves for u alone."""
+    out = tmp_path_factory.mktemp("stored")
+    reference.simulation(1, COARSE).run(DT, 2 * DT, out=out / "piezo")
+    elastic = reference.simulation(1, COARSE, material=ELASTIC, contact=reference.contact(bare=True))
+    assert not elastic.electric
+    elastic.run(DT, 2 * DT, out=out / "elastic")
+    return out
+
+
+def pressure(t):
+    """The reference pressure at t (s) on the push ramp, Pa, as the messages print it."""
+    return f"{reference.PRESSURE * t / reference.PUSH_END:.6g}"
+
+
+CHANGES = {                  # a change of the scene: (simulation arguments, what the message says)
+    "material": (dict(material=ngc.pzt5a(relaxation_time=1e-3)),
+                 "material.eta = (36 values in [0, 2.42e+08]); this simulation has material.eta = "
+                 "(36 values in [0, 1.21e+08]) (differing by up to 1.21e+08)"),     # A = τ c, c33 = 1.21e11 Pa
+    "gap": (dict(contact=reference.contact(gap=3e-5)), "contact.gap = 2e-05; this simulation has contact.gap = 3e-05"),
+    "load": (dict(load_history=((0.0, 0.0), (0.1, 2.0))),
+             f"loads.f2['top'] = (110 values in [-{pressure(2 * DT)}, 0]); this simulation has loads.f2['top'] "
+             f"= (110 values in [-{pressure(4 * DT)}, 0]) (differing by up to {float(pressure(2 * DT)):.3g})"),
+    "gamma0": (dict(contact=reference.contact(gamma0=100.0)),
+               "contact.gamma0 = 10.0; this simulation has contact.gamma0 = 100.0"),
+    "theta": (dict(contact=reference.contact(theta=0)), "contact.theta = 1; this simulation has contact.theta = 0"),
+    # 3 fields (u_x, u_y, φ) of 62 vertices at P1, and of the vertices and 62 + 86 - 1 edges at P2
+    "order": (dict(order=2), f"space.ndof = {3 * 62}, body.order = 1, body.order_phi = 1; this simulation has "
+                             f"space.ndof = {3 * (62 + 62 + 86 - 1)}, body.order = 2, body.order_phi = 2"),
+    "mesh": (dict(maxh=0.008), "mesh.vertices = 62, mesh.elements = 86, "),
+}
+
+
+@pytest.mark.parametrize("change", CHANGES)
+def test_resume_refuses_another_scene(stored, change):
+    """Each kind of change is named with both values, before anything is written."""
+    arguments, expected = CHANGES[change]
+    arguments = dict(dict(order=1, maxh=COARSE), **arguments)
+    written = {p: p.stat().st_mtime_ns for p in (stored / "piezo").rglob("*")}
+    prefix = f"resume: {str(stored / 'piezo')!r} was computed with "
+    with pytest.raises(ValueError) as error:
+        reference.simulation(arguments.pop("order"), arguments.pop("maxh"), **arguments).resume(stored / "piezo")
+    message = str(error.value)
+    assert message.startswith(prefix + expected) and message.endswith(": not the same scene")
+    if change == "mesh":             # the data sampled on the elements of two meshes are not compared
+        assert "loads" not in message and "mesh.hash" in message
+    else:
+        assert message == f"{prefix}{expected}: not the same scene"
+    assert {p: p.stat().st_mtime_ns for p in (stored / "piezo").rglob("*")} == written
+
+
+def test_resume_and_a_new_run_refuse_another_electric_choice_or_start(stored):
+    with pytest.raises(ValueError, match="was computed with options.electric = False; this simulation has "
+                                         "options.electric = True: not the same scene$"):
+        reference.simulation(1, COARSE, material=ELASTIC, contact=reference.contact(bare=True),
+                             electric=True).resume(stored / "elastic")
+    # u0 = (0, -1e-7 x/L1): zero on Γ1, largest (1e-7 m) at the free end
+    u0 = ngs.CF((0, -1e-7 * ngs.x / reference.L1))
+    with pytest.raises(ValueError, match=r"starts from another state at t = 0: u differs from this simulation's by "
+                                         r"up to 1e-07 m .*another u0\?\): not the same scene"):
+        reference.simulation(1, COARSE, u0=u0).resume(stored / "piezo")
+    with pytest.raises(ValueError, match="^out: .* was computed with contact.gamma0 = 10.0; this simulation has "
+                                         "contact.gamma0 = 100.0: not the same scene"):
+        reference.simulation(1, COARSE, contact=reference.contact(gamma0=100.0)).run(DT, 2 * DT, out=stored / "piezo")
+    sim = reference.simulation(1, COARSE)
+    sim.step(DT)
+    with pytest.raises(ValueError, match="computed 1 step.* already; resume .* into a freshly built simulation"):
+        sim.resume(stored / "piezo")
+
+
+def test_the_same_scene_resumes_however_its_data_are_written(stored):
+    """A gap given as a CoefficientFunction is the number it equals; the time Parameter is
+    left as it was by the fingerprint, whose samples are the load at the sample times."""
+    sim = reference.simulation(1, COARSE, contact=reference.contact(gap=ngs.CF(reference.CONTACT["gap"])))
+    assert len(sim.resume(stored / "piezo").history) == 3 and sim.t == pytest.approx(2 * DT, abs=1e-15)
+    sim.time.Set(0.0123)
+    found = fingerprint.fingerprint(sim, 0.5)
+    assert sim.time.Get() == 0.0123
+    times = np.array(found["sample times"])
+    assert times.tolist() == [0.0, 0.125, 0.25, 0.375, 0.5]
+    f2 = np.array(found["loads.f2['top']"])              # [time][point][component]
+    factor = np.interp(times, *zip(*reference.LOAD_HISTORY))
+    assert np.all(f2[..., 0] == 0)
+    assert np.allclose(f2[..., 1], -reference.PRESSURE * factor[:, None], rtol=1e-14, atol=0)
+    assert fingerprint.differences(found, json.loads(json.dumps(found))) == []
+
+
+def test_a_missing_step_archive_is_named(tmp_path):
+    """A deleted middle archive is named; deleting the later ones, as the message says, resumes
+    to the states of a run never interrupted."""
+    straight = reference.simulation(1, COARSE, **EXACT)
+    straight.run(DT, 3 * DT, out=tmp_path)
+    (tmp_path / "steps" / "000002.npz").unlink()
+    expected = (rf"^'{re.escape(str(tmp_path))}': steps/000002\.npz is missing \(the step archives are numbered "
+                r"000000 to 000003 without gaps\); delete the archives after steps/000001\.npz to resume from step 1$")
+    with pytest.raises(ValueError, match=expected):
+        results.read(tmp_path)
+    with pytest.raises(ValueError, match=expected):
+        reference.simulation(1, COARSE, **EXACT).resume(tmp_path)
+    (tmp_path / "steps" / "000003.npz").unlink()
+    sim = reference.simulation(1, COARSE, **EXACT).resume(tmp_path)
+    assert len(sim.history) == 2
+    sim.run(DT, 3 * DT, out=tmp_path)
+    assert np.abs(sim.history[-1].state - straight.history[-1].state).max() <= \
+        1e-12 * np.abs(straight.history[-1].state).max()
+    assert [r.step for r in results.read(tmp_path)[1]] == [0, 1, 2, 3]
+
+
+@pytest.mark.parametrize("damage", ["truncated", "garbage"])
+def test_a_damaged_step_archive_is_named(tmp_path, damage):
+    reference.simulation(1, COARSE).run(DT, 3 * DT, out=tmp_path)
+    path = tmp_path / "steps" / "000002.npz"
+    data = path.read_bytes()
+    path.write_bytes(data[:len(data) // 2] if damage == "truncated" else b"\x00garbage" * 64)
+    expected = (rf"^'{re.escape(str(path))}': the step archive cannot be read \(.+\): it was cut short or "
+                r"overwritten; delete it and the later ones \(to 000003\.npz\) to resume from step 1$")
+    with pytest.raises(ValueError, match=expected):
+        results.read(tmp_path)
+    with pytest.raises(ValueError, match=expected):
+        reference.simulation(1, COARSE).resume(tmp_path)
+    path.unlink()
+    (tmp_path / "steps" / "000003.npz").unlink()
+    assert len(reference.simulation(1, COARSE).resume(tmp_path).history) == 2
+
+
+def test_a_run_from_before_the_fingerprint_is_refused(tmp_path):
+    reference.simulation(1, COARSE).run(DT, 2 * DT, out=tmp_path)
+    info = json.loads((tmp_path / "run.json").read_text())
+    del info["fingerprint"]
+    (tmp_path / "run.json").write_text(json.dumps(info))
+    for attempt in (lambda: reference.simulation(1, COARSE).resume(tmp_path),
+                    lambda: reference.simulation(1, COARSE).run(DT, 2 * DT, out=tmp_path)):
+        with pytest.raises(ValueError, match="no fingerprint in run.json.*cannot be checked; run again into a new "
+                                             "directory$"):
+            attempt()
+
+
+def test_a_run_begun_after_some_steps_stores_them(tmp_path):
+    """Streaming from step 2 on writes the records of steps 0 and 1 first: the archives are
+    numbered from 0 and a resume gives the whole history and the state of the last step."""
+    sim = reference.simulation(1, COARSE, **EXACT)
+    sim.run(DT, 2 * DT)
+    sim.run(DT, 3 * DT, out=tmp_path)
+    _, history = results.read(tmp_path)
+    assert [(r.step, r.time) for r in history] == [(r.step, r.time) for r in sim.history]
+    resumed = reference.simulation(1, COARSE, **EXACT).resume(tmp_path)
+    assert resumed.t == sim.t and np.array_equal(resumed.gfu.vec.FV().NumPy(), sim.gfu.vec.FV().NumPy())
+    assert np.array_equal(resumed.history[1].state, sim.history[1].state)
