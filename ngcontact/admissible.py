@@ -90,6 +90,26 @@ def scene_flags(contact):
             f"force within 1 % (docs/stability.md): {why}; use γ0 >= {bound:g}"]
 
 
+STIFF_CONTACT = 1e4
+"""A Γ3 stiffness more than this many times the body's own at Γ3 is named when Newton fails."""
+
+
+def stiff_contact_terms(body, contact, side):
+    """A sentence naming the Γ3 stiffnesses (Pa/m) above ``STIFF_CONTACT`` times the body's
+    stiffness at Γ3, p² λ_max(F + Eᵀ C⁻¹ E)/h (h the smallest facet of Γ3), or "": between
+    Jacobians that differ by such factors semismooth Newton may cycle or stall."""
+    h = parallel.minimum(body.mesh, side.measure) ** (1 / (body.dim - 1))
+    bulk = body.order ** 2 * body.tensors.stiffness(0.0) / h
+    ratios = {"Contact.adhesion γ_ν": contact.adhesion / bulk,
+              "Contact.compliance c_ν": 0.0 if callable(contact.compliance) else contact.compliance / bulk,
+              "Contact.gamma0": contact.gamma0 if contact.method == "nitsche" else 0.0,
+              "Contact.penalty": contact.penalty if contact.method == "penalty" else 0.0}
+    named = [f"{name} is {ratio:.3g} times that" for name, ratio in ratios.items() if ratio > STIFF_CONTACT]
+    if not named:
+        return ""
+    return f"; the body's stiffness at Γ3 is p²λ/h = {bulk:.3g} Pa/m, and {', '.join(named)}"
+
+
 def flags(body, record, u, side=None):
     """What in a computed step makes no physical sense for the model, as messages naming the
     step, the quantity, its value and the threshold: penetration into the foundation beyond

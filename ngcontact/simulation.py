@@ -15,7 +15,7 @@ import numpy as np
 from . import forms, parallel, results
 from .adhesion import BondingField
 from .admissible import (GapCheck, PhysicsWarning, check_initial_displacement, check_supports_at_start, flags,
-                         scene_flags)
+                         scene_flags, stiff_contact_terms)
 from .backward_euler import BackwardEuler
 from .checks import integer, number, uses_only
 from .contact_side import ContactSide
@@ -288,8 +288,9 @@ class Simulation:
                                       residuals=err.residuals))
             if cutbacks_left == 0 or not err.recoverable:     # (not recoverable: a smaller step fails too)
                 tried = ", ".join(f"{c['dt']:.3g}" for c in self.cutbacks if c["step"] == n)
+                stiff = stiff_contact_terms(self.body, self.contact, self.side) if self.contact is not None else ""
                 err.args = (f"{err.args[0]}. Time steps tried for step {n} (t -> {target:.6g} s): "
-                            f"dt = {tried} s; the state is that of step {n - 1}",)
+                            f"dt = {tried} s; the state is that of step {n - 1}{stiff}",)
                 raise
             middle = self.t + dt / 2
             return (self._advance(middle, cutbacks_left - 1, on_step)
