@@ -95,8 +95,8 @@ def test_time_data_and_initial_state_rejected(mesh):
 
 
 @pytest.mark.parametrize("make, match", [
-    (lambda: plate(L1=-1), "L1 must be > 0"), (lambda: plate(maxh=0), "maxh must be > 0"),
-    (lambda: plate(refine=-1), "refine must be an integer >= 0"), (lambda: block(L3=0), "L3 must be > 0"),
+    (lambda: plate(L1=-1), "L1 must be a finite number > 0 m"), (lambda: plate(maxh=0), "maxh must be a finite number in"),
+    (lambda: plate(refine=-1), "refine must be an integer >= 0"), (lambda: block(L3=0), "L3 must be a finite number > 0"),
 ])
 def test_geometry_rejected(make, match):
     with pytest.raises(ValueError, match=match):
