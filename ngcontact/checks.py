@@ -29,6 +29,8 @@ kB, the 2D reference plate at P1 with 1.2e5 DOFs; 5.0 kB at P2, 8.8 kB at P4, 7.
 VERTICES_PER_CELL = {2: 1.15, 3: 0.8}
 """Vertices of a Netgen mesh per maxh^dim of the domain's area (volume), on fine meshes of
 the plate and the block (coarse meshes have more, from their boundary)."""
+MAX_LENGTH = 1e3
+"""The longest side of a geometry, m (a body of a kilometre is not a piezoelectric device)."""
 
 
 def number(name, value, low=-math.inf, high=math.inf, *, low_open=False, high_open=False, unit=""):
@@ -108,11 +110,14 @@ def memory():
     return total * (1 if comm is None else comm.size)
 
 
-def estimated_vertices(measure, dim, maxh):
-    """The vertices of a Netgen mesh of size ``maxh`` (m) of a domain of area or volume
-    ``measure`` (m², m³): ``VERTICES_PER_CELL`` · measure / maxh^dim (computed in logarithms:
-    finite for any maxh > 0)."""
-    return math.exp(min(math.log(VERTICES_PER_CELL[dim] * measure) - dim * math.log(maxh), 690.0))
+def estimated_vertices(sides, maxh):
+    """The vertices of a Netgen mesh of size ``maxh`` (m) of a box with ``sides`` (m; 2 or 3
+    of them): ``VERTICES_PER_CELL`` · measure / h^dim with h = min(maxh, shortest side)
+    (Netgen's elements are about as small as the box is thin), in logarithms: finite for any
+    sides and maxh > 0."""
+    h = min(maxh, *sides)
+    log = math.log(VERTICES_PER_CELL[len(sides)]) + sum(math.log(side / h) for side in sides)
+    return math.exp(min(log, 690.0))
 
 
 def estimated_ndof(vertices, dim, refine=0, order=1):

@@ -135,7 +135,7 @@ def _newton_line(err, args):
     kept = KEPT[args.command].format(out=args.out)
     if args.command == "demo" and ngcontact.parallel.world() is not None:
         kept = "memory only (not streamed under mpiexec)"
-    hint = re.search(r"Try: (.*?)(?:\. Time steps tried|$)", str(err))
+    hint = re.search(r"Try: (.*?)(?: \(with full steps|\. Time steps tried|$)", str(err))
     tried = re.search(r"Time steps tried for step \d+ \(t -> [^)]*\): (dt = [^;]*)", str(err))
     return (f"Newton {err.reason} at {where}iteration {err.iteration} (last residuals {last}"
             + (f"; {tried.group(1)} tried" if tried else "") + f"); the steps before it are kept in {kept}"

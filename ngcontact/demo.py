@@ -60,9 +60,9 @@ def run(order=1, out="results", maxh=None, steps=200, theta=1, gamma0=10.0, resu
     maxh = (0.005 if dim == 2 else 0.01) if maxh is None else \
         checks.number("maxh", maxh, 0, reference.L2, low_open=True, unit="m (the plate's thickness L2)")
     contact = reference.contact(theta, gamma0)       # θ and γ0 checked before the mesh is made
-    measure = reference.L1 * reference.L2 * (1 if dim == 2 else reference.WIDTH)
+    sides = (reference.L1, reference.L2) if dim == 2 else (reference.L1, reference.WIDTH, reference.L2)
     checks.fits_in_memory(f"maxh = {maxh:g} m, refine = {refine}, order = {order}",
-                          checks.estimated_ndof(checks.estimated_vertices(measure, dim, maxh), dim, refine, order))
+                          checks.estimated_ndof(checks.estimated_vertices(sides, maxh), dim, refine, order))
     out = checks.writable_directory(out)
     lead = parallel.rank() == 0                      # under mpiexec rank 0 prints and writes
     say = print if lead else _quiet

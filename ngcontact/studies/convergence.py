@@ -289,13 +289,13 @@ def command(orders, levels, case, smoothness, dt_halvings, out, resume=False):
     smoothness = checks.integer("--smoothness", smoothness, 3, MAX_SMOOTHNESS)
     dt_halvings = checks.integer("--dt-halvings", dt_halvings, 0, MAX_HALVINGS)
     resume = checks.flag("resume", resume)
-    manufactured = checks.estimated_vertices(MANUFACTURED_PLATE[0] * MANUFACTURED_PLATE[1], 2, MANUFACTURED_MAXH)
+    manufactured = checks.estimated_vertices(MANUFACTURED_PLATE, MANUFACTURED_MAXH)
     if dt_halvings:                    # the finest run: the first order on level levels - 1
         order, finest, vertices = orders[0], levels - 1, manufactured
     elif case == "reference":          # the fine solution, on level levels (Γ3 at maxh / 2)
         order, finest = max(orders), levels
-        vertices = checks.estimated_vertices(reference.L1 * reference.L2, 2, REFERENCE_MAXH) + \
-            checks.estimated_vertices(reference.L1 * REFERENCE_MAXH / 2, 2, REFERENCE_MAXH / 2)
+        vertices = checks.estimated_vertices((reference.L1, reference.L2), REFERENCE_MAXH) + \
+            checks.estimated_vertices((reference.L1, REFERENCE_MAXH / 2), REFERENCE_MAXH / 2)
     else:
         order, finest, vertices = max(orders), levels - 1, manufactured
     checks.fits_in_memory(f"--levels {levels}, order {order}",
