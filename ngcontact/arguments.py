@@ -29,16 +29,15 @@ overflow in the viscous term A/dt."""
 RESOLUTION = 1e-13
 """A step must be at least this fraction of the time it starts from: below it t + dt is t to
 13 digits."""
-FLAGS = ("keep_states", "predictor", "limit_steps", "reuse_factorization", "physical_checks")
-"""The options of Simulation that are True or False."""
 AUTOMATIC = ("condense", "realcompile", "iterative", "electric")
-"""The options of Simulation that are True, False or None (automatic)."""
+"""The options of Simulation that are True, False or None (automatic); the others are True
+or False."""
 
 
 def simulation(body, loads, contact, time, inverse, options):
     """The objects given to ``Simulation`` must be of their types (``body`` a Body; ``loads``,
-    ``contact``, ``time``, ``inverse`` of theirs or None); returns ``options`` (a dict of the
-    names of FLAGS and AUTOMATIC) as booleans (or None)."""
+    ``contact``, ``time``, ``inverse`` of theirs or None); returns ``options`` (a dict {name:
+    value} of the boolean options) as booleans, or None for those of AUTOMATIC."""
     for name, value, kind, expected in (("body", body, Body, "an ngcontact.Body"),
                                         ("loads", loads, Loads, "an ngcontact.Loads or None"),
                                         ("contact", contact, Contact, "an ngcontact.Contact or None"),
@@ -103,15 +102,21 @@ def run(sim, dt, T, max_cutbacks, progress, vtk, on_step, out):
 def gamma3_data(contact, gamma3, mesh, time, t):
     """The data of Γ3 written as CoefficientFunctions (gap, an obstacle's gap and normal, the
     foundation potential) must be finite on Γ3 at time t (s; the time Parameter ``time`` is
-    set to it if there are any): else a ValueError naming it, before Newton meets NaN."""
+    set to it for the check, then back): else a ValueError naming it, before Newton meets
+    NaN."""
     named = [("Contact.foundation_potential", gamma3.foundation_potential)] \
         if isinstance(contact.foundation_potential, ngs.CoefficientFunction) else []
     if contact.obstacle is not None:
         named += [("Contact.obstacle (its gap)", gamma3.gap), ("Contact.obstacle (its normal)", gamma3.normal)]
     elif isinstance(contact.gap, ngs.CoefficientFunction):
         named.append(("Contact.gap", gamma3.gap))
-    if named:
-        time.Set(t)
-    for name, cf in named:
-        if parallel.any_rank(mesh, not np.all(np.isfinite(gamma3.side.sample(cf)))):
-            raise ValueError(f"{name} is not finite (NaN or inf) on Γ3 at t = {t:.6g} s")
+    if not named:
+        return
+    now = time.Get()
+    time.Set(t)
+    try:
+        for name, cf in named:
+            if parallel.any_rank(mesh, not np.all(np.isfinite(gamma3.side.sample(cf)))):
+                raise ValueError(f"{name} is not finite (NaN or inf) on Γ3 at t = {t:.6g} s")
+    finally:
+        time.Set(now)

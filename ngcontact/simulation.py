@@ -265,6 +265,7 @@ class Simulation:
             if self.contact is not None:                    # the data at t_n, before the solve
                 arguments.gamma3_data(self.contact, self.gamma3, self.body.mesh, self.time, self.t + dt)
                 if self.contact.obstacle is None and isinstance(self.contact.gap, ngs.CoefficientFunction):
+                    self.time.Set(self.t + dt)
                     self._gap_check(self.t + dt)
             result = self.scheme.advance(dt, step=n, timer=timings)
             record = self._record(n, result, start, timings)
