@@ -1,4 +1,5 @@
 """Bad input is rejected with an error naming the parameter; a failed step says where."""
+import inspect
 import re
 
 import numpy as np
@@ -260,27 +261,37 @@ def test_objects_of_the_wrong_type_are_named(mesh):
 
 def test_cutbacks_halve_without_recursion(mesh):
     """A step that converges only at dt <= dt0/2^k: advance with max_cutbacks = k makes 2^k
-    steps of dt0/2^k after 2^k − 1 failed tries (each failed goal is halved once), with
-    max_cutbacks = k − 1 it raises naming dt0 .. dt0/2^(k−1)."""
+    steps of dt0/2^k after 2^k − 1 failed tries (each failed goal is halved once), and the
+    stack under it is as deep for k = 10 as for k = 2 (a recursion per halving, which ended in
+    a RecursionError for max_cutbacks = 1000, would be 8 frames deeper); with max_cutbacks =
+    k − 1 it raises naming dt0 .. dt0/2^(k−1)."""
     body = ngc.Body(mesh, ngc.pzt5a(), clamped="left", grounded="top")
-    k, dt0 = 5, 1.0
+    dt0 = 1.0
 
-    def attempt(sim, limit):
+    def stack_depth():
+        frame, depth = inspect.currentframe(), 0
+        while frame is not None:
+            frame, depth = frame.f_back, depth + 1
+        return depth
+
+    def attempt(k, max_cutbacks):
+        sim, depths = ngc.Simulation(body, keep_states=False), []
+
         def step(dt):
-            if dt > limit * (1 + 1e-12):
+            depths.append(stack_depth())
+            if dt > dt0 / 2 ** k * (1 + 1e-12):
                 raise ngc.NewtonError("did not converge", iteration=1, residuals=[1.0, 0.5], step=len(sim.history),
                                       time=sim.t + dt)
             sim.scheme.t += dt
             sim.history.append(sim.scheme.t)
             return sim.scheme.t
         sim.step, sim.history = step, [0.0]
-        return sim
-    sim = attempt(ngc.Simulation(body, keep_states=False), dt0 / 2 ** k)
-    assert np.allclose(sim.advance(dt0, max_cutbacks=k), np.arange(1, 2 ** k + 1) * dt0 / 2 ** k)
-    assert len(sim.cutbacks) == 2 ** k - 1
-    sim = attempt(ngc.Simulation(body, keep_states=False), dt0 / 2 ** k)
-    with pytest.raises(ngc.NewtonError, match=r"dt = 1, 0.5, 0.25, 0.125, 0.0625 s"):
-        sim.advance(dt0, max_cutbacks=k - 1)
+        return sim, sim.advance(dt0, max_cutbacks=max_cutbacks), max(depths)
+    (sim, times, deep), (_, _, shallow) = attempt(10, 10), attempt(2, 2)
+    assert np.allclose(times, np.arange(1, 2 ** 10 + 1) * dt0 / 2 ** 10)
+    assert len(sim.cutbacks) == 2 ** 10 - 1 and deep == shallow
+    with pytest.raises(ngc.NewtonError, match=r"dt = 1, 0.5, 0.25, 0.125 s"):
+        attempt(5, 3)
 
 
 def test_mesh_estimates_against_netgen():
