@@ -99,8 +99,9 @@ def test_time_data_and_initial_state_rejected(mesh):
 
 
 @pytest.mark.parametrize("make, match", [
-    (lambda: plate(L1=-1), r"L1 must be a finite number in \(0, 1000\] m"), (lambda: plate(maxh=0), "maxh must be a finite"),
-    (lambda: plate(refine=-1), "refine must be an integer >= 0"), (lambda: block(L3=0), r"L3 must be a finite number in \(0,"),
+    (lambda: plate(L1=-1), r"L1 must be a finite number in \(0, 1000\] m"),
+    (lambda: plate(maxh=0), "maxh must be a finite"), (lambda: plate(refine=-1), "refine must be an integer >= 0"),
+    (lambda: block(L3=0), r"L3 must be a finite number in \(0,"),
 ])
 def test_geometry_rejected(make, match):
     with pytest.raises(ValueError, match=match):
@@ -246,15 +247,16 @@ def test_options_are_booleans(mesh, option, value, words):
 
 def test_objects_of_the_wrong_type_are_named(mesh):
     body = ngc.Body(mesh, ngc.pzt5a(), clamped="left", grounded="top")
-    for make, words in [(lambda: ngc.Simulation(ngc.Contact()), "Simulation: body must be an ngcontact.Body, got Contact"),
-                        (lambda: ngc.Simulation(body, contact=body), "contact must be an ngcontact.Contact or None"),
-                        (lambda: ngc.Simulation(body, {"f2": {}}), "loads must be an ngcontact.Loads or None, got dict"),
-                        (lambda: ngc.Simulation(body, time=0.0), "time must be an ngsolve.Parameter or None"),
-                        (lambda: ngc.Body("mesh", ngc.pzt5a(), clamped="left"), "mesh must be an ngsolve.Mesh, got str"),
-                        (lambda: ngc.Body(mesh, {}, clamped="left"), "material must be an ngcontact.Material, got dict"),
-                        (lambda: ngc.Loads(f2=[(0, 1)]), "Loads.f2 must be a dict"),
-                        (lambda: ngc.Contact(method=None), "Contact.method must be one of"),
-                        (lambda: obstacles.SignedDistance("y", (0, 1)), "SignedDistance: distance must be a number")]:
+    cases = [(lambda: ngc.Simulation(ngc.Contact()), "Simulation: body must be an ngcontact.Body, got Contact"),
+             (lambda: ngc.Simulation(body, contact=body), "contact must be an ngcontact.Contact or None"),
+             (lambda: ngc.Simulation(body, {"f2": {}}), "loads must be an ngcontact.Loads or None, got dict"),
+             (lambda: ngc.Simulation(body, time=0.0), "time must be an ngsolve.Parameter or None"),
+             (lambda: ngc.Body("mesh", ngc.pzt5a(), clamped="left"), "mesh must be an ngsolve.Mesh, got str"),
+             (lambda: ngc.Body(mesh, {}, clamped="left"), "material must be an ngcontact.Material, got dict"),
+             (lambda: ngc.Loads(f2=[(0, 1)]), "Loads.f2 must be a dict"),
+             (lambda: ngc.Contact(method=None), "Contact.method must be one of"),
+             (lambda: obstacles.SignedDistance("y", (0, 1)), "SignedDistance: distance must be a number")]
+    for make, words in cases:
         with pytest.raises(TypeError, match=re.escape(words)):
             make()
 
