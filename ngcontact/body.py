@@ -14,8 +14,7 @@ import functools
 import ngsolve as ngs
 import numpy as np
 
-from . import parallel
-from .checks import integer
+from . import checks, parallel
 from .materials import Material
 from .supports import dirichlet_flags
 from .supports import parse as parse_supports
@@ -32,6 +31,9 @@ class Body:
     Parameters
     ----------
     mesh : ngsolve.Mesh, 2D (plane strain, quantities per metre of depth) or 3D, in metres.
+        Under mpiexec with several ranks it must be distributed (``ngcontact.geometries``
+        distribute theirs; ``parallel.distributed_mesh``): a serial mesh would have every
+        rank solve the whole problem, and is refused.
     material : Material.
     clamped : str or None, boundary names of Γ1 (u = 0).
     supports : dict or None, {boundaries: components} with components "all", "normal"
@@ -43,8 +45,9 @@ class Body:
         u alone unless the scene has an electric part (``Simulation.model``).
     contact_side : str or None, boundary names of Γ3; without a contact law
         (``Simulation(contact=...)``) it is traction-free and charge-free.
-    order : int >= 1, polynomial order of u (1 = the paper's P1 space (4.1)).
-    order_phi : int >= 1 or None, order of φ (default: ``order``).
+    order : int in [1, 10] (``checks.MAX_ORDER``), polynomial order of u (1 = the paper's P1
+        space (4.1)).
+    order_phi : int in [1, 10] or None, order of φ (default: ``order``).
 
     ``X = V × W`` is the body's space; each simulation works on its own copy (``space()``),
     so that what one simulation sets on it (static condensation) does not reach another.
@@ -57,11 +60,19 @@ class Body:
                             "(contact= is the contact law, given to Simulation)")
         if renamed:
             raise TypeError(f"Body got unexpected keyword arguments {sorted(renamed)}")
+        if not isinstance(mesh, ngs.Mesh):
+            raise TypeError(f"mesh must be an ngsolve.Mesh, got {type(mesh).__name__}")
         if not isinstance(material, Material):
             raise TypeError(f"material must be an ngcontact.Material, got {type(material).__name__}")
         order_phi = order if order_phi is None else order_phi
         for name, p in (("order", order), ("order_phi", order_phi)):
-            integer(name, p, 1)
+            checks.order(name, p)
+        comm = parallel.world()
+        if comm is not None and not parallel.is_distributed(mesh):
+            raise ValueError(f"mesh: a serial mesh under mpiexec with {comm.size} ranks (every rank would solve "
+                             "the whole problem); distribute it (ngcontact.geometries do; "
+                             "GenerateMesh(..., comm=MPI.COMM_WORLD) or parallel.distributed_mesh) or run without "
+                             "mpiexec")
         self.mesh = mesh
         self.dim = mesh.dim
         self.material = material

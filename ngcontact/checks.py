@@ -1,11 +1,36 @@
-"""Checks of user input: numbers in their range, and the time Parameter a scene's data use.
+"""Checks of user input: numbers in their range, booleans, sizes against the machine's
+memory, writable directories, and the time Parameter a scene's data use.
 
-Each failure names the parameter, the value and the allowed range, before any work starts.
+Each failure names the parameter, the value and the allowed range, before any work starts:
+a TypeError for a value of the wrong type (a string, None or a boolean for a number, a
+number for a boolean), a ValueError for one of the right type out of its range.
 """
 import math
 import numbers
+import os
+import pathlib
 
 import ngsolve as ngs
+import numpy as np
+
+from . import parallel
+
+MAX_ORDER = 10
+"""The highest polynomial order offered (H1 elements of order p have p^dim DOFs per vertex
+and field: order 10 on a coarse mesh is already a large problem)."""
+MAX_REFINE = 10
+"""The most uniform refinements of a mesh (each multiplies its elements by 2^dim)."""
+MAX_STEPS = 1_000_000
+"""Nominal time steps of one run: more is a mistyped dt, not a plan."""
+MEMORY_PER_DOF = 2048
+"""Bytes per DOF a simulation needs at least: half the smallest peak measured per DOF (3.8
+kB, the 2D reference plate at P1 with 1.2e5 DOFs; 5.0 kB at P2, 8.8 kB at P4, 7.7-17 kB in
+3D, docs/scale.md)."""
+VERTICES_PER_CELL = {2: 1.15, 3: 0.8}
+"""Vertices of a Netgen mesh per maxh^dim of the domain's area (volume), on fine meshes of
+the plate and the block (coarse meshes have more, from their boundary)."""
+MAX_LENGTH = 1e3
+"""The longest side of a geometry, m (a body of a kilometre is not a piezoelectric device)."""
 
 
 def number(name, value, low=-math.inf, high=math.inf, *, low_open=False, high_open=False, unit=""):
@@ -24,15 +49,99 @@ def number(name, value, low=-math.inf, high=math.inf, *, low_open=False, high_op
 
 
 def integer(name, value, low=1, high=None):
-    """``value`` as an int >= low (<= high): TypeError for non-integers (a float with an
-    integer value is accepted), ValueError out of range."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value) \
-            or int(value) != value:
-        raise TypeError(f"{name} must be an integer >= {low}, got {value!r} ({type(value).__name__})")
-    if value < low or (high is not None and value > high):
-        limit = f"in [{low}, {high}]" if high is not None else f">= {low}"
+    """``value`` as an int >= low (<= high): TypeError for what is not a number (strings,
+    None, booleans), ValueError for a number that is not an integer (a float with an integer
+    value is accepted) or out of range."""
+    limit = f">= {low}" + (f" and <= {high}" if high is not None else "")
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name} must be an integer {limit}, got {value!r} ({type(value).__name__})")
+    if not math.isfinite(value) or int(value) != value or value < low or (high is not None and value > high):
         raise ValueError(f"{name} must be an integer {limit}, got {value!r}")
     return int(value)
+
+
+def order(name, value):
+    """A polynomial order: an integer in [1, MAX_ORDER]."""
+    return integer(name, value, 1, MAX_ORDER)
+
+
+def choice(name, value, allowed):
+    """``value`` if it is one of ``allowed`` (of the same type: True is not 1, 2.0 not 2),
+    else a ValueError listing them."""
+    if isinstance(value, (bool, np.bool_)) or not any(isinstance(value, type(a)) and value == a for a in allowed):
+        raise ValueError(f"{name} must be one of {', '.join(map(repr, allowed))}, got {value!r}")
+    return value
+
+
+def flag(name, value, none=False):
+    """``value`` if it is a boolean (numpy's too), or None where ``none`` (None meaning
+    "automatic"); a TypeError naming the option otherwise (``"no"`` or 2 is not a boolean)."""
+    if isinstance(value, (bool, np.bool_)) or (none and value is None):
+        return None if value is None else bool(value)
+    allowed = "True, False or None (automatic)" if none else "True or False"
+    raise TypeError(f"{name} must be {allowed}, got {value!r} ({type(value).__name__})")
+
+
+def writable_directory(out, name="output directory"):
+    """``out`` as a created, writable directory (a Path), checked before a run starts; the
+    error names ``name``."""
+    if not isinstance(out, (str, os.PathLike)) or not str(out):
+        raise TypeError(f"{name} must be a path (str or pathlib.Path), got {out!r} ({type(out).__name__})")
+    out = pathlib.Path(out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        probe = out / f".ngcontact-write-test-{os.getpid()}"      # one per process (mpiexec)
+        probe.write_text("")
+        probe.unlink()
+    except OSError as err:
+        raise ValueError(f"{name} {str(out)!r} cannot be written: {err.strerror}") from None
+    return out
+
+
+def memory():
+    """The memory of the machine in bytes: its physical memory (``os.sysconf``, else
+    MemTotal of /proc/meminfo), times the ranks under mpiexec (each may hold a node's)."""
+    try:
+        total = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        with open("/proc/meminfo") as info:
+            total = next(int(line.split()[1]) * 1024 for line in info if line.startswith("MemTotal:"))
+    comm = parallel.world()
+    return total * (1 if comm is None else comm.size)
+
+
+def estimated_vertices(sides, maxh):
+    """The vertices of a Netgen mesh of size ``maxh`` (m) of a box with ``sides`` (m; 2 or 3
+    of them): ``VERTICES_PER_CELL`` · measure / h^dim with h = min(maxh, shortest side)
+    (Netgen's elements are about as small as the box is thin), in logarithms: finite for any
+    sides and maxh > 0."""
+    h = min(maxh, *sides)
+    log = math.log(VERTICES_PER_CELL[len(sides)]) + sum(math.log(side / h) for side in sides)
+    return math.exp(min(log, 690.0))
+
+
+def estimated_ndof(vertices, dim, refine=0, order=1):
+    """The DOFs of u and φ (dim + 1 fields) of order ``order`` on a mesh of ``vertices``
+    vertices refined ``refine`` times: 2^dim times the vertices per refinement, and about
+    order^dim DOFs per vertex and field (the edge, face and cell DOFs of H1 of order p)."""
+    return min(vertices * 2.0 ** (dim * refine) * order ** dim * (dim + 1), 1e300)
+
+
+def fits_in_memory(what, ndof):
+    """Refuse (a ValueError naming ``what`` and the estimate) a problem of ``ndof`` DOFs that
+    needs more than the machine's ``memory()`` at ``MEMORY_PER_DOF`` bytes per DOF."""
+    need, have = ndof * MEMORY_PER_DOF, memory()
+    if need > have:
+        raise ValueError(f"{what}: about {ndof:.2g} DOFs (estimated), needing at least "
+                         f"{_bytes(need)} ({MEMORY_PER_DOF} bytes per DOF); this machine has {_bytes(have)}")
+    return ndof
+
+
+def _bytes(count):
+    for unit in ("B", "KiB", "MiB", "GiB", "TiB", "PiB"):
+        if count < 1024 or unit == "PiB":
+            return f"{count:.3g} {unit}"
+        count /= 1024
 
 
 def _range(low, high, low_open, high_open, unit):

@@ -1,9 +1,19 @@
 """Command line interface: ``python -m ngcontact demo | convergence | stability | hertz | bench``.
 
-It parses the arguments and calls ``demo.run`` or a study's command; nothing else.
+It parses the arguments and calls ``demo.run`` or a study's command; bad input and a failed
+Newton solve end in one line on stderr and exit status 2 (``main``).
 """
 import argparse
+import os
+import re
 import sys
+
+import ngcontact
+
+KEPT = dict(demo="{out}/run (continue with --resume)", convergence="{out}/cases (--resume skips them)",
+            hertz="{out}/cases.json (--resume skips them)", bench="{out}/bench.json (--resume skips them)",
+            stability="{out}/<study>.csv of the finished studies (--resume skips them)")
+"""Where each command keeps what it computed before an error."""
 
 
 def parser():
@@ -11,8 +21,11 @@ def parser():
     main_parser = argparse.ArgumentParser(prog="ngcontact", description="ngcontact: a piezoelectric "
                                           "Kelvin-Voigt body in adhesive contact, on NGSolve")
     commands = main_parser.add_subparsers(dest="command", required=True)
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("--traceback", action="store_true",
+                        help="on an error, show the full traceback (also: NGCONTACT_TRACEBACK=1)")
 
-    demo = commands.add_parser("demo", help="the PZT-5A plate pressed onto a glued conductive "
+    demo = commands.add_parser("demo", parents=[common], help="the PZT-5A plate pressed onto a glued conductive "
                                "foundation, then pulled off")
     demo.add_argument("--order", metavar="P", type=int, default=1,
                       help="polynomial order of u and φ (default 1, the paper's P1)")
@@ -28,7 +41,7 @@ def parser():
     demo.add_argument("--resume", action="store_true",
                       help="continue the run interrupted in OUT/run (same settings) instead of starting again")
 
-    conv = commands.add_parser("convergence", help="order-convergence study against (4.12): "
+    conv = commands.add_parser("convergence", parents=[common], help="order-convergence study against (4.12): "
                                "errors.csv and charts")
     conv.add_argument("--orders", metavar="P", type=int, nargs="+", default=[1, 2],
                       help="polynomial orders (default 1 2)")
@@ -46,22 +59,22 @@ def parser():
     conv.add_argument("--resume", action="store_true",
                       help="reuse the runs already in OUT/cases (and the streamed fine run of --case reference)")
 
-    stab = commands.add_parser("stability", help="stability maps (Nitsche γ0 × θ, penalty, β time "
-                               "step, ν → 1/2, strong coupling, debonding, load cycles): "
+    stab = commands.add_parser("stability", parents=[common], help="stability maps (Nitsche γ0 × θ, penalty, "
+                               "β time step, ν → 1/2, strong coupling, debonding, load cycles): "
                                "<study>.csv and charts")
     stab.add_argument("--out", metavar="DIR", default="stability", help="output directory")
     stab.add_argument("--quick", action="store_true", help="fewer runs per study (about a third)")
     stab.add_argument("--resume", action="store_true", help="skip the studies whose <study>.csv is in OUT")
 
-    hertz = commands.add_parser("hertz", help="contact on a curved side against Hertz (half-disk on a "
-                                "plane), obstacle normal and body normal: hertz.csv, hertz.md, a chart")
+    hertz = commands.add_parser("hertz", parents=[common], help="contact on a curved side against Hertz (half-disk "
+                                "on a plane), obstacle normal and body normal: hertz.csv, hertz.md, a chart")
     hertz.add_argument("--out", metavar="DIR", default="hertz", help="output directory")
     hertz.add_argument("--orders", metavar="P", type=int, nargs="+", default=[1, 2])
     hertz.add_argument("--levels", metavar="N", type=int, default=4, help="nested meshes, h halving (default 4)")
     hertz.add_argument("--dim", type=int, choices=(2, 3), default=2, help="half-disk (2D) or half-ball (3D)")
     hertz.add_argument("--resume", action="store_true", help="skip the cases already in OUT/cases.json")
 
-    bench = commands.add_parser("bench", help="time per step of the reference scene against one "
+    bench = commands.add_parser("bench", parents=[common], help="time per step of the reference scene against one "
                                 "linear solve, orders x sizes: bench.csv and a chart")
     bench.add_argument("--out", metavar="DIR", default="bench", help="output directory")
     bench.add_argument("--dim", type=int, choices=(2, 3), default=2, help="2D plate or 3D block")
@@ -98,14 +111,35 @@ def parser():
 
 def main(argv=None):
     """Entry point of ``python -m ngcontact`` and of the ``ngcontact`` script. Bad input
-    (a ValueError or TypeError naming the parameter) prints that one line and exits with
-    status 2, as argparse does for its own errors."""
+    (a ValueError or TypeError naming the parameter) and a failed Newton solve
+    (``ngcontact.NewtonError``: where it failed, where the steps before it are kept, what to
+    try) print one line and exit with status 2, as argparse does for its own errors; under
+    mpiexec rank 0 prints it and every rank exits. ``--traceback`` (or NGCONTACT_TRACEBACK=1)
+    shows the full traceback instead."""
     args = parser().parse_args(argv)
     try:
         _dispatch(args)
-    except (ValueError, TypeError) as err:
-        print(f"ngcontact {args.command}: error: {err}", file=sys.stderr)
+    except (ValueError, TypeError, ngcontact.NewtonError) as err:
+        if args.traceback or os.environ.get("NGCONTACT_TRACEBACK", "") not in ("", "0"):
+            raise
+        if ngcontact.parallel.rank() == 0:
+            text = _newton_line(err, args) if isinstance(err, ngcontact.NewtonError) else str(err)
+            print(f"ngcontact {args.command}: error: {' '.join(text.split())}", file=sys.stderr)
         sys.exit(2)
+
+
+def _newton_line(err, args):
+    """A NewtonError in one line: where, the last residuals, what is kept, what to try."""
+    where = f"step {err.step} (t = {err.time:.6g} s), " if err.step is not None else ""
+    last = ", ".join(f"{r:.3e}" for r in err.residuals[-3:])
+    kept = KEPT[args.command].format(out=args.out)
+    if args.command == "demo" and ngcontact.parallel.world() is not None:
+        kept = "memory only (not streamed under mpiexec)"
+    hint = re.search(r"Try: (.*?)(?: \(with full steps|\. Time steps tried|$)", str(err))
+    tried = re.search(r"Time steps tried for step \d+ \(t -> [^)]*\): (dt = [^;]*)", str(err))
+    return (f"Newton {err.reason} at {where}iteration {err.iteration} (last residuals {last}"
+            + (f"; {tried.group(1)} tried" if tried else "") + f"); the steps before it are kept in {kept}"
+            + (f"; try: {hint.group(1)}" if hint else ""))
 
 
 def _dispatch(args):

@@ -1,4 +1,5 @@
 """The data of Γ3 (2.7)-(2.10) and of its enforcement method, with validation."""
+import numbers
 from dataclasses import dataclass
 
 import ngsolve as ngs
@@ -21,7 +22,7 @@ class Contact:
             SignedDistance) giving the gap and the obstacle normal n_o, along which every
             law of Γ3 then acts; None (default): the paper's form with ``gap``.
         compliance : c_ν in Pa/m of p(r) = c_ν [r]_+, or a function r ↦ CF (any Lipschitz p
-            vanishing for r <= 0).
+            >= 0 vanishing for r <= 0; sampled by ``contact_laws.checked``).
     Adhesion (2.8)-(2.9):
         adhesion : γ_ν >= 0 in Pa/m; the glue pulls back with γ_ν β² R_ν(u_ν).
         eps_a : ε_a >= 0, the healing threshold of (2.9) (1/s, with γ_ν R_ν² read as a rate).
@@ -32,7 +33,8 @@ class Contact:
             ``adhesion``).
     Conductive foundation (2.7):
         conductance : k_e >= 0 of the default ψ (``contact_laws.conductance_ramp``), or a
-            function r ↦ CF for ψ(r), r = u_ν - g (e.g. ``conductance_literal(k_e, δ)``).
+            function r ↦ CF for ψ(r) >= 0, r = u_ν - g (e.g. ``conductance_literal(k_e, δ)``;
+            sampled by ``contact_laws.checked``).
         ramp_width : δ > 0 in m of the default ψ.
         potential_truncation : L_φ > 0 in V.
         foundation_potential : φ_Γ in V, number or CoefficientFunction (may use the time
@@ -63,11 +65,16 @@ class Contact:
     penalty: float = 1e3
 
     def __post_init__(self):
-        if self.method not in METHODS:
-            raise ValueError(f"Contact.method must be one of {', '.join(map(repr, METHODS))}, "
-                             f"got {self.method!r}")
+        for name, allowed, words in (("method", tuple(METHODS), "one of " + ", ".join(map(repr, METHODS))),
+                                     ("beta_update", ("explicit", "implicit"), "'explicit' or 'implicit'")):
+            value = getattr(self, name)
+            if not isinstance(value, str) or value not in allowed:
+                raise (ValueError if isinstance(value, str) else TypeError)(
+                    f"Contact.{name} must be {words}, got {value!r}")
         number("Contact.penalty", self.penalty, 0, low_open=True)
-        if isinstance(self.theta, bool) or self.theta not in (1, 0, -1):
+        if isinstance(self.theta, bool) or not isinstance(self.theta, numbers.Real):
+            raise TypeError(f"Contact.theta must be 1, 0 or -1, got {self.theta!r} ({type(self.theta).__name__})")
+        if self.theta not in (1, 0, -1):
             raise ValueError(f"Contact.theta must be 1, 0 or -1, got {self.theta!r}")
         number("Contact.gamma0 (Nitsche parameter)", self.gamma0, 0, low_open=True)
         number("Contact.bond_length", self.bond_length, 0, low_open=True, unit="m")
@@ -78,8 +85,6 @@ class Contact:
                 number(f"Contact.{name}", getattr(self, name), 0)
         if not isinstance(self.foundation_potential, ngs.CoefficientFunction):
             number("Contact.foundation_potential", self.foundation_potential, unit="V")
-        if self.beta_update not in ("explicit", "implicit"):
-            raise ValueError(f"Contact.beta_update must be 'explicit' or 'implicit', got {self.beta_update!r}")
         for name in ("adhesion", "eps_a"):
             number(f"Contact.{name}", getattr(self, name), 0)
         if not isinstance(self.gap, ngs.CoefficientFunction):
@@ -100,10 +105,11 @@ class Contact:
             if isinstance(getattr(self, name), ngs.CoefficientFunction):
                 raise TypeError(f"Contact.{name} must be a number >= 0 or a function r ↦ "
                                 "CoefficientFunction (the law itself), not a CoefficientFunction")
-        self.p = self.compliance if callable(self.compliance) else laws.compliance_law(self.compliance)
+        self.p = laws.checked("Contact.compliance", self.compliance, "p", vanishes=True) \
+            if callable(self.compliance) else laws.compliance_law(self.compliance)
         self.R = laws.bond_truncation(self.bond_length)
         self.phi_L = laws.potential_truncation(self.potential_truncation)
-        self.psi = self.conductance if callable(self.conductance) else \
+        self.psi = laws.checked("Contact.conductance", self.conductance, "ψ") if callable(self.conductance) else \
             laws.conductance_ramp(self.conductance, self.ramp_width)
 
     def coefficients(self):

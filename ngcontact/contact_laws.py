@@ -2,9 +2,16 @@
 
 Each ``*_law(parameters)`` returns a function r ↦ CoefficientFunction, so a user may pass
 any such function instead (it must be Lipschitz; kinks written with IfPos are linearised
-semismoothly by Newton).
+semismoothly by Newton). ``checked`` samples such a function before it is used.
 """
+import functools
+import math
+
 import ngsolve as ngs
+from ngsolve.meshes import Make1DMesh
+
+SAMPLES = (0.0, *(sign * 10.0 ** k for k in range(-12, 1) for sign in (1, -1)))
+"""The arguments r (m) at which ``checked`` samples a law: 0 and ±10^k, k = −12 … 0."""
 
 
 def positive_part(r):
@@ -61,3 +68,39 @@ def _positive(name, value, unit):
 def _nonnegative(name, value, unit):
     if not value >= 0:
         raise ValueError(f"{name} must be >= 0{' ' + unit if unit else ''}, got {value}")
+
+
+def checked(name, law, symbol, vanishes=False):
+    """``law``, a function r ↦ CoefficientFunction (``symbol``: its name in the model, "p"
+    or "ψ"), sampled at r in ``SAMPLES`` (at the time Parameter's current value): a
+    TypeError if it cannot be called with a CoefficientFunction or does not return a real
+    scalar one, a ValueError naming ``name`` if a value is NaN, inf or negative, or, with
+    ``vanishes`` (the compliant layer's p), nonzero for r <= 0. A law that cannot be
+    evaluated away from a mesh (it uses normals or fields of Γ3) is not sampled."""
+    r = ngs.Parameter(0.0)
+    try:
+        value = law(r)
+    except Exception as err:                                     # the user's function, any error
+        raise TypeError(f"{name} must be a function r ↦ CoefficientFunction; called with a CoefficientFunction "
+                        f"it raised {type(err).__name__}: {err}") from None
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        value = ngs.CF(float(value))
+    if not isinstance(value, ngs.CoefficientFunction) or value.dim != 1 or value.is_complex:
+        raise TypeError(f"{name} must return a real scalar CoefficientFunction, got {value!r}")
+    for s in SAMPLES:
+        r.Set(s)
+        try:
+            v = value(_point()[1])
+        except Exception:                                        # NGSolve: needs a point of Γ3
+            return law
+        if not math.isfinite(v) or v < 0 or (vanishes and s <= 0 and v != 0):
+            rule = f"{symbol} must be finite and >= 0" + (", and 0 for r <= 0" if vanishes else "")
+            raise ValueError(f"{name}: the law {symbol}(r) is {v:.4g} at r = {s:g} m; {rule}")
+    return law
+
+
+@functools.cache
+def _point():
+    """(a one-element 1D mesh, a point of it), where a law of r alone is evaluated."""
+    mesh = Make1DMesh(1)
+    return mesh, mesh(0.5)

@@ -10,11 +10,10 @@ import numpy as np
 from matplotlib import ticker, tri
 from matplotlib.figure import Figure
 
-from . import parallel
+from . import checks, parallel
 from .progress import write
 from .scenes import reference
 from .studies.bench import THREADS_FROM
-from .studies.common import writable_directory
 
 
 
@@ -35,14 +34,16 @@ def run(order=1, out="results", maxh=None, steps=200, theta=1, gamma0=10.0, resu
 
     Parameters
     ----------
-    order : int, polynomial order of u and φ (1 = the paper's P1 scheme).
+    order : int in [1, 10], polynomial order of u and φ (1 = the paper's P1 scheme).
     out : str or path, output directory (created).
-    maxh : float, mesh size in m (2D: halved along Γ3; default 0.005 in 2D, 0.01 in 3D).
-    steps : int, number of time steps over the load history, 0 to 0.5 s (dt γ_ν L² = 0.625
-        at 200).
+    maxh : float in (0, 0.02], mesh size in m (2D: halved along Γ3; default 0.005 in 2D, 0.01
+        in 3D); with ``refine`` and ``order`` the problem must fit in the machine's memory
+        (``checks.fits_in_memory``).
+    steps : int in [1, 10⁶], number of time steps over the load history, 0 to 0.5 s
+        (dt γ_ν L² = 0.625 at 200).
     theta, gamma0 : Nitsche variant and parameter.
     dim : 2 (the plate, plane strain) or 3 (the block L1 × WIDTH × L2).
-    refine : int, times the mesh is refined (nested meshes: from 10⁵ DOFs in 3D the Newton
+    refine : int in [0, 10], times the mesh is refined (nested meshes: from 10⁵ DOFs in 3D the Newton
         corrections are solved by GMRES with multigrid, ``solver_choice``).
 
     Returns
@@ -55,21 +56,22 @@ def run(order=1, out="results", maxh=None, steps=200, theta=1, gamma0=10.0, resu
     the free end of Γ3, m), ``reaction_y`` and ``contact_force_y`` (vertical components, N/m;
     N in 3D).
     """
-    if int(steps) != steps or steps < 1:
-        raise ValueError(f"steps must be an integer >= 1, got {steps}")
-    if resume not in (True, False):
-        raise ValueError(f"resume must be True or False, got {resume!r}")
-    if dim not in (2, 3):
-        raise ValueError(f"dim must be 2 or 3, got {dim!r}")
-    maxh = (0.005 if dim == 2 else 0.01) if maxh is None else maxh
-    out = writable_directory(out)
+    dim = checks.choice("dim", dim, (2, 3))
+    order, steps = checks.order("order", order), checks.integer("steps", steps, 1, checks.MAX_STEPS)
+    refine, resume = checks.integer("refine", refine, 0, checks.MAX_REFINE), checks.flag("resume", resume)
+    maxh = (0.005 if dim == 2 else 0.01) if maxh is None else \
+        checks.number("maxh", maxh, 0, reference.L2, low_open=True, unit="m (the plate's thickness L2)")
+    contact = reference.contact(theta, gamma0)       # θ and γ0 checked before the mesh is made
+    sides = (reference.L1, reference.L2) if dim == 2 else (reference.L1, reference.WIDTH, reference.L2)
+    checks.fits_in_memory(f"maxh = {maxh:g} m, refine = {refine}, order = {order}",
+                          checks.estimated_ndof(checks.estimated_vertices(sides, maxh), dim, refine, order))
+    out = checks.writable_directory(out)
     settings = dict(order=order, maxh=maxh, dim=dim, refine=refine, steps=steps, theta=theta, gamma0=gamma0)
     if resume:                                       # before meshing
         _check_resumable(out / "run", settings)
     lead = parallel.rank() == 0                      # under mpiexec rank 0 prints and writes
     say = print if lead else _quiet
-    sim = reference.simulation(order, maxh, refine, dim, contact=reference.contact(theta, gamma0),
-                               keep_states=dim == 2)
+    sim = reference.simulation(order, maxh, refine, dim, contact=contact, keep_states=dim == 2)
     body, mesh = sim.body, sim.body.mesh
     distributed = parallel.is_distributed(mesh)
     tip = [(reference.L1, 0.0) if dim == 2 else (reference.L1, reference.WIDTH / 2, 0.0)]

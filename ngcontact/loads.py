@@ -18,6 +18,8 @@ def as_cf(value, dim=None, name="value"):
     """A number / tuple / CoefficientFunction as a CoefficientFunction of ``dim`` components."""
     if not isinstance(value, ngs.CoefficientFunction):
         items = value if isinstance(value, (tuple, list)) else (value,)
+        if not items:
+            raise TypeError(f"{name} must be a number, a tuple of numbers or a CoefficientFunction, got {value!r}")
         for item in items:
             if not isinstance(item, ngs.CoefficientFunction):
                 number(name, item)
@@ -30,13 +32,26 @@ def as_cf(value, dim=None, name="value"):
 
 @dataclass
 class Loads:
-    """Loads of the body; dictionaries are keyed by boundary name (or "a|b")."""
+    """Loads of the body; dictionaries are keyed by boundary name (or "a|b"). Each value is
+    checked when the Loads are made (a number, tuple of numbers or CoefficientFunction;
+    finite), its boundaries and components when a Simulation takes them (``check``)."""
     f0: object = None
     f2: dict = field(default_factory=dict)
     q0: object = None
     qb: dict = field(default_factory=dict)
     potential: dict = field(default_factory=dict)
     displacement: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        for entry in ("f0", "q0"):
+            if getattr(self, entry) is not None:
+                as_cf(getattr(self, entry), None, f"Loads.{entry}")
+        for entry in ("f2", "qb", "potential", "displacement"):
+            value = getattr(self, entry)
+            if not isinstance(value, dict) or not all(isinstance(key, str) for key in value):
+                raise TypeError(f"Loads.{entry} must be a dict {{boundary names (str): value}}, got {value!r}")
+            for key, item in value.items():
+                as_cf(item, None, f"Loads.{entry}[{key!r}]")
 
     def coefficients(self):
         """(name, value) of every entry, for the checks of ``Simulation``."""

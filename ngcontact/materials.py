@@ -99,7 +99,8 @@ class Material:
 
     Parameters
     ----------
-    c : (6, 6) array_like, elastic stiffness c_IJ in Pa (F in (2.3)).
+    c : (6, 6) array_like of real numbers (complex data is refused), elastic stiffness c_IJ
+        in Pa (F in (2.3)).
     e : (3, 6) array_like, piezoelectric constants e_iJ in C/m² (E in (2.3)-(2.4)).
     eps : (3, 3) array_like, permittivity ε_ij in F/m (C in (2.4)).
     eta : (6, 6) array_like or None, viscosity in Pa·s (A in (2.3)); None or zero for an
@@ -118,7 +119,14 @@ class Material:
     def __post_init__(self):
         def arr(name, shape):
             value = getattr(self, name)
-            a = np.array(value, dtype=float)
+            try:
+                a = np.array(value)
+            except ValueError:                                   # ragged nested lists
+                raise ValueError(f"Material: {name} must have shape {shape}, got {value!r}") from None
+            if np.iscomplexobj(a) or not (np.issubdtype(a.dtype, np.number) or a.dtype == bool):
+                raise TypeError(f"Material: {name} must be a {shape} array of real numbers, got {a.dtype} "
+                                f"entries ({type(value).__name__})")
+            a = a.astype(float)
             if a.shape != shape:
                 raise ValueError(f"Material: {name} must have shape {shape}, got {a.shape}")
             object.__setattr__(self, name, a)
@@ -133,6 +141,8 @@ class Material:
         _symmetric_positive_definite("elasticity c (F)", self.c, "Pa")
         _symmetric_positive_definite("viscosity eta (A)", self.eta, "Pa·s", allow_zero=True)
         _symmetric_positive_definite("permittivity eps (C)", self.eps, "F/m")
+        if not isinstance(self.name, str):
+            raise TypeError(f"Material: name must be a str, got {type(self.name).__name__}")
         if self.poling not in (None, "x", "y", "z"):
             raise ValueError(f"Material: poling must be 'x', 'y', 'z' or None, got {self.poling!r}")
 

@@ -12,13 +12,20 @@ oscillates inside each facet, while n_o is smooth (docs/curved_contact.md).
 
 Points, centres and distances may be CoefficientFunctions of the time Parameter (an
 indenter driven into the body: g < 0 ahead of it is then the prescribed approach). At t = 0
-the obstacle must not intersect the body beyond a tolerance (``Simulation`` checks it).
+the obstacle must not intersect the body beyond a tolerance, and n_o must be a unit field
+pointing into the obstacle where the body is closest to it (``Simulation`` checks both,
+``check_normal``).
 """
 import ngsolve as ngs
 import numpy as np
 
+from . import parallel
 from .checks import number
 from .loads import as_cf
+
+NEAR = 0.05
+"""``check_normal`` looks at the points of Γ3 whose gap is within this fraction of the
+body's size of the smallest gap."""
 
 
 def _position(dim):
@@ -42,6 +49,7 @@ class Plane:
     """
 
     def __init__(self, point, normal):
+        as_cf(point, None, "Plane: point")
         self.point = point
         try:
             normal = np.asarray(normal, dtype=float)
@@ -68,6 +76,7 @@ class Ball:
     Gap g = |x − c| − R, obstacle normal n_o = (c − x)/|x − c|."""
 
     def __init__(self, center, radius):
+        as_cf(center, None, f"{type(self).__name__}: center")
         self.center = center
         self.radius = number(f"{type(self).__name__}: radius", radius, 0, low_open=True, unit="m")
 
@@ -91,9 +100,11 @@ class Sphere(Ball):
 class SignedDistance:
     """An obstacle given by the user: ``distance`` g(x) (m, a scalar CoefficientFunction of
     position and time, >= 0 outside the obstacle) and ``normal`` n_o(x), a unit vector field
-    pointing into the obstacle (checked on Γ3 by ``Simulation``)."""
+    pointing into the obstacle (checked on Γ3 by ``Simulation``, ``check_normal``)."""
 
     def __init__(self, distance, normal):
+        as_cf(distance, 1, "SignedDistance: distance")
+        as_cf(normal, None, "SignedDistance: normal")
         self.distance, self.normal = distance, normal
 
     def fields(self, dim):
@@ -105,3 +116,27 @@ class SignedDistance:
 
 
 OBSTACLES = (Plane, Ball, SignedDistance)
+
+
+def check_normal(side, gap, normal, size):
+    """The obstacle normal n_o (a CoefficientFunction) sampled on Γ3 (``side``, a
+    ContactSide) at the time Parameter's value, with the gap (both finite,
+    ``arguments.gamma3_data``): n_o must be a unit vector, and it must point from the body
+    into the obstacle where the body is closest to it: n_o·ν > 0 somewhere and n_o·ν >= 0
+    everywhere among the points whose gap is within ``NEAR`` × ``size`` (m, the body's size)
+    of the smallest gap (ν the body's outward normal; a reversed n_o lets the body pass
+    through the obstacle). A ValueError naming the obstacle's normal otherwise."""
+    mesh = side.mesh
+    g, n = side.sample(gap), side.sample(normal)
+    length = np.linalg.norm(n, axis=-1)
+    if parallel.maximum(mesh, np.abs(length - 1)) > 1e-8:
+        raise ValueError("Contact.obstacle: its normal must be a unit vector field on Γ3; |n_o| ranges "
+                         f"over [{parallel.minimum(mesh, length):.6g}, {parallel.maximum(mesh, length):.6g}]")
+    along = np.einsum("fsd,fd->fs", n, side.normals)
+    near = g <= parallel.minimum(mesh, g) + NEAR * size
+    low, high = parallel.minimum(mesh, along[near]), parallel.maximum(mesh, along[near])
+    if low < -1e-8 or high <= 1e-8:
+        raise ValueError("Contact.obstacle: its normal n_o must point from the body into the obstacle (n_o·ν > 0 "
+                         f"where the body is closest to it, ν the body's outward normal); where the gap is within "
+                         f"{NEAR:g} of the body's size of its smallest value, n_o·ν ranges over [{low:.3g}, "
+                         f"{high:.3g}] on Γ3: is the normal reversed?")

@@ -153,6 +153,15 @@ def local_matrix(matrix):
     return getattr(matrix, "local_mat", matrix)
 
 
+def refuse_under_mpiexec(what):
+    """Raise a ValueError naming ``what`` (a command that runs serially only) when this
+    process is one of several MPI ranks: each rank would run the whole serial problem."""
+    comm = world()
+    if comm is not None:
+        raise ValueError(f"{what} runs serially only: under mpiexec with {comm.size} ranks every rank would "
+                         "run the whole serial problem; run it without mpiexec")
+
+
 def serial_only(mesh, feature, why=""):
     """Raise a ValueError naming ``feature`` when ``mesh`` is distributed."""
     if is_distributed(mesh):

@@ -12,7 +12,7 @@ import warnings
 import ngsolve as ngs
 import numpy as np
 
-from . import forms, parallel, results
+from . import arguments, forms, parallel, results
 from .adhesion import BondingField
 from .admissible import (GapCheck, PhysicsWarning, check_initial_displacement, check_supports_at_start, flags,
                          scene_flags, stiff_contact_terms)
@@ -24,13 +24,12 @@ from .enforcement import METHODS
 from .loads import Loads, as_cf
 from .newton import Newton, NewtonError, NewtonResult, Timings
 from .observables import Gamma3, Recorder
+from .obstacles import check_normal
 from .progress import bar
 from .records import History
 from .solver_choice import choose
 from .step_length import StepLength
 from .system import StepSystem, free_jacobian, has_interior_dofs
-
-MAX_STEPS = 1_000_000        # nominal steps of one run(): more is a mistyped dt, not a plan
 
 
 class Simulation:
@@ -84,6 +83,9 @@ class Simulation:
         10⁵ DOFs, for P1 when the mesh was made by ``multigrid.nested_mesh``
         (``ngcontact.geometries`` do), without condensation (``solver_choice``); True or False.
 
+    The arguments are checked before any work (``arguments``): the options True or False
+    (None where it means automatic), else a TypeError naming the option.
+
     The state after the last step: ``t`` (s), ``u``, ``phi`` (components of ``gfu``), the
     bonding field ``beta`` (``beta.values``), and ``history``, one StepRecord per step.
     """
@@ -91,6 +93,12 @@ class Simulation:
     def __init__(self, body, loads=None, *, contact=None, time=None, u0=None, inverse=None,
                  rtol=1e-10, maxit=50, keep_states=True, predictor=False, condense=None, realcompile=None,
                  limit_steps=True, reuse_factorization=True, iterative=None, electric=None, physical_checks=True):
+        options = arguments.simulation(body, loads, contact, time, inverse, dict(
+            keep_states=keep_states, predictor=predictor, condense=condense, realcompile=realcompile,
+            limit_steps=limit_steps, reuse_factorization=reuse_factorization, iterative=iterative,
+            electric=electric, physical_checks=physical_checks))
+        keep_states, predictor, condense, realcompile, limit_steps, reuse_factorization, iterative, electric, \
+            physical_checks = options.values()
         self.body = body
         self.parallel_notes = parallel.check_simulation(body.mesh, contact, inverse, condense, reuse_factorization,
                                                        iterative)
@@ -163,14 +171,12 @@ class Simulation:
             gap, normal, sampled_normal = as_cf(contact.gap, 1, "Contact.gap"), ngs.specialcf.normal(body.dim), None
         foundation_potential = as_cf(contact.foundation_potential, 1, "Contact.foundation_potential")
         gamma3 = Gamma3(side, contact, None, None, gap, foundation_potential, normal, sampled_normal)
+        arguments.gamma3_data(contact, gamma3, body.mesh, self.time, 0.0)
         self.time.Set(0.0)
         self._gap_check = GapCheck(self.body, gamma3)
         self._gap_check(0.0)
         if sampled_normal is not None:
-            length, mesh = np.linalg.norm(side.sample(normal), axis=-1), body.mesh
-            if parallel.maximum(mesh, np.abs(length - 1)) > 1e-8:
-                raise ValueError("Contact.obstacle: its normal must be a unit vector field on Γ3; |n_o| ranges "
-                                 f"over [{parallel.minimum(mesh, length):.6g}, {parallel.maximum(mesh, length):.6g}]")
+            check_normal(side, gap, normal, body.size)
         beta = BondingField(side, contact)
         enforcement = METHODS[contact.method](body, contact, side, gap=gap, u_old=self.system.u_old,
                                               inv_dt=self.system.inv_dt, normal=normal)
@@ -242,17 +248,19 @@ class Simulation:
         """One backward Euler step of length dt (s); returns its StepRecord.
 
         Transactional: either t, u, φ, β and the history all advance, or they are left
-        bitwise as they were and the error (``NewtonError`` if Newton fails) is raised."""
-        if not dt > 0:
-            raise ValueError(f"time step dt must be > 0 s, got {dt}")
+        bitwise as they were and the error (``NewtonError`` if Newton fails) is raised.
+        dt and the data of Γ3 at t + dt are checked first (``arguments.time_step``,
+        ``arguments.gamma3_data``)."""
+        dt = arguments.time_step(dt, self.t)
         n = len(self.history)
         start = wallclock.perf_counter()
         saved, timings = self.scheme.checkpoint(), Timings()
         try:
-            if self.contact is not None and self.contact.obstacle is None and \
-                    isinstance(self.contact.gap, ngs.CoefficientFunction):
-                self.time.Set(self.t + dt)                  # the gap at t_n, before the solve
-                self._gap_check(self.t + dt)
+            if self.contact is not None:                    # the data at t_n, before the solve
+                arguments.gamma3_data(self.contact, self.gamma3, self.body.mesh, self.time, self.t + dt)
+                if self.contact.obstacle is None and isinstance(self.contact.gap, ngs.CoefficientFunction):
+                    self.time.Set(self.t + dt)
+                    self._gap_check(self.t + dt)
             result = self.scheme.advance(dt, step=n, timer=timings)
             record = self._record(n, result, start, timings)
         except BaseException:
@@ -268,43 +276,42 @@ class Simulation:
 
     def advance(self, target, max_cutbacks=6, on_step=None):
         """Reach the time ``target`` (s) in one step, or, where Newton fails, in two half
-        steps, each halved again on failure, down to 1/2^max_cutbacks of the step; returns
-        the new StepRecords and calls ``on_step(record)`` after each step, while the state is
-        that step's. Each cut-back is listed in ``cutbacks``. If even the smallest step fails,
-        the NewtonError names the time steps tried; the state is that of the last computed
-        step."""
-        _check_cutbacks(max_cutbacks)
-        if not target > self.t:
-            raise ValueError(f"target time must be > the current time {self.t} s, got {target}")
-        return self._advance(target, int(max_cutbacks), on_step)
-
-    def _advance(self, target, cutbacks_left, on_step):
-        dt = target - self.t
-        try:
-            record = self.step(dt)
-        except NewtonError as err:
-            n = len(self.history)
-            self.cutbacks.append(dict(step=n, time=target, dt=dt, iterations=err.iteration,
-                                      residuals=err.residuals))
-            if cutbacks_left == 0 or not err.recoverable:     # (not recoverable: a smaller step fails too)
-                tried = ", ".join(f"{c['dt']:.3g}" for c in self.cutbacks if c["step"] == n)
-                stiff = stiff_contact_terms(self.body, self.contact, self.side) if self.contact is not None else ""
-                err.args = (f"{err.args[0]}. Time steps tried for step {n} (t -> {target:.6g} s): "
-                            f"dt = {tried} s; the state is that of step {n - 1}{stiff}",)
-                raise
-            middle = self.t + dt / 2
-            return (self._advance(middle, cutbacks_left - 1, on_step)
-                    + self._advance(target, cutbacks_left - 1, on_step))
-        if on_step is not None:
-            on_step(record)
-        return [record]
+        steps, each halved again on failure, down to 1/2^max_cutbacks of the step
+        (max_cutbacks in [0, ``arguments.MAX_CUTBACKS``]); returns the new StepRecords and
+        calls ``on_step(record)`` after each step, while the state is that step's. Each
+        cut-back is listed in ``cutbacks``. If even the smallest step fails, the NewtonError
+        names the time steps tried; the state is that of the last computed step."""
+        max_cutbacks, on_step = arguments.cutbacks(max_cutbacks), arguments.callback(on_step)
+        target = arguments.later("target time", target, self.t)
+        records, pending = [], [(target, 0)]        # (time to reach, halvings so far): a stack
+        while pending:
+            goal, halvings = pending.pop()
+            dt = goal - self.t
+            try:
+                record = self.step(dt)
+            except NewtonError as err:
+                n = len(self.history)
+                self.cutbacks.append(dict(step=n, time=goal, dt=dt, iterations=err.iteration,
+                                          residuals=err.residuals))
+                if halvings == max_cutbacks or not err.recoverable:   # (not recoverable: smaller steps fail too)
+                    tried = ", ".join(f"{c['dt']:.3g}" for c in self.cutbacks if c["step"] == n)
+                    stiff = "" if self.contact is None else stiff_contact_terms(self.body, self.contact, self.side)
+                    err.args = (f"{err.args[0]}. Time steps tried for step {n} (t -> {goal:.6g} s): "
+                                f"dt = {tried} s; the state is that of step {n - 1}{stiff}",)
+                    raise
+                pending += [(goal, halvings + 1), (self.t + dt / 2, halvings + 1)]   # first half on top
+                continue
+            if on_step is not None:
+                on_step(record)
+            records.append(record)
+        return records
 
     def run(self, dt, T, *, max_cutbacks=6, progress=False, vtk=None, on_step=None, out=None):
         """Step from the current time to T (s) with nominal steps dt (s); returns the History.
 
         max_cutbacks : the cut-back policy of ``advance`` for each nominal step (the next
             nominal step uses dt again).
-        progress : show a progress bar.
+        progress : show a progress bar (True or False).
         vtk : file name stem for NGSolve's VTKOutput of u and φ (one file per step; under
             mpiexec one per computing rank and step, collected by ``<vtk>.pvd``), or None.
         on_step : called with each new StepRecord, right after its step (cut-back steps
@@ -314,21 +321,17 @@ class Simulation:
             the interrupted run on its own nominal steps.
         If a step fails even at the smallest cut-back, the NewtonError is raised with
         ``error.history`` holding every step computed so far (also in ``history``).
+        The arguments are checked before the first step (``arguments.run``: the directories
+        of ``vtk`` and ``out`` must be writable, at most ``checks.MAX_STEPS`` steps).
         """
-        dt, T = number("time step dt", dt, 0, low_open=True, unit="s"), number("final time T", T, unit="s")
-        if not T > self.t:
-            raise ValueError(f"final time T must be > the current time {self.t} s, got {T}")
-        _check_cutbacks(max_cutbacks)
-        if (T - self.t) / dt > MAX_STEPS:
-            raise ValueError(f"time step dt = {dt:g} s gives {(T - self.t) / dt:.3g} steps to T = {T:g} s; at "
-                             f"most {MAX_STEPS:,} steps per run (a larger dt, or several runs)")
+        dt, T, max_cutbacks, progress = arguments.run(self, dt, T, max_cutbacks, progress, vtk, on_step, out)
         resumed = self._resumed
         start = resumed["start"] if resumed and (resumed["dt"], resumed["T"]) == (dt, T) else self.t
         steps = int(np.ceil((T - start) / dt - 1e-9))
         callbacks = [on_step] if on_step else []
         if out is not None:                      # checks the directory, writes the history so far
             callbacks.insert(0, results.Stream(self, out, dt, T, start, resumed))
-        if vtk:                                  # distributed: one .vtu per computing rank and step, one .pvd
+        if vtk is not None:                      # distributed: one .vtu per computing rank and step, one .pvd
             writer = ngs.VTKOutput(self.body.mesh, coefs=[self.u, self.phi], names=["displacement", "potential"],
                                    filename=str(vtk), subdivision=max(self.body.order, self.body.order_phi) - 1,
                                    legacy=False)
@@ -386,7 +389,3 @@ class Simulation:
         free DOFs, as a scipy CSR matrix; ``scaled``: S J S with S = diag(s_u^-½, s_φ^-½), s_b
         the mean of |diagonal| over block b (the scaling of Newton's norms)."""
         return free_jacobian(self.system.uncondensed, self.gfu.vec, self.X, scaled)
-
-def _check_cutbacks(max_cutbacks):
-    if int(max_cutbacks) != max_cutbacks or max_cutbacks < 0:
-        raise ValueError(f"max_cutbacks must be an integer >= 0, got {max_cutbacks}")

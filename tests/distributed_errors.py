@@ -1,16 +1,26 @@
 """Run under mpiexec by tests/test_parallel.py: what does not run distributed raises a
-ValueError naming it; prints one line per case on rank 0. Then two steps with
+ValueError naming it (a serial mesh given to Body included); prints one line per case on
+rank 0. Then two steps with
 ``run(vtk=<argv[1]>/fields)`` (the ParaView series, one file per computing rank and step)."""
 import pathlib
 import sys
 
 import ngsolve as ngs
 
+import ngcontact as ngc
 from ngcontact import parallel
+from ngcontact.geometries import plate
 from ngcontact.scenes import reference
 
 cases = {"active_set": dict(contact=reference.contact(method="active_set")), "iterative": dict(iterative=True),
          "inverse": dict(inverse="umfpack"), "condense": dict(condense=True)}
+try:                                     # a script's own serial mesh: every rank would solve it whole
+    ngc.Body(plate(maxh=0.02, comm=False), ngc.pzt5a(), clamped="left", grounded="top")
+    message = "no error"
+except ValueError as err:
+    message = str(err)
+if parallel.rank() == 0:
+    print(f"serial mesh: {message}", flush=True)
 for name, options in cases.items():
     try:
         reference.simulation(1, 0.02, dim=3, **options)

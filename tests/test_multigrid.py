@@ -98,7 +98,7 @@ def test_bad_input_names_the_parameter():
 
     def make(**options):
         return ngc.Simulation(body, scene.loads(t, 3), contact=scene.contact(), time=t, **options)
-    with pytest.raises(ValueError, match="iterative must be None"):
+    with pytest.raises(TypeError, match="iterative must be True, False or None"):
         make(iterative="yes")
     with pytest.raises(ValueError, match="takes no inverse"):
         make(iterative=True, inverse="umfpack")

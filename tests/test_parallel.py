@@ -63,12 +63,15 @@ def test_distributed_demo_equals_the_serial_run(serial, tmp_path, ranks):
 
 
 def test_what_does_not_run_distributed_says_so(tmp_path):
-    """The nodal active set, GMRES with multigrid, a serial inverse, static condensation and
-    the stream of results raise a ValueError naming the feature under mpiexec; ``run(vtk=)``
+    """A serial mesh given to Body, the nodal active set, GMRES with multigrid, a serial
+    inverse, static condensation and the stream of results raise a ValueError naming the
+    feature under mpiexec; ``run(vtk=)``
     writes one ParaView file per computing rank and step (the initial state and 2 steps),
     with u and φ, collected by one .pvd."""
     lines = dict(line.split(": ", 1) for line in launch(3, str(HERE / "distributed_errors.py"), str(tmp_path))
                  .splitlines() if ": " in line)
+    assert lines["serial mesh"].startswith("mesh: a serial mesh under mpiexec with 3 ranks (every rank would "
+                                          "solve the whole problem); distribute it")
     assert "'active_set'" in lines["active_set"] and "distributed mesh" in lines["active_set"]
     assert "iterative=True" in lines["iterative"] and "nested meshes" in lines["iterative"]
     assert "inverse='umfpack'" in lines["inverse"]
@@ -82,3 +85,18 @@ def test_what_does_not_run_distributed_says_so(tmp_path):
     for part in parts:
         text = (tmp_path / part).read_text(errors="replace")
         assert 'Name="displacement"' in text and 'Name="potential"' in text
+
+
+@pytest.mark.parametrize("command", ["hertz", "convergence", "stability"])
+def test_serial_commands_are_refused_under_mpiexec(command, tmp_path):
+    """``mpiexec -n 2 python -m ngcontact hertz|convergence|stability``: one line, printed by
+    rank 0 only, exit status 2 on every rank, nothing written (each rank ran the whole serial
+    study; convergence hung)."""
+    env = dict(os.environ, PYTHONWARNINGS="ignore")
+    done = subprocess.run([mpiexec(), "-n", "2", sys.executable, "-m", "ngcontact", command, "--out",
+                           str(tmp_path / "out")], capture_output=True, text=True, timeout=120, env=env,
+                          cwd=HERE.parent)
+    assert done.returncode == 2
+    assert done.stderr.strip() == (f"ngcontact {command}: error: {command} runs serially only: under mpiexec with 2 "
+                                   "ranks every rank would run the whole serial problem; run it without mpiexec")
+    assert not (tmp_path / "out").exists()

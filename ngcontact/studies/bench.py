@@ -33,11 +33,12 @@ import ngsolve as ngs
 import numpy as np
 from matplotlib.figure import Figure
 
-from ngcontact import parallel
+from ngcontact import checks, parallel
 from ngcontact.progress import bar
 from ngcontact.scenes import reference
 
-from .common import fitted_slope, writable_directory, write_csv
+from . import common
+from .common import fitted_slope, write_csv
 
 COLUMNS = ("dim", "order", "level", "ndof", "records", "newton_mean", "newton_max", "step_s",
            "assembly_s", "factorization_s", "solve_s", "residual_s", "other_s", "one_solve_s",
@@ -180,9 +181,24 @@ def run(out, *, orders=(1, 2, 3, 4), dim=2, max_ndof=1e6, steps=10, dt=2.5e-3, p
     bench.json (rows and fitted exponents per order) and time_per_step.png into ``out``
     after each case (long runs keep what they measured). ``compare``: each case also on the
     old path, right after the new one. ``resume``: the cases already in ``out/bench.json``
-    (same dim, steps and dt) are kept and not measured again."""
+    (same dim, steps and dt) are kept and not measured again. The arguments are checked
+    before any case: orders in [1, 10], ``max_ndof`` finite, at least the coarsest mesh's
+    DOFs of each order and within the machine's memory, steps in [1, 10⁶], dt > 0."""
+    orders = common.orders("orders", orders)
+    dim = checks.choice("dim", dim, (2, 3))
+    max_ndof = checks.number("max_ndof", max_ndof, 1, unit="DOFs")
+    checks.fits_in_memory(f"max_ndof = {max_ndof:g}", max_ndof)
+    steps = checks.integer("steps", steps, 1, checks.MAX_STEPS)
+    dt = checks.number("dt", dt, 0, low_open=True, unit="s")
+    progress, compare, resume = (checks.flag(name, value) for name, value in
+                                 (("progress", progress), ("compare", compare), ("resume", resume)))
+    coarsest = {order: reference.body(order, MAXH[dim], dim=dim).ndof for order in orders}
+    below = [f"P{order}: {ndof}" for order, ndof in coarsest.items() if ndof > max_ndof]
+    if below:
+        raise ValueError(f"max_ndof = {max_ndof:g} is below the coarsest mesh's DOFs ({', '.join(below)}): "
+                         "nothing to measure")
     writes = parallel.rank() == 0                    # under mpiexec: rank 0 prints and writes
-    out = writable_directory(out)
+    out = checks.writable_directory(out)
     cases = [(order, level) for order in orders for level in levels(order, dim, max_ndof)]
     rows = _done(out, dim, steps, dt) if resume else []
     with bar(len(cases), "bench cases", progress, unit="run") as shown:

@@ -7,26 +7,23 @@ kept as a row too, with ``failure_kind`` of its residual history.
 import csv
 import json
 import math
-import os
 import pathlib
 import re
 
 import numpy as np
 
 import ngcontact as ngc
+from ngcontact import checks
 
 
-def writable_directory(out):
-    """``out`` as a created, writable directory (a Path); checked before a study starts."""
-    out = pathlib.Path(out)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        probe = out / f".ngcontact-write-test-{os.getpid()}"      # one per process (mpiexec)
-        probe.write_text("")
-        probe.unlink()
-    except OSError as err:
-        raise ValueError(f"output directory {str(out)!r} cannot be written: {err.strerror}") from None
-    return out
+def orders(name, values):
+    """A study's polynomial orders: a nonempty list of integers in [1, ``checks.MAX_ORDER``]
+    (a TypeError or ValueError naming ``name`` otherwise)."""
+    if isinstance(values, (str, bytes)) or not isinstance(values, (list, tuple, range)):
+        raise TypeError(f"{name} must be a list of polynomial orders, got {values!r}")
+    if not values:
+        raise ValueError(f"{name} must name at least one polynomial order, got {list(values)}")
+    return [checks.order(name, p) for p in values]
 
 
 def fmt(value):

@@ -27,14 +27,24 @@ import numpy as np
 from matplotlib.figure import Figure
 
 import ngcontact as ngc
+from ngcontact import checks, parallel
 from ngcontact.geometries import plate
 from ngcontact.progress import bar
 from ngcontact.scenes import reference
 from ngcontact.scenes.manufactured import ContactManufactured, t as t_symbol
 
-from .common import CaseStore, fitted_slope, writable_directory, write_csv
+from . import common
+from .common import CaseStore, fitted_slope, write_csv
 
 PARTS = ("u", "phi", "beta")
+CASES = ("viscous", "adhesive", "reference")
+"""The cases of ``command``: manufactured solutions, or the reference scene."""
+MANUFACTURED_PLATE, MANUFACTURED_MAXH, REFERENCE_MAXH = (1.0, 0.5), 0.25, 0.01
+"""The plate (L1, L2) and coarsest mesh size of the manufactured cases, and the coarsest
+mesh size of the reference case, m (the defaults of the studies)."""
+MAX_SMOOTHNESS, MAX_HALVINGS = 12, 12
+"""Bounds of ``command``'s smoothness (exponent of the manufactured u at the contact-set
+ends) and dt halvings (the finest run has 4 · 2^11 steps)."""
 
 
 @dataclass
@@ -82,7 +92,7 @@ def _stored(store, args):
     return (store or CaseStore(None)).get(key, lambda: _manufactured_run(*args), asdict, lambda d: Run(**d))
 
 
-def manufactured_study(orders=(1, 2), levels=3, case="viscous", dt=0.25, T=1.0, maxh=0.25,
+def manufactured_study(orders=(1, 2), levels=3, case="viscous", dt=0.25, T=1.0, maxh=MANUFACTURED_MAXH,
                        time_profile="linear", smoothness=4, theta=1, gamma0=10.0, progress=True, store=None):
     """Errors against ``ContactManufactured`` for every order and level (0 .. levels-1);
     ``store``: a CaseStore that keeps (and, resuming, reuses) each finished run."""
@@ -96,7 +106,7 @@ def manufactured_study(orders=(1, 2), levels=3, case="viscous", dt=0.25, T=1.0, 
     return add_rates(runs)
 
 
-def time_study(order=2, level=2, halvings=4, case="viscous", dt0=0.25, T=1.0, maxh=0.25,
+def time_study(order=2, level=2, halvings=4, case="viscous", dt0=0.25, T=1.0, maxh=MANUFACTURED_MAXH,
                smoothness=4, progress=True, store=None):
     """Errors for dt = dt0 / 2^j (j < halvings) on one mesh: the time-step part of (4.12)."""
     runs = []
@@ -109,7 +119,7 @@ def time_study(order=2, level=2, halvings=4, case="viscous", dt0=0.25, T=1.0, ma
 
 
 def _manufactured_run(order, level, case, dt, T, maxh, time_profile, smoothness, theta, gamma0):
-    mesh = plate(L1=1.0, L2=0.5, maxh=maxh, refine=level)
+    mesh = plate(*MANUFACTURED_PLATE, maxh=maxh, refine=level)
     body = ngc.Body(mesh, scaled_pzt(), clamped="left", grounded="top", contact_side="bottom", order=order)
     mms = ContactManufactured(body.tensors, case=case, time_profile=time_profile, smoothness=smoothness)
     time = ngs.Parameter(0.0)
@@ -125,7 +135,7 @@ def _manufactured_run(order, level, case, dt, T, maxh, time_profile, smoothness,
                [int(n) for n in sim.history.newton_iterations[1:]], wall)
 
 
-def reference_study(orders=(1, 2), levels=3, steps=80, T=0.25, maxh=0.01, reference_order=None,
+def reference_study(orders=(1, 2), levels=3, steps=80, T=0.25, maxh=REFERENCE_MAXH, reference_order=None,
                     reference_level=None, progress=True, store=None):
     """Relative errors of the reference scene against a fine solution, ``steps`` time steps
     over [0, T] for each (T = 0.25 s: contact growth, release, the start of debonding).
@@ -272,11 +282,25 @@ def save(runs, out, title, by="h"):
 def command(orders, levels, case, smoothness, dt_halvings, out, resume=False):
     """``python -m ngcontact convergence``: run the study, write errors.csv and the charts
     into ``out``, print the fitted rates (from three levels or more)."""
-    if isinstance(levels, bool) or not isinstance(levels, int) or levels < 1:
-        raise ValueError(f"--levels must be an integer >= 1, got {levels!r}")
-    if dt_halvings and (not isinstance(dt_halvings, int) or dt_halvings < 0):
-        raise ValueError(f"--dt-halvings must be an integer >= 0, got {dt_halvings!r}")
-    out = writable_directory(out)
+    parallel.refuse_under_mpiexec("convergence")
+    orders = common.orders("--orders", orders)
+    levels = checks.integer("--levels", levels, 1, checks.MAX_REFINE)
+    case = checks.choice("--case", case, CASES)
+    smoothness = checks.integer("--smoothness", smoothness, 3, MAX_SMOOTHNESS)
+    dt_halvings = checks.integer("--dt-halvings", dt_halvings, 0, MAX_HALVINGS)
+    resume = checks.flag("resume", resume)
+    manufactured = checks.estimated_vertices(MANUFACTURED_PLATE, MANUFACTURED_MAXH)
+    if dt_halvings:                    # the finest run: the first order on level levels - 1
+        order, finest, vertices = orders[0], levels - 1, manufactured
+    elif case == "reference":          # the fine solution, on level levels (Γ3 at maxh / 2)
+        order, finest = max(orders), levels
+        vertices = checks.estimated_vertices((reference.L1, reference.L2), REFERENCE_MAXH) + \
+            checks.estimated_vertices((reference.L1, REFERENCE_MAXH / 2), REFERENCE_MAXH / 2)
+    else:
+        order, finest, vertices = max(orders), levels - 1, manufactured
+    checks.fits_in_memory(f"--levels {levels}, order {order}",
+                          checks.estimated_ndof(vertices, 2, finest, order))
+    out = checks.writable_directory(out)
     store = CaseStore(out, resume)                      # each finished run, for --resume
     if dt_halvings:
         runs = time_study(orders[0], levels - 1, dt_halvings, smoothness=smoothness, store=store)

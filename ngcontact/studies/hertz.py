@@ -15,9 +15,12 @@ import time
 import ngsolve as ngs
 import numpy as np
 
+from ngcontact import checks, parallel
+
 from ..progress import bar
 from ..scenes import hertz
-from .common import table, writable_directory, write_csv
+from . import common
+from .common import table, write_csv
 
 COLUMNS = ["dim", "order", "normal", "level", "ndof", "newton", "force", "a", "width_error", "peak_error",
            "pressure_L2", "rate_L2", "seconds"]
@@ -39,10 +42,17 @@ def case(order, level, normal, dim=2):
 
 def run(out, orders=(1, 2), levels=4, dim=2, progress=True, resume=False):
     """Every order × level × normal; returns the rows (also written to ``out``). Each case
-    is kept in ``out/cases.json`` as it finishes; ``resume`` skips the cases found there."""
-    if isinstance(levels, bool) or not isinstance(levels, int) or levels < 1:
-        raise ValueError(f"levels must be an integer >= 1, got {levels!r}")
-    out = writable_directory(out)
+    is kept in ``out/cases.json`` as it finishes; ``resume`` skips the cases found there.
+    Serial only (refused under mpiexec); orders in [1, 10], levels in [1, 10], and the finest
+    mesh must fit in the machine's memory, checked before any case."""
+    parallel.refuse_under_mpiexec("hertz")
+    orders = common.orders("orders", orders)
+    levels = checks.integer("levels", levels, 1, checks.MAX_REFINE)
+    dim = checks.choice("dim", dim, (2, 3))
+    progress, resume = checks.flag("progress", progress), checks.flag("resume", resume)
+    checks.fits_in_memory(f"levels = {levels}, order {max(orders)}",     # the coarse mesh is cheap
+                          checks.estimated_ndof(hertz.mesh(dim).nv, dim, levels - 1, max(orders)))
+    out = checks.writable_directory(out)
     done = json.loads((out / "cases.json").read_text()) if resume and (out / "cases.json").exists() else {}
     rows, finest = [], {}
     cases = [(p, n, k) for p in orders for n in ("obstacle", "body") for k in range(levels)]

@@ -18,7 +18,9 @@ Newton solve is classified by ``common.failure_kind``. Units are SI, per metre o
 """
 import time as wallclock
 
-from ..common import writable_directory, write_csv
+from ngcontact import checks, parallel
+
+from ..common import write_csv
 from . import (debonding, incompressibility, load_cycles, nitsche_map, penalty_sweep, strong_coupling,
                time_step_sweep)
 
@@ -31,8 +33,10 @@ STUDIES = dict(nitsche_map=nitsche_map, time_step_sweep=time_step_sweep, incompr
 def command(out, quick=False, resume=False):
     """``python -m ngcontact stability``: run every study, write <study>.csv and the charts
     into ``out``, print each study's summary; ``resume`` skips the studies whose <study>.csv
-    (written when a study ends) is already in ``out``."""
-    out = writable_directory(out)
+    (written when a study ends) is already in ``out``. Serial only (refused under mpiexec)."""
+    parallel.refuse_under_mpiexec("stability")
+    quick, resume = checks.flag("quick", quick), checks.flag("resume", resume)
+    out = checks.writable_directory(out)
     start = wallclock.perf_counter()
     for name, study in STUDIES.items():
         print(f"\n{name}", flush=True)

@@ -1,0 +1,122 @@
+"""The arguments of ``Simulation``, ``step``, ``advance`` and ``run``, checked before any work.
+
+Each failure is a TypeError (a value of the wrong type: a string for a boolean, a Contact
+where a Body is expected) or a ValueError (a value out of its range), naming the argument,
+the value and what is allowed. The bounds: at most ``checks.MAX_STEPS`` nominal steps per run,
+``MAX_CUTBACKS`` halvings of a step, and a step of at least ``MIN_DT`` and ``RESOLUTION`` of
+the time it reaches.
+"""
+import math
+import numbers
+import os
+import pathlib
+
+import ngsolve as ngs
+import numpy as np
+
+from . import parallel
+from .body import Body
+from .checks import MAX_STEPS, flag, integer, number, writable_directory
+from .contact import Contact
+from .loads import Loads
+
+MAX_CUTBACKS = 20
+"""Halvings of a step (2^-20 ~ 1e-6 of it). The smallest step of a run is then
+dt/2^20 >= T/(MAX_STEPS 2^20) ~ 9.5e-13 T, above ``RESOLUTION``."""
+MIN_DT = 1e-20
+"""The smallest time step, s: no continuum model steps below it, and 1/dt stays far from
+overflow in the viscous term A/dt."""
+RESOLUTION = 1e-13
+"""A step must be at least this fraction of the time it starts from: below it t + dt is t to
+13 digits."""
+AUTOMATIC = ("condense", "realcompile", "iterative", "electric")
+"""The options of Simulation that are True, False or None (automatic); the others are True
+or False."""
+
+
+def simulation(body, loads, contact, time, inverse, options):
+    """The objects given to ``Simulation`` must be of their types (``body`` a Body; ``loads``,
+    ``contact``, ``time``, ``inverse`` of theirs or None); returns ``options`` (a dict {name:
+    value} of the boolean options) as booleans, or None for those of AUTOMATIC."""
+    for name, value, kind, expected in (("body", body, Body, "an ngcontact.Body"),
+                                        ("loads", loads, Loads, "an ngcontact.Loads or None"),
+                                        ("contact", contact, Contact, "an ngcontact.Contact or None"),
+                                        ("time", time, ngs.Parameter, "an ngsolve.Parameter or None"),
+                                        ("inverse", inverse, str, "a solver's name (str) or None")):
+        if not isinstance(value, kind) and (value is not None or name == "body"):
+            raise TypeError(f"Simulation: {name} must be {expected}, got {type(value).__name__}")
+    return {name: flag(name, value, none=name in AUTOMATIC) for name, value in options.items()}
+
+
+def time_step(dt, t):
+    """dt (s) as a float, for a step from time t (s): a finite number >= MIN_DT and >=
+    RESOLUTION |t|."""
+    if isinstance(dt, bool) or not isinstance(dt, numbers.Real):
+        raise TypeError(f"time step dt must be a number > 0 s, got {dt!r} ({type(dt).__name__})")
+    smallest = max(MIN_DT, RESOLUTION * abs(t))
+    if not (math.isfinite(dt) and dt >= smallest):
+        raise ValueError(f"time step dt must be > 0 s, finite and at least {smallest:.3g} s ({MIN_DT:g} s, and "
+                         f"{RESOLUTION:g} of the time t = {t:.6g} s), got {dt!r}")
+    return float(dt)
+
+
+def later(name, value, t):
+    """A time (s) after the current time t: a finite number > t."""
+    value = number(name, value, unit="s")
+    if not value > t:
+        raise ValueError(f"{name} must be > the current time {t} s, got {value}")
+    return value
+
+
+def cutbacks(max_cutbacks):
+    """max_cutbacks as an int in [0, MAX_CUTBACKS]."""
+    return integer("max_cutbacks", max_cutbacks, 0, MAX_CUTBACKS)
+
+
+def callback(on_step):
+    """on_step: a function or None."""
+    if on_step is not None and not callable(on_step):
+        raise TypeError(f"on_step must be a function of the StepRecord or None, got {type(on_step).__name__}")
+    return on_step
+
+
+def run(sim, dt, T, max_cutbacks, progress, vtk, on_step, out):
+    """The arguments of ``Simulation.run``: (dt, T, max_cutbacks, progress) checked, the
+    directories of ``vtk`` and ``out`` writable (``out`` on a serial mesh: a distributed one
+    refuses it in ``results``), at most MAX_STEPS steps."""
+    dt, T = number("time step dt", dt, 0, low_open=True, unit="s"), later("final time T", T, sim.t)
+    max_cutbacks, progress = cutbacks(max_cutbacks), flag("progress", progress)
+    callback(on_step)
+    if vtk is not None:
+        if not isinstance(vtk, (str, os.PathLike)) or not str(vtk):
+            raise TypeError(f"vtk must be a file name stem (str or pathlib.Path) or None, got {vtk!r}")
+        writable_directory(pathlib.Path(vtk).parent, "vtk: the directory")
+    if out is not None and not parallel.is_distributed(sim.body.mesh):
+        writable_directory(out, "out: the directory")
+    if (T - sim.t) / dt > MAX_STEPS:
+        raise ValueError(f"time step dt = {dt:g} s gives {(T - sim.t) / dt:.3g} steps to T = {T:g} s; at "
+                         f"most {MAX_STEPS:,} steps per run (a larger dt, or several runs)")
+    return dt, T, max_cutbacks, progress
+
+
+def gamma3_data(contact, gamma3, mesh, time, t):
+    """The data of Γ3 written as CoefficientFunctions (gap, an obstacle's gap and normal, the
+    foundation potential) must be finite on Γ3 at time t (s; the time Parameter ``time`` is
+    set to it for the check, then back): else a ValueError naming it, before Newton meets
+    NaN."""
+    named = [("Contact.foundation_potential", gamma3.foundation_potential)] \
+        if isinstance(contact.foundation_potential, ngs.CoefficientFunction) else []
+    if contact.obstacle is not None:
+        named += [("Contact.obstacle (its gap)", gamma3.gap), ("Contact.obstacle (its normal)", gamma3.normal)]
+    elif isinstance(contact.gap, ngs.CoefficientFunction):
+        named.append(("Contact.gap", gamma3.gap))
+    if not named:
+        return
+    now = time.Get()
+    time.Set(t)
+    try:
+        for name, cf in named:
+            if parallel.any_rank(mesh, not np.all(np.isfinite(gamma3.side.sample(cf)))):
+                raise ValueError(f"{name} is not finite (NaN or inf) on Γ3 at t = {t:.6g} s")
+    finally:
+        time.Set(now)
