@@ -13,8 +13,8 @@ A correction w that is not finite, or much larger than the residual r it answers
 (‖r‖/‖w‖ < ``SINGULAR_RATIO`` in the scaled norms), comes from a singular Jacobian (a body
 held only by the contact, whose rigid motion nothing fixes while the contact is open): the
 solve fails at once and says so. Such failures, and an uncertifiable residual, are not
-``recoverable``: a smaller time step
-would fail the same way, so the cut-back policy of ``Simulation.advance`` does not retry them.
+``recoverable``: a smaller time step would fail the same way, so the cut-back policy of
+``Simulation.advance`` does not retry them.
 
 Every enforcement method runs in this one loop; a method with unknowns of its own (the
 nodal multipliers of the active set method) takes part through a ``Hook``, and a
