@@ -5,7 +5,6 @@ Newton solve end in one line on stderr and exit status 2 (``main``).
 """
 import argparse
 import os
-import re
 import sys
 
 import ngcontact
@@ -135,11 +134,10 @@ def _newton_line(err, args):
     kept = KEPT[args.command].format(out=args.out)
     if args.command == "demo" and ngcontact.parallel.world() is not None:
         kept = "memory only (not streamed under mpiexec)"
-    hint = re.search(r"Try: (.*?)(?: \(with full steps|\. Time steps tried|$)", str(err))
-    tried = re.search(r"Time steps tried for step \d+ \(t -> [^)]*\): (dt = [^;]*)", str(err))
+    tried = ", ".join(f"{dt:.3g}" for dt in err.tried)
     return (f"Newton {err.reason} at {where}iteration {err.iteration} (last residuals {last}"
-            + (f"; {tried.group(1)} tried" if tried else "") + f"); the steps before it are kept in {kept}"
-            + (f"; try: {hint.group(1)}" if hint else ""))
+            + (f"; dt = {tried} s tried" if tried else "") + f"); the steps before it are kept in {kept}"
+            + (f"; try: {err.hint.lstrip('; ')}" if err.hint else ""))
 
 
 def _dispatch(args):

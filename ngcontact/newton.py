@@ -57,13 +57,15 @@ class NewtonError(RuntimeError):
     in the failed solve, ``linear_history`` the same per Newton iteration (dicts);
     ``residuals_limited``: the residual history of a first try with shortened steps, if any;
     ``recoverable``: whether a smaller time step may succeed (False for a singular Jacobian
-    and a residual that cannot be certified: the cut-back policy does not retry those).
+    and a residual that cannot be certified: the cut-back policy does not retry those);
+    ``hint``: what to try; ``tried``: the time steps tried for the step (s, set by
+    ``Simulation.advance``).
     """
 
     def __init__(self, reason, *, iteration, residuals, step=None, time=None, hint="", recoverable=True):
         self.reason, self.iteration, self.residuals = reason, iteration, residuals
         self.step, self.time, self.history = step, time, None
-        self.recoverable = recoverable
+        self.recoverable, self.hint, self.tried = recoverable, hint, []
         self.residuals_limited = None    # the history of a first try with shortened steps
         self.factorizations = self.krylov_iterations = self.krylov_failures = 0   # the linear solver's work
         self.linear_history = []    # per Newton iteration: the linear solver's counts (LINEAR_COUNTS)

@@ -294,10 +294,12 @@ class Simulation:
                 self.cutbacks.append(dict(step=n, time=goal, dt=dt, iterations=err.iteration,
                                           residuals=err.residuals))
                 if halvings == max_cutbacks or not err.recoverable:   # (not recoverable: smaller steps fail too)
-                    tried = ", ".join(f"{c['dt']:.3g}" for c in self.cutbacks if c["step"] == n)
+                    err.tried = [c["dt"] for c in self.cutbacks if c["step"] == n]
                     stiff = "" if self.contact is None else stiff_contact_terms(self.body, self.contact, self.side)
-                    err.args = (f"{err.args[0]}. Time steps tried for step {n} (t -> {goal:.6g} s): "
-                                f"dt = {tried} s; the state is that of step {n - 1}{stiff}",)
+                    err.hint += stiff
+                    tried = ", ".join(f"{dt:.3g}" for dt in err.tried)
+                    err.args = (f"{err.args[0]}. Time steps tried for step {n} (t -> {goal:.6g} s): dt = {tried} s; "
+                                f"the state is that of step {n - 1}{stiff}",)
                     raise
                 pending += [(goal, halvings + 1), (self.t + dt / 2, halvings + 1)]   # first half on top
                 continue
