@@ -552,7 +552,7 @@ for label, changes, words in [
     sized(f"bench.run({label})", bench(**changes), words)
 
 
-# ----------------------------------------------------------------------------- class: options of the wrong type or range
+# ----------------------------------------------------------------------------- class: wrong types, out of range
 
 NUMBER_BAD = [("'1'", "1", TE), ("None", None, TE), ("True", True, TE), ("nan", NAN, VE), ("inf", INF, VE),
               ("1j", 1j, TE), ("[1.0]", [1.0], TE)]
@@ -579,7 +579,8 @@ for label, value, kind in NUMBER_BAD + [("0", 0.0, VE), ("-1", -1.0, VE), ("1", 
     typed(f"Simulation(rtol={label})", lambda ctx, v=value: built(simulation(rtol=v)), kind, "rtol")
 for label, value, kind in INTEGER_BAD + [("0", 0, VE), ("-3", -3, VE), ("inf", INF, TE)]:
     typed(f"Simulation(maxit={label})", lambda ctx, v=value: built(simulation(maxit=v)), kind, "maxit")
-for label, value, kind in [("'bogus'", "bogus", VE), ("5", 5, CHOICE), ("True", True, CHOICE), ("['umfpack']", ["umfpack"], CHOICE)]:
+for label, value, kind in [("'bogus'", "bogus", VE), ("5", 5, CHOICE), ("True", True, CHOICE),
+                           ("['umfpack']", ["umfpack"], CHOICE)]:
     typed(f"Simulation(inverse={label})", lambda ctx, v=value: built(simulation(inverse=v)), kind, "inverse")
 
 
@@ -644,7 +645,8 @@ for name in ("adhesion", "eps_a", "bond_length", "ramp_width", "potential_trunca
 for label, value, kind in [("2", 2, VE), ("0.5", 0.5, VE), ("-2", -2, VE), ("'1'", "1", CHOICE), ("None", None, CHOICE),
                            ("True", True, CHOICE), ("1j", 1j, CHOICE), ("nan", NAN, VE)]:
     typed(f"Contact(theta={label})", lambda ctx, v=value: repr(ngc.Contact(theta=v)), kind, "theta")
-for label, value, kind in [("'bogus'", "bogus", VE), ("'NITSCHE'", "NITSCHE", VE), ("None", None, CHOICE), ("1", 1, CHOICE),
+for label, value, kind in [("'bogus'", "bogus", VE), ("'NITSCHE'", "NITSCHE", VE), ("None", None, CHOICE),
+                           ("1", 1, CHOICE),
                            ("['nitsche']", ["nitsche"], CHOICE)]:
     typed(f"Contact(method={label})", lambda ctx, v=value: repr(ngc.Contact(method=v)), kind, "method")
 for label, value, kind in [("'bogus'", "bogus", VE), ("None", None, CHOICE), ("1", 1, CHOICE), ("True", True, CHOICE)]:
@@ -697,7 +699,8 @@ for label, changes, word in [("E=0", dict(E=0.0), "E"), ("E=-1", dict(E=-1.0), "
                              ("poling='q'", dict(poling="q"), "poling")]:
     typed(f"Material.isotropic({label})", lambda ctx, c=changes: repr(ngc.Material.isotropic(**{**ISOTROPIC, **c})),
           VE, word)
-for label, changes, kind, word in [("poling=3", dict(poling=3), CHOICE, "poling"), ("name=5", dict(name=5), TE, "name")]:
+for label, changes, kind, word in [("poling=3", dict(poling=3), CHOICE, "poling"),
+                                   ("name=5", dict(name=5), TE, "name")]:
     typed(f"Material.isotropic({label})", lambda ctx, c=changes: repr(ngc.Material.isotropic(**{**ISOTROPIC, **c})),
           kind, word)
 for preset in ("pzt5a", "batio3", "academic"):
@@ -711,14 +714,16 @@ for label, value, kind in [("'x'", "x", TE), ("nan", NAN, VE), ("-1", -1.0, VE)]
 # obstacles
 for label, value, kind in NUMBER_BAD + [("0", 0.0, VE), ("-1", -1.0, VE)]:
     typed(f"Cylinder(radius={label})", lambda ctx, v=value: repr(obstacles.Cylinder((0.05, -1.0), v)), kind, "radius")
-for label, value, kind in [("'x'", "x", TE), ("None", None, TE), ("(0, 0)", (0.0, 0.0), VE), ("(nan, 1)", (NAN, 1.0), VE),
+for label, value, kind in [("'x'", "x", TE), ("None", None, TE), ("(0, 0)", (0.0, 0.0), VE),
+                           ("(nan, 1)", (NAN, 1.0), VE),
                            ("(1j, 1)", (1j, 1.0), TE)]:
     typed(f"Plane(normal={label})", lambda ctx, v=value: repr(obstacles.Plane((0.0, -2e-5), v)), kind, "normal")
 
 # geometries
 for label, value, kind in [("'0.01'", "0.01", TE), ("1j", 1j, TE), ("True", True, TE), ("[0.01]", [0.01], TE)]:
     typed(f"plate(maxh={label})", lambda ctx, v=value: plate(maxh=v).ne, kind, "maxh")
-for label, value, kind in [("1.5", 1.5, TE), ("'2'", "2", TE), ("True", True, TE), ("nan", NAN, TE), ("None", None, TE)]:
+for label, value, kind in [("1.5", 1.5, TE), ("'2'", "2", TE), ("True", True, TE), ("nan", NAN, TE),
+                           ("None", None, TE)]:
     typed(f"plate(refine={label})", lambda ctx, v=value: plate(maxh=0.01, refine=v).ne, kind, "refine")
 for label, value, kind in [("'0.1'", "0.1", TE), ("-1", -1.0, VE), ("None", None, TE)]:
     typed(f"plate(L1={label})", lambda ctx, v=value: plate(L1=v, maxh=0.01).ne, kind, "L1")
@@ -747,7 +752,8 @@ for label, make in OBJECTS + [("a Body's mesh", lambda: plate_mesh())]:
 for label, make in [("'x'", lambda: "x"), ("5", lambda: 5), ("Contact()", lambda: ngc.Contact()), ("{}", lambda: {}),
                     ("[]", lambda: []), ("{'f2': {}}", lambda: {"f2": {}})]:
     wrong(f"Simulation(loads={label})", lambda ctx, m=make: built(ngc.Simulation(body(), m())), "loads")
-for label, make in [("'nitsche'", lambda: "nitsche"), ("Loads()", lambda: ngc.Loads()), ("{'gap': 0}", lambda: {"gap": 0}),
+for label, make in [("'nitsche'", lambda: "nitsche"), ("Loads()", lambda: ngc.Loads()),
+                    ("{'gap': 0}", lambda: {"gap": 0}),
                     ("1.0", lambda: 1.0), ("True", lambda: True)]:
     wrong(f"Simulation(contact={label})", lambda ctx, m=make: built(ngc.Simulation(body(), contact=m())), "contact")
 for label, make in [("0.0", lambda: 0.0), ("'t'", lambda: "t"), ("CF(0)", lambda: ngs.CF(0.0)), ("[0]", lambda: [0])]:
@@ -759,7 +765,8 @@ for label, make in [("'plane'", lambda: "plane"), ("5", lambda: 5), ("(0, 0)", l
                     ("Loads()", lambda: ngc.Loads()), ("True", lambda: True)]:
     wrong(f"Contact(obstacle={label})", lambda ctx, m=make: repr(ngc.Contact(obstacle=m())), "obstacle")
 for name in ("compliance", "conductance"):
-    for label, law in [("'linear'", "linear"), ("law returning 'x'", lambda r: "x"), ("law of no argument", lambda: 1.0),
+    for label, law in [("'linear'", "linear"), ("law returning 'x'", lambda r: "x"),
+                       ("law of no argument", lambda: 1.0),
                        ("law of two arguments", lambda r, s: r), ("law returning None", lambda r: None),
                        ("a CoefficientFunction", ngs.CF(1e9))]:
         wrong(f"Contact({name}={label})", lambda ctx, n=name, f=law: built(simulation(contact=ngc.Contact(**{n: f}))),
@@ -808,14 +815,16 @@ def with_contact(**data):
 
 for name, laws in dict(
         compliance=[("-1e9 r", lambda r: -1e9 * r), ("1e9 everywhere", lambda r: 1e9 + 0 * r),
-                    ("1e9 r (no positive part)", lambda r: 1e9 * r), ("-1e9 [r]+", lambda r: ngs.IfPos(r, -1e9 * r, 0.0)),
+                    ("1e9 r (no positive part)", lambda r: 1e9 * r),
+                    ("-1e9 [r]+", lambda r: ngs.IfPos(r, -1e9 * r, 0.0)),
                     ("NaN", lambda r: NAN + 0 * r), ("two components", lambda r: ngs.CF((r, r)))],
         conductance=[("-1e-4", lambda r: -1e-4 + 0 * r), ("-1e-4 at contact", lambda r: ngs.IfPos(r, -1e-4, 0.0)),
                      ("1e-4 at any distance", lambda r: 1e-4 + 0 * r), ("1e-4 r", lambda r: 1e-4 * r),
                      ("inf", lambda r: INF + 0 * r), ("two components", lambda r: ngs.CF((r, r)))]).items():
     for label, law in laws:
         nonsense(f"Contact({name}=law {label})", with_contact(**{name: law}), name)
-for label, make in [("CF(nan)", lambda: ngs.CF(NAN)), ("CF(inf)", lambda: ngs.CF(INF)), ("CF(-inf)", lambda: ngs.CF(-INF)),
+for label, make in [("CF(nan)", lambda: ngs.CF(NAN)), ("CF(inf)", lambda: ngs.CF(INF)),
+                    ("CF(-inf)", lambda: ngs.CF(-INF)),
                     ("nan on half of Γ3", lambda: ngs.IfPos(ngs.x - 0.05, NAN, 2e-5)),
                     ("CF(-1e-3)", lambda: ngs.CF(-1e-3)), ("two components", lambda: ngs.CF((2e-5, 2e-5)))]:
     nonsense(f"Contact(gap={label})", lambda ctx, m=make: step_once(simulation(contact=scene.contact(gap=m()))), "gap")
@@ -1155,7 +1164,8 @@ CLI_CASES = [
     ("demo --gamma0 0", "gamma0"), ("demo --gamma0 -1", "gamma0"), ("demo --gamma0 nan", "gamma0"),
     ("demo --gamma0 inf", "gamma0"), ("demo --gamma0 x", "gamma0"),
     ("demo --out /proc/hostile", "/proc/hostile"), ("demo --resume --out nowhere", "resume|nowhere"),
-    ("convergence --orders 0", "orders?"), ("convergence --orders 30", "orders?"), ("convergence --orders x", "orders?"),
+    ("convergence --orders 0", "orders?"), ("convergence --orders 30", "orders?"),
+    ("convergence --orders x", "orders?"),
     ("convergence --orders", "orders?"),
     ("convergence --levels 0", "levels"), ("convergence --levels 100", "levels"), ("convergence --levels -1", "levels"),
     ("convergence --levels x", "levels"), ("convergence --case bogus", "case"),
