@@ -29,7 +29,7 @@ class BondingField:
         self.gf = ngs.GridFunction(side.B, name="beta")
         beta0 = side.project(ngs.CF(contact.beta0))
         low, high = parallel.minimum(side.mesh, beta0), parallel.maximum(side.mesh, beta0)
-        if low < -1e-12 or high > 1 + 1e-12:
+        if not (low >= -1e-12 and high <= 1 + 1e-12):          # NaN fails too
             raise ValueError(f"Contact.beta0 must lie in [0, 1] on Γ3; its facet averages range "
                              f"over [{low:.3g}, {high:.3g}]")
         self.values[:] = np.clip(beta0, 0, 1)

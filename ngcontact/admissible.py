@@ -37,6 +37,8 @@ def check_initial_displacement(body, u0, gamma3=None):
     """u0 (a CoefficientFunction, m) must vanish on Γ1 and be admissible on Γ3 (u0_ν <= g, with
     the contact normal of ``gamma3``, an ``observables.Gamma3`` or None)."""
     mesh, square = body.mesh, ngs.InnerProduct(u0, u0)
+    if not np.isfinite(parallel.sum(mesh, ngs.Integrate(square, mesh))):
+        raise ValueError("u0 is not finite (NaN or inf) in the body")
     if body.boundaries["clamped"]:
         on_gamma1 = parallel.sum(mesh, ngs.Integrate(square * ngs.ds(body.region("clamped")), mesh))
         if on_gamma1 > 1e-20 * (1 + ngs.Integrate(square, mesh)):     # (all ranks' sum)

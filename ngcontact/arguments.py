@@ -6,6 +6,7 @@ the value and what is allowed. The bounds: at most ``checks.MAX_STEPS`` nominal 
 ``MAX_CUTBACKS`` halvings of a step, and a step of at least ``MIN_DT`` and ``RESOLUTION`` of
 the time it reaches.
 """
+import inspect
 import math
 import numbers
 import os
@@ -61,10 +62,13 @@ def time_step(dt, t):
 
 
 def later(name, value, t):
-    """A time (s) after the current time t: a finite number > t."""
+    """A time (s) after the current time t: a finite number > t by at least the smallest step
+    (``MIN_DT``, and ``RESOLUTION`` of t)."""
     value = number(name, value, unit="s")
-    if not value > t:
-        raise ValueError(f"{name} must be > the current time {t} s, got {value}")
+    smallest = max(MIN_DT, RESOLUTION * abs(t))
+    if not value - t >= smallest:
+        raise ValueError(f"{name} must be > the current time {t} s by at least {smallest:.3g} s (the smallest "
+                         f"time step), got {value}")
     return value
 
 
@@ -74,9 +78,17 @@ def cutbacks(max_cutbacks):
 
 
 def callback(on_step):
-    """on_step: a function or None."""
-    if on_step is not None and not callable(on_step):
+    """on_step: a function of one argument (the StepRecord) or None."""
+    if on_step is None:
+        return None
+    if not callable(on_step):
         raise TypeError(f"on_step must be a function of the StepRecord or None, got {type(on_step).__name__}")
+    try:
+        inspect.signature(on_step).bind(None)
+    except TypeError:
+        raise TypeError(f"on_step must take one argument (the StepRecord); {on_step!r} cannot") from None
+    except ValueError:                                   # a builtin without a signature: not checked
+        pass
     return on_step
 
 
@@ -107,7 +119,8 @@ def gamma3_data(contact, gamma3, mesh, time, t):
     named = [("Contact.foundation_potential", gamma3.foundation_potential)] \
         if isinstance(contact.foundation_potential, ngs.CoefficientFunction) else []
     if contact.obstacle is not None:
-        named += [("Contact.obstacle (its gap)", gamma3.gap), ("Contact.obstacle (its normal)", gamma3.normal)]
+        named += [("Contact.obstacle: its gap (the distance to it)", gamma3.gap),
+                  ("Contact.obstacle: its normal", gamma3.normal)]
     elif isinstance(contact.gap, ngs.CoefficientFunction):
         named.append(("Contact.gap", gamma3.gap))
     if not named:

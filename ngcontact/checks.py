@@ -49,13 +49,14 @@ def number(name, value, low=-math.inf, high=math.inf, *, low_open=False, high_op
 
 
 def integer(name, value, low=1, high=None):
-    """``value`` as an int >= low (<= high): TypeError for what is not a number (strings,
-    None, booleans), ValueError for a number that is not an integer (a float with an integer
-    value is accepted) or out of range."""
+    """``value`` as an int >= low (<= high): TypeError for what is not an integer (strings,
+    None, booleans, 2.5, NaN, inf; a float with an integer value is accepted), ValueError for
+    an integer out of range."""
     limit = f">= {low}" + (f" and <= {high}" if high is not None else "")
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value) \
+            or int(value) != value:
         raise TypeError(f"{name} must be an integer {limit}, got {value!r} ({type(value).__name__})")
-    if not math.isfinite(value) or int(value) != value or value < low or (high is not None and value > high):
+    if value < low or (high is not None and value > high):
         raise ValueError(f"{name} must be an integer {limit}, got {value!r}")
     return int(value)
 

@@ -6,6 +6,7 @@ Newton solve end in one line on stderr and exit status 2 (``main``).
 import argparse
 import os
 import sys
+import warnings
 
 import ngcontact
 
@@ -15,12 +16,25 @@ KEPT = dict(demo="{out}/run (continue with --resume)", convergence="{out}/cases 
 """Where each command keeps what it computed before an error."""
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser, whose errors are one line on stderr (exit status 2), like ours."""
+
+    def error(self, message):
+        print(f"{self.prog}: error: {message} (see: {self.prog} --help)", file=sys.stderr)
+        sys.exit(2)
+
+
+def _one_line_warning(message, category, filename, lineno, file=None, line=None):
+    """A warning (e.g. a ``PhysicsWarning``) as one line on stderr."""
+    print(f"ngcontact: warning: {' '.join(str(message).split())}", file=sys.stderr)
+
+
 def parser():
     """The argument parser of ``python -m ngcontact``."""
-    main_parser = argparse.ArgumentParser(prog="ngcontact", description="ngcontact: a piezoelectric "
-                                          "Kelvin-Voigt body in adhesive contact, on NGSolve")
+    main_parser = _Parser(prog="ngcontact", description="ngcontact: a piezoelectric "
+                          "Kelvin-Voigt body in adhesive contact, on NGSolve")
     commands = main_parser.add_subparsers(dest="command", required=True)
-    common = argparse.ArgumentParser(add_help=False)
+    common = _Parser(add_help=False)
     common.add_argument("--traceback", action="store_true",
                         help="on an error, show the full traceback (also: NGCONTACT_TRACEBACK=1)")
 
@@ -114,8 +128,9 @@ def main(argv=None):
     (``ngcontact.NewtonError``: where it failed, where the steps before it are kept, what to
     try) print one line and exit with status 2, as argparse does for its own errors; under
     mpiexec rank 0 prints it and every rank exits. ``--traceback`` (or NGCONTACT_TRACEBACK=1)
-    shows the full traceback instead."""
+    shows the full traceback instead. Warnings (``PhysicsWarning``) print one line each."""
     args = parser().parse_args(argv)
+    warnings.showwarning = _one_line_warning
     try:
         _dispatch(args)
     except (ValueError, TypeError, ngcontact.NewtonError) as err:

@@ -6,6 +6,7 @@ import ngsolve as ngs
 
 from . import contact_laws as laws
 from .checks import number
+from .loads import as_cf
 from .enforcement import METHODS
 from .obstacles import OBSTACLES
 
@@ -91,6 +92,8 @@ class Contact:
             number("Contact.gap", self.gap, 0, unit="m")
         if not isinstance(self.beta0, ngs.CoefficientFunction):
             number("Contact.beta0", self.beta0, 0, 1)
+        else:
+            as_cf(self.beta0, 1, "Contact.beta0")                # real, one component
         if self.obstacle is not None:
             if not isinstance(self.obstacle, OBSTACLES):
                 raise TypeError("Contact.obstacle must be an ngcontact.obstacles Plane, Cylinder, Sphere or "
@@ -105,11 +108,11 @@ class Contact:
             if isinstance(getattr(self, name), ngs.CoefficientFunction):
                 raise TypeError(f"Contact.{name} must be a number >= 0 or a function r ↦ "
                                 "CoefficientFunction (the law itself), not a CoefficientFunction")
-        self.p = laws.checked("Contact.compliance", self.compliance, "p", vanishes=True) \
+        self.p = laws.checked("Contact.compliance", self.compliance, "p", 0.0) \
             if callable(self.compliance) else laws.compliance_law(self.compliance)
         self.R = laws.bond_truncation(self.bond_length)
         self.phi_L = laws.potential_truncation(self.potential_truncation)
-        self.psi = laws.checked("Contact.conductance", self.conductance, "ψ") if callable(self.conductance) else \
+        self.psi = laws.checked("Contact.conductance", self.conductance, "ψ", -1.0) if callable(self.conductance) else \
             laws.conductance_ramp(self.conductance, self.ramp_width)
 
     def coefficients(self):

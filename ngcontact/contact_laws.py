@@ -70,13 +70,15 @@ def _nonnegative(name, value, unit):
         raise ValueError(f"{name} must be >= 0{' ' + unit if unit else ''}, got {value}")
 
 
-def checked(name, law, symbol, vanishes=False):
+def checked(name, law, symbol, vanishes_from):
     """``law``, a function r ↦ CoefficientFunction (``symbol``: its name in the model, "p"
     or "ψ"), sampled at r in ``SAMPLES`` (at the time Parameter's current value): a
-    TypeError if it cannot be called with a CoefficientFunction or does not return a real
-    scalar one, a ValueError naming ``name`` if a value is NaN, inf or negative, or, with
-    ``vanishes`` (the compliant layer's p), nonzero for r <= 0. A law that cannot be
-    evaluated away from a mesh (it uses normals or fields of Γ3) is not sampled."""
+    TypeError if it cannot be called with a CoefficientFunction or does not return a
+    CoefficientFunction, a ValueError naming ``name`` if it is not a real scalar, if a
+    value is NaN, inf or negative, or nonzero for r <= ``vanishes_from`` (m): the compliant
+    layer's p for r <= 0, the conductance ψ at a metre from the foundation and beyond (no
+    conduction through a metre of air; the paper's ψ vanishes for r <= 0). A law that cannot
+    be evaluated away from a mesh (it uses normals or fields of Γ3) is not sampled."""
     r = ngs.Parameter(0.0)
     try:
         value = law(r)
@@ -85,16 +87,19 @@ def checked(name, law, symbol, vanishes=False):
                         f"it raised {type(err).__name__}: {err}") from None
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         value = ngs.CF(float(value))
-    if not isinstance(value, ngs.CoefficientFunction) or value.dim != 1 or value.is_complex:
-        raise TypeError(f"{name} must return a real scalar CoefficientFunction, got {value!r}")
+    if not isinstance(value, ngs.CoefficientFunction):
+        raise TypeError(f"{name} must return a CoefficientFunction, got {value!r}")
+    if value.dim != 1 or value.is_complex:
+        raise ValueError(f"{name} must return a real scalar CoefficientFunction, got "
+                         f"{'a complex' if value.is_complex else f'a {value.dim}-component'} one")
     for s in SAMPLES:
         r.Set(s)
         try:
             v = value(_point()[1])
         except Exception:                                        # NGSolve: needs a point of Γ3
             return law
-        if not math.isfinite(v) or v < 0 or (vanishes and s <= 0 and v != 0):
-            rule = f"{symbol} must be finite and >= 0" + (", and 0 for r <= 0" if vanishes else "")
+        if not math.isfinite(v) or v < 0 or (s <= vanishes_from and v != 0):
+            rule = f"{symbol} must be finite, >= 0, and 0 for r <= {vanishes_from:g} m"
             raise ValueError(f"{name}: the law {symbol}(r) is {v:.4g} at r = {s:g} m; {rule}")
     return law
 

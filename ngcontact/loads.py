@@ -25,6 +25,8 @@ def as_cf(value, dim=None, name="value"):
                 number(name, item)
     cf = value if isinstance(value, ngs.CoefficientFunction) else ngs.CF(
         tuple(value) if isinstance(value, (tuple, list)) else value)
+    if cf.is_complex:
+        raise TypeError(f"{name} must be real, got a complex CoefficientFunction")
     if dim is not None and cf.dim != dim:
         raise ValueError(f"{name} must have {dim} components, got {cf.dim}")
     return cf

@@ -51,6 +51,8 @@ class Plane:
     def __init__(self, point, normal):
         as_cf(point, None, "Plane: point")
         self.point = point
+        if not isinstance(normal, (tuple, list, np.ndarray)):
+            raise TypeError(f"Plane: normal must be a vector of numbers, got {normal!r}")
         try:
             normal = np.asarray(normal, dtype=float)
         except (TypeError, ValueError):

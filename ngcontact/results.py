@@ -234,6 +234,8 @@ def restore(sim, directory):
     this check exists to prevent; such a run is computed again into a new directory."""
     from .backward_euler import Checkpoint
     parallel.serial_only(sim.body.mesh, "resume()", "streaming the results is serial only")
+    if not isinstance(directory, (str, os.PathLike)):
+        raise TypeError(f"resume: directory must be a path (str or pathlib.Path), got {directory!r}")
     directory = pathlib.Path(directory)
     if len(sim.history) != 1:
         raise ValueError(f"resume: the simulation has computed {len(sim.history) - 1} step(s) already; resume "
@@ -249,7 +251,7 @@ def restore(sim, directory):
     _check_start(sim, first.get("restart/state", first.get("state")), directory)
     r = {k[len("restart/"):]: v for k, v in _load(paths[-1], len(paths) - 1, len(paths) - 1)[1].items()
          if k.startswith("restart/")}
-    if "t" not in r:
+    if not {"t", "state"} <= set(r):
         raise ValueError(f"resume: {str(paths[-1])!r} holds no restart state (the run was stopped while the "
                          "steps before it were written); run again into a new directory")
     saved = Checkpoint(float(r["t"]), r["state"], r.get("beta"), r.get("beta_unclipped"),

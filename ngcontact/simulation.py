@@ -329,7 +329,7 @@ class Simulation:
         dt, T, max_cutbacks, progress = arguments.run(self, dt, T, max_cutbacks, progress, vtk, on_step, out)
         resumed = self._resumed
         start = resumed["start"] if resumed and (resumed["dt"], resumed["T"]) == (dt, T) else self.t
-        steps = int(np.ceil((T - start) / dt - 1e-9))
+        steps = max(1, int(np.ceil((T - start) / dt - 1e-9)))        # dt > T − t: one step to T
         callbacks = [on_step] if on_step else []
         if out is not None:                      # checks the directory, writes the history so far
             callbacks.insert(0, results.Stream(self, out, dt, T, start, resumed))

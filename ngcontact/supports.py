@@ -63,7 +63,9 @@ def parse(supports, mesh, split_names):
     dim, existing, taken, parsed = mesh.dim, set(mesh.GetBoundaries()), {}, []
     allowed = f"'all', 'normal', or axes among {AXES[:dim]!r} such as {AXES[:dim]!r}"
     for key, spec in supports.items():
-        names = split_names(key) if isinstance(key, str) else []
+        if not isinstance(key, str):
+            raise TypeError(f"supports: key {key!r} must be a string naming boundaries (e.g. 'left' or 'left|top')")
+        names = split_names(key)
         if not names:
             raise ValueError(f"supports: key {key!r} must name boundaries (e.g. 'left' or 'left|top')")
         missing = [n for n in names if n not in existing]

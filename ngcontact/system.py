@@ -194,6 +194,9 @@ class StepSystem:
         for names, value in self.loads.potential.items():
             phi.Set(as_cf(value, 1, f"potential[{names!r}]"), ngs.BND,
                     definedon=self.body.mesh.Boundaries(names))
+        if parallel.any_rank(self.body.mesh, not np.all(np.isfinite(state.vec.FV().NumPy()))):
+            culprit = self.loads.nonfinite(self.body) or "a prescribed displacement or potential"
+            raise ValueError(f"{culprit} is not finite at t = {t:.6g} s (NaN or inf)")
 
     def _set_displacements(self, u):
         """u on the supports at t_n: 0, then ``Loads.displacement`` (u·ν along an axis: that

@@ -188,7 +188,8 @@ class Correct:
 
 @dataclass(frozen=True)
 class CliError:
-    """Exit status 2 within CLI_LIMIT s, one line on stderr naming the ``words``, no traceback."""
+    """Exit status 2 within CLI_LIMIT s, one line on stderr naming the ``words``, no traceback
+    (besides one-line warnings, "ngcontact: warning: ...", printed before it)."""
     words: tuple
 
     def __init__(self, *words):
@@ -198,7 +199,7 @@ class CliError:
         if outcome.kind != "returned":
             return outcome.describe()
         code, stderr = outcome.value["code"], outcome.value["stderr"]
-        lines = [line for line in stderr.splitlines() if line.strip()]
+        lines = [line for line in stderr.splitlines() if line.strip() and not line.startswith("ngcontact: warning:")]
         if "Traceback" in stderr:
             return f"exit {code} with a traceback: {_line(lines[-1] if lines else '')}"
         if code != 2:
@@ -656,7 +657,7 @@ for label, value, kind in [("'bogus'", "bogus", VE), ("None", None, CHOICE), ("1
 # Body
 for label, value, kind in INTEGER_BAD + [("0", 0, VE), ("-1", -1, VE)]:
     typed(f"Body(order={label})", lambda ctx, v=value: repr(body(order=v)), kind, "order")
-for label, value, kind in INTEGER_BAD[:4] + [("0", 0, VE)]:
+for label, value, kind in [c for c in INTEGER_BAD if c[1] is not None] + [("0", 0, VE)]:   # None: = order
     typed(f"Body(order_phi={label})", lambda ctx, v=value: repr(body(order_phi=v)), kind, "order_phi")
 for part, values in dict(clamped=[("1", 1), ("['left']", ["left"]), ("True", True)],
                          grounded=[("1", 1), ("['top']", ["top"])],

@@ -137,10 +137,11 @@ def test_newton_error_reports_residual_history():
 
 
 def test_a_law_given_as_a_function_is_sampled():
-    """A compliance law p must be >= 0 and vanish for r <= 0, a conductance law ψ >= 0 (both
+    """A compliance law p must be >= 0 and vanish for r <= 0, a conductance law ψ >= 0 and
+    vanish a metre from the foundation (both
     finite, real, scalar): sampled at r = 0, ±10^k m before any mesh is used."""
     with pytest.raises(ValueError, match=r"Contact.compliance: the law p\(r\) is -0.001 at r = 1e-12 m; p must be "
-                                         r"finite and >= 0, and 0 for r <= 0"):
+                                         r"finite, >= 0, and 0 for r <= 0 m"):
         ngc.Contact(compliance=lambda r: -1e9 * r)
     with pytest.raises(ValueError, match=r"Contact.compliance: the law p\(r\) is 1e-12 at r = -1e-12 m"):
         ngc.Contact(compliance=lambda r: ngs.IfPos(r, r, -r))
@@ -148,8 +149,12 @@ def test_a_law_given_as_a_function_is_sampled():
         ngc.Contact(conductance=lambda r: -1e-4 + 0 * r)
     with pytest.raises(ValueError, match=r"Contact.conductance: the law ψ\(r\) is nan"):
         ngc.Contact(conductance=lambda r: ngs.sqrt(r))
-    with pytest.raises(TypeError, match="Contact.compliance must return a real scalar CoefficientFunction"):
+    with pytest.raises(ValueError, match="Contact.compliance must return a real scalar CoefficientFunction, got a "
+                                         "2-component one"):
         ngc.Contact(compliance=lambda r: ngs.CF((r, r)))
+    with pytest.raises(ValueError, match=r"Contact.conductance: the law ψ\(r\) is 0.0001 at r = -1 m; ψ must be "
+                                         r"finite, >= 0, and 0 for r <= -1 m"):     # conducts through a metre of air
+        ngc.Contact(conductance=lambda r: 1e-4 + 0 * r)
     with pytest.raises(TypeError, match="Contact.conductance must be a function r ↦ CoefficientFunction; called"):
         ngc.Contact(conductance=lambda r, s: r)
     laws = ngc.contact_laws
@@ -202,7 +207,7 @@ def test_non_finite_contact_data_are_named_before_newton(mesh):
         sim.run(0.1, 1.0)
     assert [r.step for r in sim.history] == [0, 1, 2] and sim.cutbacks == []
     sim = ngc.Simulation(body, loads, time=t, contact=ngc.Contact(obstacle=obstacles.Plane((0, -2e-5 + late), (0, 1))))
-    with pytest.raises(ValueError, match=r"Contact.obstacle \(its gap\) is not finite"):
+    with pytest.raises(ValueError, match=r"Contact.obstacle: its gap \(the distance to it\) is not finite"):
         sim.run(0.1, 1.0)
     assert len(sim.history) == 3
 

@@ -247,7 +247,14 @@ def merge(directories, out):
     """Join the bench.json rows of several runs (e.g. one per order) into one bench.csv,
     bench.json and time_per_step.png in ``out``; prints and returns the fitted exponents
     per order."""
-    runs = [json.loads((pathlib.Path(d) / "bench.json").read_text()) for d in directories]
+    runs = []
+    for directory in directories:
+        path = pathlib.Path(directory) / "bench.json"
+        try:
+            runs.append(json.loads(path.read_text()))
+        except (OSError, ValueError) as err:
+            raise ValueError(f"merge: {str(path)!r} cannot be read ({type(err).__name__}): --merge takes "
+                             "directories written by bench --out") from None
     if len({(r["dim"], r["steps"], r["dt"]) for r in runs}) != 1:
         raise ValueError("merge: the runs differ in dim, steps or dt")
     out = pathlib.Path(out)
