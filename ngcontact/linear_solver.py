@@ -150,7 +150,14 @@ class KeptFactorization:
         ``weights`` inner product of ``solve`` when given.
     budget : the GMRES iterations that cost one factorisation (``factorization_worth``).
     max_budget : the most GMRES iterations allowed before refactorising.
+
+    ``margin`` (1e-3): Newton asks GMRES for ``margin`` × (its target / its residual)
+    (``newton.Newton``): its accuracy is that of the preconditioned norm, where the true
+    residual falls less (demo, 200 steps: 0.1 gave 460 Newton iterations, 0.01 414, 1e-3 390,
+    1e-4 390).
     """
+
+    margin = 1e-3
 
     def __init__(self, direct, *, symmetric=False, tol=1e-8, budget=20, max_budget=40):
         self.direct, self.symmetric, self.tol, self.max_budget = direct, symmetric, tol, max_budget

@@ -217,7 +217,13 @@ class MultigridSolver:
     realcompile : compile the hierarchy's integrands to machine code.
     displacement : whether u has free DOFs in the solves (False for the potential at t = 0:
         the hierarchy of the φ form only).
+
+    ``margin`` (0.1): Newton asks GMRES for ``margin`` × (its target / its residual)
+    (``newton.Newton``): on the 3D block (P1, 4 364 DOFs, 3 steps) 0.1 and 1e-3 took the same
+    Newton iterations (8, 4, 10) and 729 against 884 GMRES iterations.
     """
+
+    margin = 0.1
 
     def __init__(self, body, system, layer=None, *, electric=True, tol=1e-8, maxiter=300, realcompile=False,
                  displacement=True):
