@@ -100,7 +100,8 @@ def parser():
     bench.add_argument("--inverse", choices=("umfpack", "sparsecholesky"),
                        help="direct solver (default: sparsecholesky if symmetric, else umfpack)")
     bench.add_argument("--realcompile", choices=("auto", "yes", "no"), default="auto",
-                       help="compile the Γ3 integrand to machine code (auto: ndof >= 50 000 in 2D, 2 000 in 3D)")
+                       help="compile the Γ3 integrand to machine code (auto: when the run's expected Newton "
+                            "iterations pay for it, ngcontact.machine_code)")
     bench.add_argument("--predictor", action="store_true",
                        help="start Newton from the linear extrapolation (default: from x_n)")
     bench.add_argument("--threads", choices=("auto", "yes", "no"), default="auto",

@@ -43,8 +43,12 @@ def strain(u):
 
 def stress(T, u, phi, strain_rate=None):
     """σ = A ε(u̇) + F ε(u) + Eᵀ ∇φ (2.3), Voigt vector, for the MaterialTensors T;
-    ``strain_rate`` is ε(u̇) (Voigt), None for the elastic part only."""
-    s = matrix_cf(T.F) * strain(u) + matrix_cf(T.E).trans * ngs.grad(phi)
+    ``strain_rate`` is ε(u̇) (Voigt), None for the elastic part only. Without piezoelectric
+    coupling (E = 0) the term Eᵀ∇φ is left out of the expression (the Γ3 terms' Jacobian is
+    then differentiated in u's components only)."""
+    s = matrix_cf(T.F) * strain(u)
+    if T.E.any():
+        s = s + matrix_cf(T.E).trans * ngs.grad(phi)
     if T.viscous and strain_rate is not None:
         s = s + matrix_cf(T.A) * strain_rate
     return s

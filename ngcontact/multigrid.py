@@ -41,7 +41,7 @@ import numpy as np
 from . import forms
 from .linear_solver import gmres, untimed
 from .supports import dirichlet_flags
-from .system import compiled
+from .machine_code import compiled
 
 COARSE = "ngcontact_coarse"
 """The attribute of an ngsolve.Mesh that holds (coarse netgen mesh, refinements)."""

@@ -12,19 +12,17 @@ import warnings
 import ngsolve as ngs
 import numpy as np
 
-from . import arguments, forms, parallel, results
-from .adhesion import BondingField
-from .admissible import (GapCheck, PhysicsWarning, check_initial_displacement, check_supports_at_start, flags,
-                         scene_flags, stiff_contact_terms)
+from . import arguments, gamma3, parallel, results
+from .admissible import (PhysicsWarning, check_initial_displacement, check_supports_at_start, flags, scene_flags,
+                         stiff_contact_terms)
 from .backward_euler import BackwardEuler
 from .checks import integer, number, uses_only
-from .contact_side import ContactSide
 from .electric_part import electric_parts, solves_potential
 from .enforcement import METHODS
 from .loads import Loads, as_cf
+from .machine_code import ITERATIONS_PER_STEP, MachineCode
 from .newton import Newton, NewtonError, NewtonResult, Timings
-from .observables import Gamma3, Recorder
-from .obstacles import check_normal
+from .observables import Recorder
 from .progress import bar
 from .records import History
 from .solver_choice import choose
@@ -58,9 +56,10 @@ class Simulation:
         the warm start converges (docs/speed.md).
     condense : static condensation of the element-interior DOFs (those of the elements at Γ3
         are kept); default: when the space has such DOFs (order >= 3 in 2D, >= 4 in 3D).
-    realcompile : compile the Γ3 integrand to machine code (needs a C++ compiler, takes
-        seconds once, assembles the Γ3 terms about 4× faster); default: when ndof >= 50 000
-        in 2D, >= 2 000 in 3D.
+    realcompile : compile the Γ3 Jacobian's integrand to machine code (needs a C++ compiler,
+        takes 6–9 s once, assembles the Γ3 Jacobian 6–12× faster): True at once, False never,
+        None (default) when the Newton iterations a run expects pay for it (``machine_code``);
+        ``realcompile`` says whether it is.
     limit_steps : shorten Newton corrections that would carry open points of Γ3 deep into
         the foundation (``step_length``): Newton's iterations at first contact then no longer
         grow with the mesh. Nitsche and penalty (the nodal constraint makes its own
@@ -114,9 +113,6 @@ class Simulation:
         self.electric = solves_potential(electric, self._electric_parts, body)
         self.gfu = ngs.GridFunction(self.X, name="state")
         self.u, self.phi = self.gfu.components
-        if realcompile is None:         # where it paid in docs/speed.md (the 3D Γ3 terms cost far more)
-            realcompile = body.ndof >= (2_000 if body.dim == 3 else 50_000)
-        self.realcompile = bool(realcompile)
         distributed = parallel.is_distributed(body.mesh)     # see parallel.check_simulation, parallel_notes
         self.condense = has_interior_dofs(self.X) and not distributed if condense is None else bool(condense)
         if contact is not None and not METHODS[contact.method].condensable:
@@ -129,11 +125,15 @@ class Simulation:
             # static condensation); condensed interior φ DOFs stay 0 (no coupling, no charge)
             for free in (self.X.FreeDofs(), self.X.FreeDofs(coupling=True)):
                 free[self.X.Range(1)] = False
-        self.gamma3 = self._contact_side(contact) if contact is not None else None
+        self.gamma3, self._gap_check, self._machine_code = None, None, None
+        if contact is not None:
+            self.gamma3, self._gap_check = gamma3.build(body, contact, self.system, self.time, realcompile is True)
+            if realcompile is None:              # by what the run will do (``machine_code``)
+                self._machine_code = MachineCode(self.system, self.gamma3.side.B.ndof, body.dim, self.electric)
         solver, self._potential_solver = choose(body, contact, self.system, self.X, inverse=inverse,
                                                 reuse_factorization=reuse_factorization, iterative=iterative,
                                                 electric=self.electric, condense=self.condense,
-                                                realcompile=self.realcompile, distributed=distributed)
+                                                realcompile=realcompile is True, distributed=distributed)
         hook = self.gamma3.enforcement.newton_hook if contact is not None else None
         limit = None
         if contact is not None and hook is None and limit_steps:
@@ -154,38 +154,16 @@ class Simulation:
         self._start(u0)
 
     @property
+    def realcompile(self):
+        """Whether the Γ3 Jacobian is assembled with its integrand compiled to machine code."""
+        return self.system.machine_code
+
+    @property
     def model(self):
         """Which unknowns this simulation solves, and why."""
         if self.electric:
             return f"u and φ ({', '.join(self._electric_parts) or 'electric=True'})"
         return "u alone (no piezoelectric coupling, no conduction on Γ3, no electric loads: φ = 0)"
-
-    def _contact_side(self, contact):
-        """Γ3: B^h, the bonding field, the enforcement method and the Γ3 terms of the residual."""
-        body = self.body
-        side = ContactSide(body)
-        if contact.obstacle is not None:
-            gap, normal = contact.obstacle.fields(body.dim)
-            sampled_normal = normal
-        else:
-            gap, normal, sampled_normal = as_cf(contact.gap, 1, "Contact.gap"), ngs.specialcf.normal(body.dim), None
-        foundation_potential = as_cf(contact.foundation_potential, 1, "Contact.foundation_potential")
-        gamma3 = Gamma3(side, contact, None, None, gap, foundation_potential, normal, sampled_normal)
-        arguments.gamma3_data(contact, gamma3, body.mesh, self.time, 0.0)
-        self.time.Set(0.0)
-        self._gap_check = GapCheck(self.body, gamma3)
-        self._gap_check(0.0)
-        if sampled_normal is not None:
-            check_normal(side, gap, normal, body.size)
-        beta = BondingField(side, contact)
-        enforcement = METHODS[contact.method](body, contact, side, gap=gap, u_old=self.system.u_old,
-                                              inv_dt=self.system.inv_dt, normal=normal)
-
-        def terms(state, test):
-            return forms.contact_terms(contact, enforcement, beta.gf, gap, foundation_potential, state, test,
-                                       normal)
-        self.system.add_boundary_terms(terms, side, realcompile=self.realcompile)
-        return Gamma3(side, contact, enforcement, beta, gap, foundation_potential, normal, sampled_normal)
 
     def __repr__(self):
         contact = "none" if self.contact is None else self.contact.method
@@ -267,6 +245,8 @@ class Simulation:
             self.scheme.restore(saved)
             raise
         self.history.append(record)
+        if self._machine_code is not None:
+            self._machine_code.account(record.newton_iterations)
         found = flags(self.body, record, self.u, self.gamma3.side if self.gamma3 else None) \
             if self.physical_checks else []
         for message in found:
@@ -330,6 +310,8 @@ class Simulation:
         resumed = self._resumed
         start = resumed["start"] if resumed and (resumed["dt"], resumed["T"]) == (dt, T) else self.t
         steps = max(1, int(np.ceil((T - start) / dt - 1e-9)))        # dt > T − t: one step to T
+        if self._machine_code is not None:
+            self._machine_code.expect(steps * ITERATIONS_PER_STEP)
         callbacks = [on_step] if on_step else []
         if out is not None:                      # checks the directory, writes the history so far
             callbacks.insert(0, results.Stream(self, out, dt, T, start, resumed))

@@ -21,7 +21,6 @@ they are eliminated once per time step size by a condensed form of K, and ``mat`
 Schur complement of K plus R_Γ3' on the remaining (coupling) DOFs. The interior DOFs of the
 elements at Γ3 are kept as coupling DOFs of the system's own space.
 """
-import warnings
 
 import ngsolve as ngs
 import numpy as np
@@ -30,6 +29,7 @@ import scipy.sparse as sp
 from . import forms, parallel
 from .contact_side import element_boundary_layer
 from .loads import as_cf
+from .machine_code import compiled
 from .newton import ResidualNorm
 from .supports import SLIP_GAMMA0
 
@@ -139,27 +139,47 @@ class StepSystem:
         return terms
 
     def add_boundary_terms(self, terms, side, realcompile=False):
-        """Add ∫_Γ3 terms(state, test) da to R: ``terms((u, φ), (v, ξ))`` is the integrand
-        (linear in the test functions) for the state (u, φ); ``side`` the ContactSide.
+        """Add ∫_Γ3 terms(state, test) da to R (once): ``terms((u, φ), (v, ξ))`` is the
+        integrand (linear in the test functions) for the state (u, φ); ``side`` the ContactSide.
 
         R_Γ3 comes from a LinearForm over ``side.ds`` (ds(skeleton=True)) in a copy of the
-        state; its Jacobian from a BilinearForm in the trial functions. With ``realcompile``
-        that form integrates over the element boundaries of the volume elements at Γ3 only
-        (``side.dx_at``, the integrand times the Γ3 indicator), which does not visit every
-        facet of the mesh (P1, 121 851 DOFs: 0.084 s against 0.33 s); without machine code
-        the integrand's evaluation on all facets of those elements costs more than the visit
-        (P1, 576 DOFs: 0.042 s against 0.017 s per Newton iteration), so it stays on ``side.ds``."""
-        if self.boundary is None:
-            self.boundary = ngs.BilinearForm(self.X, symmetric=False)
-            self.state = ngs.GridFunction(self.X)
-            self._boundary_linear = ngs.LinearForm(self.X)
-        test = self.X.TestFunction()
-        integrand = terms(self.X.TrialFunction(), test)
+        state; its Jacobian from a BilinearForm in the trial functions, interpreted
+        (``Compile()``) on ``side.ds``, or with ``realcompile`` (or after ``use_machine_code``)
+        compiled to machine code on the element boundaries of the volume elements at Γ3 only
+        (``side.dx_at``, the integrand times the Γ3 indicator). Interpreted, the integrand's
+        evaluation on all facets of those elements costs more than NGSolve's visit of every
+        facet (``machine_code`` has the measurements)."""
+        if self.boundary is not None:
+            raise RuntimeError("the Γ3 terms are added once")
+        self._gamma3 = terms, side
+        self.boundary = self._jacobian_form(realcompile)
+        self.machine_code = bool(realcompile)
+        self.state = ngs.GridFunction(self.X)
+        self._boundary_linear = ngs.LinearForm(self.X)
+        self._boundary_linear += terms(self.state.components, self.X.TestFunction()).Compile() * side.ds
+
+    machine_code = False
+    """Whether the Γ3 Jacobian's integrand is compiled to machine code."""
+
+    def _jacobian_form(self, realcompile):
+        terms, side = self._gamma3
+        form = ngs.BilinearForm(self.X, symmetric=False)
+        integrand = terms(self.X.TrialFunction(), self.X.TestFunction())
         if realcompile:
-            self.boundary += compiled(side.indicator * integrand, True) * side.dx_at
+            form += compiled(side.indicator * integrand, True, maxderiv=1) * side.dx_at
         else:
-            self.boundary += integrand.Compile() * side.ds
-        self._boundary_linear += terms(self.state.components, test).Compile() * side.ds
+            form += integrand.Compile() * side.ds
+        return form
+
+    def use_machine_code(self):
+        """From now on, assemble the Γ3 Jacobian with its integrand compiled to machine code
+        (NGSolve's realcompile, first derivatives only: 6–9 s once). The same matrix to round-off."""
+        if self.machine_code or self.boundary is None:
+            return
+        self.boundary = self._jacobian_form(True)
+        self.machine_code = True
+        self._positions.clear()                   # keyed by target; the new form's matrix has its own layout
+        self._linearized = False
 
     # ----------------------------------------------------------------------- one step
     def begin_step(self, t, dt, u_old, state):
@@ -360,17 +380,6 @@ def _csr(matrix):
     """An NGSolve sparse matrix (the rank's part of a ParallelMatrix) as a scipy CSR matrix."""
     matrix = parallel.local_matrix(matrix)
     return sp.csr_matrix(matrix.CSR(), shape=(matrix.height, matrix.width))
-
-
-def compiled(cf, realcompile):
-    """cf.Compile(), to machine code if ``realcompile`` (falls back, with a warning, when
-    there is no working C++ compiler)."""
-    if realcompile:
-        try:
-            return cf.Compile(realcompile=True, wait=True)
-        except Exception as err:                               # NGSolve raises a plain Exception
-            warnings.warn(f"realcompile failed ({err}); using Compile()", RuntimeWarning)
-    return cf.Compile()
 
 
 def _matching_positions(source, target):

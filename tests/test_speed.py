@@ -124,12 +124,53 @@ def test_step_timings_split_the_wall_time():
 
 
 def test_realcompiled_contact_terms_agree():
-    """The Γ3 integrand compiled to machine code gives the same steps to round-off."""
-    a, b = run_reference(steps=4), run_reference(steps=4, realcompile=True)
+    """The Γ3 Jacobian's integrand compiled to machine code in the middle of a run (as
+    ``machine_code`` decides) gives the same steps to round-off."""
+    a = run_reference(steps=4)
+    b = scene.simulation(1)
+    b.run(2.5e-3, 2 * 2.5e-3)
+    assert not b.realcompile
+    b.system.use_machine_code()
+    b.run(2.5e-3, 4 * 2.5e-3)
     assert b.realcompile and not a.realcompile
     for ra, rb in zip(a.history, b.history):
         assert np.abs(ra.state - rb.state).max() <= 1e-9 * np.abs(ra.state).max()
         assert ra.newton_iterations == rb.newton_iterations
+
+
+class _System:
+    machine_code = False
+
+    def use_machine_code(self):
+        self.machine_code = True
+
+
+@pytest.mark.parametrize("facets, dim, electric, steps, compiles", [
+    (39, 2, True, 200, False),       # the demo: 39 facets x 400 iterations x 0.5 ms = 7.8 s < 8 s
+    (312, 2, True, 10, False),       # a 10-step bench at 30 879 DOFs: 6.2 s
+    (312, 2, True, 200, True),       # the same over 200 steps: 62 s
+    (164, 2, False, 1, False),       # a one-step Hertz solve at P2
+    (392, 3, True, 6, True),         # the 3D block: 392 x 12 x 2.5 ms = 11.8 s
+])
+def test_machine_code_when_the_run_pays_for_it(facets, dim, electric, steps, compiles):
+    """A run compiles when its expected iterations save more than the compile costs."""
+    from ngcontact.machine_code import ITERATIONS_PER_STEP, MachineCode
+    system = _System()
+    MachineCode(system, facets, dim, electric).expect(steps * ITERATIONS_PER_STEP)
+    assert system.machine_code == compiles
+
+
+def test_machine_code_for_steps_made_by_hand():
+    """Stepped by hand, a simulation compiles once the iterations made would have paid for it:
+    the 3D block (392 facets, 0.98 s per iteration) after 9 iterations, not after 8."""
+    from ngcontact.machine_code import MachineCode
+    system = _System()
+    policy = MachineCode(system, 392, 3, True)
+    for _ in range(4):
+        policy.account(2)
+    assert not system.machine_code
+    policy.account(1)
+    assert system.machine_code
 
 
 def test_bare_scene_uses_cholesky_and_matches_umfpack():
@@ -196,10 +237,10 @@ def test_static_condensation_gives_the_same_steps():
 
 def test_realcompile_falls_back_without_a_compiler():
     """If compiling to machine code fails, the integrand is Compile()d with a warning."""
-    from ngcontact.system import compiled
+    from ngcontact.machine_code import compiled
 
     class NoCompiler:
-        def Compile(self, realcompile=False, wait=False):
+        def Compile(self, realcompile=False, maxderiv=2, wait=False):
             if realcompile:
                 raise Exception("cannot compile: g++ not found")
             return "compiled"

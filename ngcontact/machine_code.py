@@ -1,0 +1,67 @@
+"""When the Γ3 integrand is compiled to machine code: a measured rule, not a clock.
+
+Compiling the integrand of the Γ3 Jacobian (``StepSystem.use_machine_code``: NGSolve's
+``Compile(realcompile=True)`` with first derivatives only, on the element boundaries at Γ3)
+takes ``COMPILE_S`` once per simulation and saves, at every assembly of the Γ3 Jacobian (one
+per Newton iteration), about ``SAVING`` per facet of Γ3. Measured on this project's machine
+(NGSolve 6.2.2608, one thread; interpreted ``Compile()`` against machine code, per facet of Γ3
+and Jacobian assembly; compile times 5.6–9.4 s):
+
+=======  ================  ==================================================================
+dim      unknowns on Γ3    interpreted / machine code per facet
+=======  ================  ==================================================================
+2        u                 Hertz P2: 89 / 15 µs (82 facets), 126 / 20 µs (328 facets)
+2        u, φ              reference plate P1: 487 / 45 µs (39 facets), 637 / 76 µs (312); P2: 483 / 45 µs
+3        u                 Hertz P1: 736 / 153 µs (462 facets)
+3        u, φ              reference block P1: 2005 / 259 µs (98 facets), 3003 / 261 µs (392)
+=======  ================  ==================================================================
+
+A simulation compiles when the Newton iterations it expects save more than the compile costs:
+``Simulation.run(dt, T)`` expects ``ITERATIONS_PER_STEP`` per nominal step (the demo: 390 in
+200 steps); a simulation stepped by hand compiles once the iterations it has made would have
+paid for the compile (the ski-rental rule: never more than twice the cost of the better of
+the two choices made in hindsight). A one-step Hertz solve then never compiles (it paid 15 s
+for it before), a long run of the 3D block compiles at once.
+"""
+import warnings
+
+COMPILE_S = 8.0
+"""Seconds to compile the Γ3 Jacobian's integrand (5.6–9.4 s measured)."""
+SAVING = {(2, False): 1e-4, (2, True): 5e-4, (3, False): 6e-4, (3, True): 2.5e-3}
+"""Seconds saved per facet of Γ3 and Newton iteration, by (dimension, whether φ is solved)."""
+ITERATIONS_PER_STEP = 2
+"""Newton iterations a nominal step of ``run`` is expected to take."""
+
+
+class MachineCode:
+    """The rule for one simulation's ``system`` (a StepSystem with Γ3 terms) with ``facets``
+    facets of Γ3 in ``dim`` D; ``electric``: whether φ is solved."""
+
+    def __init__(self, system, facets, dim, electric):
+        self.system = system
+        self.saving = facets * SAVING[dim, bool(electric)]
+        self.spent = 0.0                         # s the interpreted assemblies have cost beyond machine code
+
+    def expect(self, iterations):
+        """A run of about ``iterations`` Newton iterations begins: compile now if they pay for it."""
+        if self.saving * iterations > COMPILE_S:
+            self.system.use_machine_code()
+
+    def account(self, iterations):
+        """A step took ``iterations`` Newton iterations: compile once the sum would have paid."""
+        self.spent += self.saving * iterations
+        if self.spent > COMPILE_S:
+            self.system.use_machine_code()
+
+
+def compiled(cf, realcompile, maxderiv=2):
+    """cf.Compile(), to machine code if ``realcompile`` (falls back, with a warning, when
+    there is no working C++ compiler); ``maxderiv``: the derivatives compiled (1 suffices for
+    a Jacobian by ``AssembleLinearization``: 6.5 s to compile instead of 8.7, and assembles in
+    half the time of 2)."""
+    if realcompile:
+        try:
+            return cf.Compile(realcompile=True, maxderiv=maxderiv, wait=True)
+        except Exception as err:                               # NGSolve raises a plain Exception
+            warnings.warn(f"realcompile failed ({err}); using Compile()", RuntimeWarning)
+    return cf.Compile()
