@@ -11,18 +11,24 @@ import ngsolve as ngs
 import numpy as np
 
 
-def element_boundary_layer(mesh, region):
-    """(dx, indicator) for integrals over the boundary ``region`` that need the volume
-    element's gradients and may be statically condensed: ``indicator * f * dx`` integrates
-    f over the element boundaries of the volume elements at ``region`` (dx with
-    ``element_boundary=True``), where the indicator (order-0 facet GridFunction) is 1 on the
-    facets of ``region`` and 0 elsewhere."""
+def elements_at(mesh, region):
+    """BitArray of the volume elements that have a facet on the boundary ``region``."""
     elements = ngs.BitArray(mesh.ne)
     elements.Clear()
     for el in region.Elements():
         for facet in (el.edges if mesh.dim == 2 else el.faces):
             for volume in mesh[facet].elements:
                 elements.Set(volume.nr)
+    return elements
+
+
+def element_boundary_layer(mesh, region):
+    """(dx, indicator) for integrals over the boundary ``region`` that need the volume
+    element's gradients and may be statically condensed: ``indicator * f * dx`` integrates
+    f over the element boundaries of the volume elements at ``region`` (dx with
+    ``element_boundary=True``), where the indicator (order-0 facet GridFunction) is 1 on the
+    facets of ``region`` and 0 elsewhere."""
+    elements = elements_at(mesh, region)
     indicator = ngs.GridFunction(ngs.FacetFESpace(mesh, order=0), name="indicator")
     indicator.Set(1.0, definedon=region)
     return ngs.dx(element_boundary=True, definedonelements=elements), indicator
@@ -40,6 +46,7 @@ class ContactSide:
         # the same integrals over the volume elements at Γ3 only: ∫ indicator · f on their
         # element boundaries (ds(skeleton=True) visits every facet of the mesh, 2 µs each)
         self.dx_at, self.indicator = element_boundary_layer(mesh, body.region("contact_side"))
+        self.elements = elements_at(mesh, body.region("contact_side"))     # the volume elements at Γ3
         # P_B and the recorded integrals: exact for polynomials of degree 2p + 2 on a facet
         self._ds_exact = ngs.ds(skeleton=True, definedon=body.region("contact_side"),
                                 bonus_intorder=2 * body.order + 2)

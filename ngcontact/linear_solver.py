@@ -117,8 +117,9 @@ class DirectSolver:
         self._matrix, self._freedofs = matrix, freedofs
         self.factorizations += 1
 
-    def solve(self, matrix, freedofs, r, w, generation=None, timer=untimed, weights=None, tol=None):
-        """w = A⁻¹ r with a new factorisation of A (exact: ``weights`` and ``tol`` are not used)."""
+    def solve(self, matrix, freedofs, r, w, generation=None, timer=untimed, weights=None, tol=None, changing=None):
+        """w = A⁻¹ r with a new factorisation of A (exact: ``weights``, ``tol`` and ``changing``
+        are not used)."""
         with timer("factorization"):
             self.factor(matrix, freedofs)
         with timer("solve"), reproducible():
@@ -132,7 +133,12 @@ class KeptFactorization:
     """w = A⁻¹ r by GMRES, preconditioned by the factorisation of an earlier matrix.
 
     The factorisation is made anew (``DirectSolver.factor``) when there is none, when
-    ``generation`` or the free DOFs changed, when the last solve needed more than half of the
+    ``generation`` or the free DOFs changed, when the matrix changed in more rows than the
+    ``budget`` since it was factorised (``changed_rows``: GMRES preconditioned by the
+    factorisation of A − E converges in at most rank(E) + 1 iterations, so a change in m rows
+    costs up to m iterations; at first contact of a one-step Hertz solve, P2, 21 447 DOFs, the
+    Γ3 terms changed 30–470 rows between iterations against a budget of 9, and GMRES ran
+    into its cap at every other iteration), when the last solve needed more than half of the
     ``budget`` of GMRES iterations that one factorisation costs (``factorization_worth``)
     beyond what the first solve after the last factorisation needed
     for the same accuracy (what a new one would need; per decade of ``tol``: with the
@@ -165,6 +171,7 @@ class KeptFactorization:
         self.krylov_iterations = self.krylov_failures = self.fallbacks = 0
         self._generation = self._freedofs = self._symmetric_part = self._source = None
         self._stale, self._baseline = True, None
+        self._factored = self._rows = self._pattern = None     # the values factorised, per entry its row
 
     @property
     def name(self):
@@ -175,7 +182,33 @@ class KeptFactorization:
     def factorizations(self):
         return self.direct.factorizations + self.fallbacks
 
+    CHANGE = 1e-3
+    """A row counts as changed where an entry moved by more than CHANGE times the row's largest
+    entry at the factorisation."""
+
+    def changed_rows(self, matrix, changing=None):
+        """The rows of ``matrix`` that changed (``CHANGE``) since its values were factorised;
+        ``changing``: the positions among its values that may have changed (all if None)."""
+        where = slice(None) if changing is None else changing
+        values = matrix.AsVector().FV().NumPy()[where]
+        moved = np.abs(values - self._factored[where]) > self.CHANGE * self._scale[where]
+        changed = np.zeros(matrix.height, dtype=bool)
+        changed[self._rows[where][moved]] = True
+        return int(changed.sum())
+
+    def _keep_values(self, matrix):
+        """The values of ``matrix`` as factorised, with each entry's row and row scale."""
+        if matrix is not self._pattern:
+            _, _, ptr = matrix.CSR()
+            self._pattern, self._ptr = matrix, np.asarray(ptr, dtype=np.int64)
+            self._rows = np.repeat(np.arange(matrix.height), np.diff(self._ptr))
+        self._factored = matrix.AsVector().FV().NumPy().copy()
+        largest, filled = np.zeros(matrix.height), np.diff(self._ptr) > 0
+        largest[filled] = np.maximum.reduceat(np.abs(self._factored), self._ptr[:-1][filled])
+        self._scale = largest[self._rows]
+
     def _factor(self, matrix, freedofs, timer):
+        self._keep_values(matrix)
         with timer("factorization"):
             if self.symmetric:
                 if matrix is not self._source:                 # a new matrix: its own pattern
@@ -194,15 +227,22 @@ class KeptFactorization:
         self.krylov_iterations += iterations
         return converged, iterations
 
-    def solve(self, matrix, freedofs, r, w, generation=None, timer=untimed, weights=None, tol=None):
+    def solve(self, matrix, freedofs, r, w, generation=None, timer=untimed, weights=None, tol=None, changing=None):
         """w = A⁻¹ r to the relative accuracy ``tol`` (default: the solver's ``tol``) in the
-        ``weights`` norm of the preconditioned residual."""
+        ``weights`` norm of the preconditioned residual; ``changing``: the positions among the
+        matrix's values that may change within one ``generation`` (the Γ3 terms'), or None."""
         tol = self.tol if tol is None else tol
         decades = max(1.0, -np.log10(tol))                # GMRES iterations grow with the accuracy asked
-        fresh = self._stale or generation != self._generation or freedofs is not self._freedofs
+        fresh = self._stale or generation != self._generation or freedofs is not self._freedofs \
+            or matrix is not self._pattern or self.changed_rows(matrix, changing) > self.budget
         if fresh:
             self._generation, self._freedofs = generation, freedofs
             self._factor(matrix, freedofs, timer)
+            if not self.symmetric:                      # the factorisation of A itself: exact
+                with timer("solve"), reproducible():
+                    w.data = self.direct.inverse * r
+                self._baseline = 1.0 / decades
+                return
         budget = self.budget
         # a kept factorisation gets what a fresh one would need, plus what a factorisation costs
         cap = self.max_budget if fresh else min(self.max_budget, int(np.ceil(self._baseline * decades)) + budget)

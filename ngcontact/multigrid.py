@@ -243,7 +243,7 @@ class MultigridSolver:
         levels = f"{self.hierarchy.levels} levels" if self.hierarchy else "nested meshes"
         return f"GMRES preconditioned by Γ3 solves around block multigrid ({levels})"
 
-    def solve(self, matrix, freedofs, r, w, generation=None, timer=untimed, weights=None, tol=None):
+    def solve(self, matrix, freedofs, r, w, generation=None, timer=untimed, weights=None, tol=None, changing=None):
         """w = J⁻¹ r to the relative accuracy ``tol`` (default: the solver's) in the
         ``weights`` norm of the preconditioned residual."""
         with timer("factorization"):

@@ -27,7 +27,8 @@ from .progress import bar
 from .records import History
 from .solver_choice import choose
 from .step_length import StepLength
-from .system import StepSystem, free_jacobian, has_interior_dofs
+from .matrices import free_jacobian
+from .system import StepSystem, has_interior_dofs
 
 
 class Simulation:

@@ -24,13 +24,12 @@ elements at Γ3 are kept as coupling DOFs of the system's own space.
 
 import ngsolve as ngs
 import numpy as np
-import scipy.sparse as sp
 
 from . import forms, parallel
 from .contact_side import element_boundary_layer
 from .loads import as_cf
+from .matrices import csr, matching_positions
 from .machine_code import compiled
-from .newton import ResidualNorm
 from .supports import SLIP_GAMMA0
 
 
@@ -152,6 +151,9 @@ class StepSystem:
         if self.boundary is not None:
             raise RuntimeError("the Γ3 terms are added once")
         self._gamma3 = terms, side
+        self._layer = np.zeros(self.X.ndof, dtype=bool)           # the DOFs of the volume elements at Γ3
+        for nr in np.flatnonzero(np.array(list(side.elements), dtype=bool)):
+            self._layer[[d for d in self.X.GetDofNrs(ngs.ElementId(ngs.VOL, int(nr))) if d >= 0]] = True
         self.boundary = self._jacobian_form(realcompile)
         self.machine_code = bool(realcompile)
         self.state = ngs.GridFunction(self.X)
@@ -274,9 +276,15 @@ class StepSystem:
         target, boundary = parallel.local_matrix(target), parallel.local_matrix(self.boundary.mat)
         positions = self._positions.get(id(target))
         if positions is None:
-            positions = self._positions[id(target)] = _matching_positions(boundary, target)
+            positions = self._positions[id(target)] = matching_positions(boundary, target, self._layer)
         source, into = positions
         target.AsVector().FV().NumPy()[into] += boundary.AsVector().FV().NumPy()[source]
+
+    def changing_entries(self):
+        """The positions among the values of ``mat`` (the last linearisation's) where the Γ3
+        terms add: within one ``generation`` nothing else changes. None before the first."""
+        positions = self._positions.get(id(parallel.local_matrix(self.mat)))
+        return None if positions is None else positions[1]
 
     @property
     def harmonic_extension(self):
@@ -314,7 +322,7 @@ class StepSystem:
         if not self._linearized:
             return np.zeros(len(x))
         size = np.abs(parallel.cumulated(x))
-        total = abs(_csr(self.boundary.mat)) @ size
+        total = abs(csr(self.boundary.mat)) @ size
         if parallel.is_distributed(self.body.mesh):
             return parallel.distributed_values(self._constant, total)
         return total
@@ -323,7 +331,7 @@ class StepSystem:
         """The diagonal of the bulk's K = K_el + K_A/dt (numpy, cumulated on a distributed
         mesh): the scales of Newton's norms come from it (``newton.ResidualNorm``), not from the
         Γ3 terms, so that a stiff contact term cannot set the units it is measured in."""
-        diagonal = _csr(self.K).diagonal()
+        diagonal = csr(self.K).diagonal()
         if parallel.is_distributed(self.body.mesh):          # the ranks' parts of the diagonal
             diagonal = parallel.distributed_values(self._constant, diagonal)
         return diagonal
@@ -334,7 +342,7 @@ class StepSystem:
         whose round-off limits how far Newton can reduce it. On a distributed mesh (cumulated
         values) |K| is the sum of the ranks' |K_p|, an upper bound of |K| at interface DOFs."""
         if self._absK is None:
-            self._absK = abs(_csr(self.K))
+            self._absK = abs(csr(self.K))
         bulk = self._absK @ np.abs(parallel.cumulated(x))
         if parallel.is_distributed(self.body.mesh):
             bulk = parallel.distributed_values(self._constant, bulk)
@@ -356,40 +364,3 @@ class _Uncondensed:
         self.Apply, self.bulk_diagonal, self.magnitude = system.Apply, system.bulk_diagonal, system.magnitude
         self.force_scale, self.contact_magnitude = system.force_scale, system.contact_magnitude
         self.AssembleLinearization, self.mat = system._assemble_full, system._full
-
-
-def free_jacobian(system, x, space, scaled=True):
-    """R'(x) of ``system`` (full Jacobian protocol) on the free DOFs of ``space`` as a scipy
-    CSR matrix; ``scaled``: S J S with S = diag(s_u^-½, s_φ^-½), s_b the mean of |diagonal|
-    over block b (the scaling of Newton's norms). Serial meshes only."""
-    parallel.serial_only(space.mesh, "the Jacobian as a scipy matrix (Simulation.jacobian)")
-    system.AssembleLinearization(x)
-    J = sp.csr_matrix(system.mat.CSR(), shape=(system.mat.height, system.mat.width))
-    free = np.flatnonzero(np.array(list(space.FreeDofs()), dtype=bool))
-    if scaled:
-        norm = ResidualNorm(space, space.FreeDofs())
-        norm.set_scales(J.diagonal())
-        scale = np.ones(J.shape[0])
-        for block, s in zip(norm.blocks, norm.scales):
-            scale[block] = s ** -0.5
-        J = sp.diags(scale) @ J @ sp.diags(scale)
-    return J[free][:, free].tocsr()
-
-
-def _csr(matrix):
-    """An NGSolve sparse matrix (the rank's part of a ParallelMatrix) as a scipy CSR matrix."""
-    matrix = parallel.local_matrix(matrix)
-    return sp.csr_matrix(matrix.CSR(), shape=(matrix.height, matrix.width))
-
-
-def _matching_positions(source, target):
-    """Index arrays (s, t): entry s of ``source``'s values sits at entry t of ``target``'s,
-    for the structural entries of ``source`` that ``target`` has."""
-    def keys(matrix):
-        _, cols, ptr = matrix.CSR()
-        rows = np.repeat(np.arange(matrix.height, dtype=np.int64), np.diff(np.asarray(ptr, dtype=np.int64)))
-        return rows * matrix.width + np.asarray(cols, dtype=np.int64)
-    s, t = keys(source), keys(target)
-    where = np.clip(np.searchsorted(t, s), 0, len(t) - 1)
-    found = t[where] == s
-    return np.flatnonzero(found), where[found]
