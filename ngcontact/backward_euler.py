@@ -49,16 +49,20 @@ class BackwardEuler:
         self._u_normal = state.components[0] * normal
         self._last = None                                   # (x_{n−1}, dt_n) for the predictor
 
-    def advance(self, dt, *, step=None, timer=None):
+    def advance(self, dt, *, step=None, timer=None, start=None):
         """One step of length dt (s) from the current state; returns the NewtonResult.
+        ``start(u, t_{n−1}, t_n)``, if given, changes Newton's start: the displacement u after
+        u_{n−1} is kept and the supports' values at t_n are set (``starts``).
         Not transactional: on failure the state is part-way (``checkpoint``/``restore``)."""
         if self.beta is not None:
             self.beta.update(self._u_normal, dt)            # (4.5), from u_{n−1}
         self._u_old.data = self.state.components[0].vec
         if self.predictor:
             self._predict(dt)
-        self.t = self.t + dt
+        before, self.t = self.t, self.t + dt
         self.system.begin_step(self.t, dt, self._u_old, self.state)
+        if start is not None:
+            start(self.state.components[0], before, self.t)
         return self.newton.solve(step=step, time=self.t, timer=timer)
 
     def _predict(self, dt):

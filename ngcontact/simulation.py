@@ -8,6 +8,7 @@ transactional step, ``advance(t)`` reaches a time with cut-backs where Newton fa
 """
 import time as wallclock
 import warnings
+from functools import partial
 
 import ngsolve as ngs
 import numpy as np
@@ -26,6 +27,7 @@ from .observables import Recorder
 from .progress import bar
 from .records import History
 from .solver_choice import choose
+from .starts import Starts
 from .step_length import StepLength
 from .matrices import free_jacobian
 from .system import StepSystem, has_interior_dofs
@@ -41,7 +43,8 @@ class Simulation:
     contact : Contact or None; None leaves Γ3 traction-free and charge-free.
     time : ngsolve.Parameter used in the loads and the contact data (created if not given);
         set to t_n at step n.
-    u0 : initial displacement (number tuple or CoefficientFunction), zero on Γ1; default 0.
+    u0 : initial displacement (number tuple or CoefficientFunction), zero on Γ1 and admissible;
+        default 0. Newton's start of a step may differ from it (``step(dt, guess=...)``).
     inverse : the direct factorisation of the Newton corrections ("sparsecholesky",
         "umfpack", "pardiso"); default: "sparsecholesky" where the step Jacobian is symmetric
         (no contact, or ``Contact.symmetric``), else, with ``reuse_factorization``, the
@@ -144,6 +147,7 @@ class Simulation:
         self.scheme = BackwardEuler(self.system, self.newton, self.gfu,
                                     self.gamma3.beta if contact is not None else None, predictor,
                                     self.gamma3.normal if contact is not None else None)
+        self.starts = Starts(self)              # checks that the supports and the contact hold the body
         self.recorder = Recorder(body, self.gfu, self.system, self.gamma3)
         self.history = History()
         self.cutbacks = []
@@ -151,7 +155,7 @@ class Simulation:
         self.flags = scene_flags(contact) if self.physical_checks else []     # what makes no physical sense
         for message in self.flags:
             warnings.warn(message, PhysicsWarning, stacklevel=2)
-        self._resumed = None                     # the run info of resume()
+        self._resumed, self.u0 = None, u0         # the run info of resume(); u0 as given
         self._start(u0)
 
     @property
@@ -223,16 +227,17 @@ class Simulation:
         return record
 
     # ----------------------------------------------------------------------- stepping
-    def step(self, dt):
-        """One backward Euler step of length dt (s); returns its StepRecord.
+    def step(self, dt, guess=None):
+        """One backward Euler step of length dt (s); returns its StepRecord. ``guess``: Newton's
+        start for this step instead of the last state (``starts``: a displacement, which may
+        penetrate, ``starts.Approach(depth)`` or "nested"), checked first.
 
         Transactional: either t, u, φ, β and the history all advance, or they are left
         bitwise as they were and the error (``NewtonError`` if Newton fails) is raised.
         dt and the data of Γ3 at t + dt are checked first (``arguments.time_step``,
         ``arguments.gamma3_data``)."""
-        dt = arguments.time_step(dt, self.t)
-        n = len(self.history)
-        start = wallclock.perf_counter()
+        dt, guessed = arguments.time_step(dt, self.t), self.starts.resolve(guess)
+        n, start = len(self.history), wallclock.perf_counter()
         saved, timings = self.scheme.checkpoint(), Timings()
         try:
             if self.contact is not None:                    # the data at t_n, before the solve
@@ -240,7 +245,7 @@ class Simulation:
                 if self.contact.obstacle is None and isinstance(self.contact.gap, ngs.CoefficientFunction):
                     self.time.Set(self.t + dt)
                     self._gap_check(self.t + dt)
-            result = self.scheme.advance(dt, step=n, timer=timings)
+            result = self.scheme.advance(dt, step=n, timer=timings, start=partial(self.starts.apply, guessed))
             record = self._record(n, result, start, timings)
         except BaseException:
             self.scheme.restore(saved)
@@ -255,11 +260,12 @@ class Simulation:
             warnings.warn(message, PhysicsWarning, stacklevel=2)
         return record
 
-    def advance(self, target, max_cutbacks=6, on_step=None):
+    def advance(self, target, max_cutbacks=6, on_step=None, guess=None):
         """Reach the time ``target`` (s) in one step, or, where Newton fails, in two half
         steps, each halved again on failure, down to 1/2^max_cutbacks of the step
         (max_cutbacks in [0, ``arguments.MAX_CUTBACKS``]); returns the new StepRecords and
-        calls ``on_step(record)`` after each step, while the state is that step's. Each
+        calls ``on_step(record)`` after each step, while the state is that step's; ``guess``
+        starts the first try (``step``), the warm start the cut-back steps. Each
         cut-back is listed in ``cutbacks``. If even the smallest step fails, the NewtonError
         names the time steps tried; the state is that of the last computed step."""
         max_cutbacks, on_step = arguments.cutbacks(max_cutbacks), arguments.callback(on_step)
@@ -267,9 +273,9 @@ class Simulation:
         records, pending = [], [(target, 0)]        # (time to reach, halvings so far): a stack
         while pending:
             goal, halvings = pending.pop()
-            dt = goal - self.t
+            dt, first, guess = goal - self.t, guess, None
             try:
-                record = self.step(dt)
+                record = self.step(dt, guess=first)
             except NewtonError as err:
                 n = len(self.history)
                 self.cutbacks.append(dict(step=n, time=goal, dt=dt, iterations=err.iteration,
@@ -289,7 +295,7 @@ class Simulation:
             records.append(record)
         return records
 
-    def run(self, dt, T, *, max_cutbacks=6, progress=False, vtk=None, on_step=None, out=None):
+    def run(self, dt, T, *, max_cutbacks=6, progress=False, vtk=None, on_step=None, out=None, guess=None):
         """Step from the current time to T (s) with nominal steps dt (s); returns the History.
 
         max_cutbacks : the cut-back policy of ``advance`` for each nominal step (the next
@@ -302,12 +308,14 @@ class Simulation:
         out : a directory to stream every step into as it is computed (``results``: records,
             restart state, ParaView series); after ``resume(out)``, the same dt and T continue
             the interrupted run on its own nominal steps.
+        guess : Newton's start (``step``): "nested" for every step, another guess for the first.
         If a step fails even at the smallest cut-back, the NewtonError is raised with
         ``error.history`` holding every step computed so far (also in ``history``).
         The arguments are checked before the first step (``arguments.run``: the directories
         of ``vtk`` and ``out`` must be writable, at most ``checks.MAX_STEPS`` steps).
         """
         dt, T, max_cutbacks, progress = arguments.run(self, dt, T, max_cutbacks, progress, vtk, on_step, out)
+        self.starts.resolve(guess)
         resumed = self._resumed
         start = resumed["start"] if resumed and (resumed["dt"], resumed["T"]) == (dt, T) else self.t
         steps = max(1, int(np.ceil((T - start) / dt - 1e-9)))        # dt > T − t: one step to T
@@ -331,20 +339,21 @@ class Simulation:
                 self.newton.on_iteration = lambda it, r: shown.set_postfix_str(
                     f"t -> {self.time.Get():.4g} s, Newton {it}, residual {r:.1e}")
             try:
-                self._steps(start, T, steps, max_cutbacks, after, shown)
+                self._steps(start, T, steps, max_cutbacks, after, shown, guess)
             finally:
                 self.newton.on_iteration = None
         return self.history
 
-    def _steps(self, start, T, steps, max_cutbacks, after, shown):
-        """The nominal steps of ``run`` not reached yet."""
+    def _steps(self, start, T, steps, max_cutbacks, after, shown, guess):
+        """The nominal steps of ``run`` not reached yet, the first from ``guess``."""
         for i in range(steps):
             target = start + (T - start) * (i + 1) / steps
             if target <= self.t * (1 + 1e-12):          # reached before a resume
                 shown.update(1)
                 continue
             try:
-                records = self.advance(target, max_cutbacks, after)
+                records = self.advance(target, max_cutbacks, after, guess)
+                guess = guess if isinstance(guess, str) else None           # "nested": every step
             except NewtonError as err:
                 err.history = self.history
                 raise

@@ -86,13 +86,13 @@ def test_huge_adhesion_gives_the_reference_push():
 
 
 def test_a_body_held_only_by_the_contact_is_named_singular():
-    """A half-disk held in x only, pushed onto a plane by a traction: while the contact is open,
-    nothing fixes its vertical motion. The first correction is 1e16 times the residual it
-    answers; Newton says the system is singular and what to give (the old test "converged" in 1
-    iteration at |u| = 5.5e11 m)."""
+    """A half-disk held in x only, pulled off a plane by a traction: nothing fixes its vertical
+    motion (pushed, the start moves it onto the plane: ``test_starts``). The first correction
+    is 1e16 times the residual it answers; Newton says the system is singular and what to give
+    (the old test "converged" in 1 iteration at |u| = 5.5e11 m)."""
     body = ngc.Body(hertz.mesh(2, 0.05), hertz.material(), supports={"top": "x"}, contact_side="contact")
     t = ngs.Parameter(0.0)
-    sim = ngc.Simulation(body, ngc.Loads(f2={"top": (0, -0.01 * t)}), time=t,
+    sim = ngc.Simulation(body, ngc.Loads(f2={"top": (0, 0.01 * t)}), time=t,
                          contact=ngc.Contact(obstacle=Plane((0, 0), (0, 1))))
     with pytest.raises(ngc.NewtonError, match=r"singular.*correction is .* times larger than the residual.*"
                                              r"Try: supports that hold the body") as err:

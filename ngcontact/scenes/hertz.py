@@ -2,10 +2,16 @@
 pressed onto a rigid plane, with the closed forms it is checked against.
 
 Body {|x − (0, R)| <= R, y <= R} (2D; in 3D the half-ball about (0, 0, R) with z <= R), its
-lowest point on the plane y = 0 (z = 0), the flat top ("top") pushed down by d (a support
-with prescribed displacement, ``Loads.displacement``), the curved side ("contact") on the
-plane obstacle ``obstacles.Plane`` (or, ``normal="body"``, the paper's form with the body's
-normal ν and the gap measured along it). Isotropic, elastic, no piezoelectric coupling.
+lowest point on the plane y = 0 (z = 0), the curved side ("contact") on the plane obstacle
+``obstacles.Plane`` (or, ``normal="body"``, the paper's form with the body's normal ν and the
+gap measured along it). Isotropic, elastic, no piezoelectric coupling. Two controls:
+
+* displacement: the flat top ("top") pushed down by d (a support with prescribed displacement,
+  ``Loads.displacement``);
+* force: a uniform traction of resultant F on the top, held there only tangentially (u_x = 0,
+  and u_y = 0 in 3D): the vertical motion and the rotations about the top's points are held by
+  the contact alone (``rigid.Floating``). ``informed_start`` is the peer's start: the body
+  moved rigidly onto the plane by Hertz's approach for F.
 
 Hertz, for the measured contact force F (per unit depth in 2D), E* = E/(1 − ν²):
   2D (cylinder on a plane): a = sqrt(4 F R/(π E*)), p(x) = p0 sqrt(1 − x²/a²), p0 = 2F/(π a);
@@ -21,7 +27,9 @@ from netgen.meshing import MeshingParameters
 from netgen.occ import Box, Circle, OCCGeometry, Pnt, Rectangle, Sphere, Y, Z
 
 import ngcontact as ngc
+from ngcontact.multigrid import nested_mesh
 from ngcontact.obstacles import Plane
+from ngcontact.starts import Approach
 
 E, NU, R = 1.0, 0.3, 1.0
 E_STAR = E / (1 - NU ** 2)
@@ -35,7 +43,8 @@ def material():
 def mesh(dim=2, h_contact=None, refine=0, curve=1):
     """The half-disk (half-ball) with mesh size h_contact (m) near the contact point over
     |x| < 0.25 R (default 0.02 R in 2D, 0.04 R in 3D), coarser away, ``refine`` uniform
-    refinements (nested, boundary points on the circle or sphere) and ``mesh.Curve(curve)``."""
+    refinements (``multigrid.nested_mesh``: boundary points on the circle or sphere, the coarse
+    mesh kept for multigrid and nested iteration) and ``mesh.Curve(curve)``."""
     h_contact = (0.02 if dim == 2 else 0.04) * R if h_contact is None else h_contact
     if dim == 2:
         shape = Circle(Pnt(0, R), R).Face() * Rectangle(2 * R, R).Face().Move((-R, 0, 0))
@@ -57,23 +66,37 @@ def mesh(dim=2, h_contact=None, refine=0, curve=1):
             for y in np.linspace(-0.25 * R, 0.25 * R, 26):
                 if x * x + y * y <= (0.25 * R) ** 2:
                     parameters.RestrictH(x, y, R - math.sqrt(R * R - x * x - y * y), h_contact)
-    m = ngs.Mesh(OCCGeometry(shape, dim=dim).GenerateMesh(mp=parameters))
-    for _ in range(refine):
-        m.Refine()
+    m = nested_mesh(OCCGeometry(shape, dim=dim).GenerateMesh(mp=parameters), refine)
     if curve > 1:
         m.Curve(curve)
     return m
 
 
-def simulation(order=1, h_contact=None, refine=0, dim=2, depth=None, normal="obstacle", gamma0=10.0, **options):
-    """The Hertz scene as a Simulation (one step t: 0 -> 1 brings the top down by ``depth``,
-    default 0.02 R in 2D, 0.01 R in 3D; mesh size ``h_contact`` as in ``mesh``); ``normal``: "obstacle" (n_o of the plane) or "body"
-    (the paper's form: ν and the gap y/(−ν_y) along it)."""
-    depth = (0.02 if dim == 2 else 0.01) * R if depth is None else depth
+def simulation(order=1, h_contact=None, refine=0, dim=2, depth=None, normal="obstacle", gamma0=10.0,
+               control="displacement", force=None, **options):
+    """The Hertz scene as a Simulation of one step t: 0 -> 1 (mesh size ``h_contact`` as in
+    ``mesh``). ``control="displacement"``: the top moved down by ``depth`` (m, default 0.02 R
+    in 2D, 0.01 R in 3D); ``control="force"``: a traction on the top of resultant ``force``
+    (N/m in 2D, N in 3D; default 0.01 in 2D, the peer's, 0.003 in 3D), the top held
+    tangentially only. ``normal``: "obstacle" (n_o of the plane) or "body" (the paper's form:
+    ν and the gap y/(−ν_y) along it)."""
+    if control not in ("displacement", "force"):
+        raise ValueError(f"control must be 'displacement' or 'force', got {control!r}")
+    if control == "force" and depth is not None or control == "displacement" and force is not None:
+        raise ValueError(f"control={control!r} takes {'force' if control == 'force' else 'depth'}, not "
+                         f"{'depth' if control == 'force' else 'force'}")
     m = mesh(dim, h_contact, refine, curve=order)
-    body = ngc.Body(m, material(), grounded="top", supports={"top": "all"}, contact_side="contact", order=order)
     t = ngs.Parameter(0.0)
-    down = tuple([0.0] * (dim - 1) + [-depth * t])
+    if control == "displacement":
+        depth = (0.02 if dim == 2 else 0.01) * R if depth is None else depth
+        supports = {"top": "all"}
+        loads = ngc.Loads(displacement={"top": tuple([0.0] * (dim - 1) + [-depth * t])})
+    else:
+        force = (0.01 if dim == 2 else 0.003) if force is None else ngc.checks.number("force", force, low=0.0, low_open=True, unit=" N (N/m in 2D)")
+        supports = {"top": "xy"[:dim - 1]}
+        area = ngs.Integrate(ngs.CF(1.0) * ngs.ds(m.Boundaries("top")), m)      # of the mesh: the resultant is F
+        loads = ngc.Loads(f2={"top": tuple([0.0] * (dim - 1) + [-force / area * t])})
+    body = ngc.Body(m, material(), grounded="top", supports=supports, contact_side="contact", order=order)
     up = tuple([0.0] * (dim - 1) + [1.0])
     if normal == "obstacle":
         contact = ngc.Contact(obstacle=Plane(tuple([0.0] * dim), up), gamma0=gamma0)
@@ -83,7 +106,20 @@ def simulation(order=1, h_contact=None, refine=0, dim=2, depth=None, normal="obs
         contact = ngc.Contact(gap=height / ngs.IfPos(-n[dim - 1], -n[dim - 1], 1.0), gamma0=gamma0)
     else:
         raise ValueError(f"normal must be 'obstacle' or 'body', got {normal!r}")
-    return ngc.Simulation(body, ngc.Loads(displacement={"top": down}), contact=contact, time=t, **options)
+    return ngc.Simulation(body, loads, contact=contact, time=t, **options)
+
+
+def approach(force, dim=2):
+    """The rigid approach (m) of the informed start for the contact force ``force``: Hertz's
+    a²/R in 3D; in 2D, where the approach of a cylinder is not finite, the peer's a²/(2R)."""
+    a, _ = closed_form(force, dim)
+    return a * a / (2 * R if dim == 2 else R)
+
+
+def informed_start(force, dim=2):
+    """``Simulation.step(dt, guess=...)`` for a force-controlled Hertz step to ``force``: the
+    body moved rigidly onto the plane by ``approach(force)``."""
+    return Approach(approach(force, dim))
 
 
 def closed_form(force, dim=2):

@@ -1,0 +1,160 @@
+"""Newton's starts (``starts``, ``nested``, ``rigid``): a guess changes how Newton gets to a
+step's solution, never the solution; nested iteration and the informed start of force control
+get there in the few iterations they are meant to; force-controlled Hertz meets the closed
+form; bad guesses are refused before any work."""
+import math
+
+import ngsolve as ngs
+import numpy as np
+import pytest
+
+import ngcontact as ngc
+from ngcontact.obstacles import Plane
+from ngcontact.scenes import hertz
+from ngcontact.starts import Approach
+
+
+def solved(guess=None, **options):
+    """The one-step displacement-controlled Hertz half-disk, P2, one refinement (3 678 DOFs),
+    stepped from ``guess``: (simulation, its StepRecord)."""
+    sim = hertz.simulation(order=2, refine=1, **options)
+    return sim, sim.step(1.0, guess=guess)
+
+
+@pytest.fixture(scope="module")
+def warm():
+    return solved()
+
+
+def same_state(sim, reference):
+    """u of ``sim`` equals u of ``reference`` to 1e-8 of its largest value (both converged to
+    Newton's 1e-10; a different contact set differs by ~1e-3)."""
+    u, v = sim.u.vec.FV().NumPy(), reference.u.vec.FV().NumPy()
+    assert np.max(np.abs(u - v)) <= 1e-8 * np.max(np.abs(v))
+
+
+@pytest.mark.parametrize("guess", ["nested", Approach(0.006), Approach(0.03)])
+def test_a_guess_changes_the_iterations_not_the_solution(warm, guess):
+    """From the rigid approach by 0.006 (close to the solution's contact set), 0.03 (deeper
+    than the top's 0.02: every point of Γ3 penetrates) or the coarse level's solution, Newton
+    reaches the warm start's state; nested iteration in at most 3 iterations on the finest
+    level where the warm start u = 0 takes 13."""
+    sim, record = solved(guess)
+    same_state(sim, warm[0])
+    assert sim.starts.last == "guess" and warm[0].starts.last == "warm"
+    assert warm[1].newton_iterations >= 10
+    if guess == "nested":
+        assert record.newton_iterations <= 3
+        assert len(sim.starts.nested.iterations) == 1 and sim.starts.nested.iterations[0] >= 10
+
+
+def test_nested_iteration_on_every_step_of_a_run():
+    """``run(..., guess="nested")`` starts every step from the level below (the Hertz push in
+    two steps, P1, two refinements): each finest step in at most 3 iterations, the same state as
+    the warm run, and the coarse levels stepped to the same times."""
+    nested, warm_run = hertz.simulation(order=1, refine=2), hertz.simulation(order=1, refine=2)
+    nested.run(0.5, 1.0, guess="nested")
+    warm_run.run(0.5, 1.0)
+    same_state(nested, warm_run)
+    assert max(r.newton_iterations for r in nested.history[1:]) <= 3
+    assert max(r.newton_iterations for r in warm_run.history[1:]) >= 6
+    assert [level.t for level in nested.starts.nested.levels] == pytest.approx([1.0, 1.0])
+
+
+@pytest.mark.parametrize("kind", ["tuple", "cf", "gridfunction", "array"])
+def test_a_displacement_guess_of_every_kind(warm, kind):
+    """The guess u = (0, −0.006 (1 − y/R) − 0.014 y/R) (between the contact's approach and the
+    top's motion) as a tuple, a CoefficientFunction, a GridFunction of u and u's DOF values:
+    the same state as the warm start, in fewer iterations."""
+    sim = hertz.simulation(order=2, refine=1)
+    cf = ngs.CF((0.0, -0.006 * (1 - ngs.y) - 0.014 * ngs.y))
+    gf = ngs.GridFunction(sim.body.V)
+    gf.Set(cf)
+    guess = dict(tuple=(0.0, -0.008), cf=cf, gridfunction=gf, array=gf.vec.FV().NumPy().copy())[kind]
+    record = sim.step(1.0, guess=guess)
+    same_state(sim, warm[0])
+    assert record.newton_iterations < warm[1].newton_iterations
+
+
+@pytest.fixture(scope="module")
+def force_controlled():
+    """Force-controlled Hertz (P2, one refinement, F = 0.01 N/m) from the informed start and
+    from the warm start (moved onto the plane by ``Starts.touch``)."""
+    informed = hertz.simulation(order=2, refine=1, control="force")
+    informed_record = informed.step(1.0, guess=hertz.informed_start(0.01))
+    touched = hertz.simulation(order=2, refine=1, control="force")
+    touched_record = touched.step(1.0)
+    return informed, informed_record, touched, touched_record
+
+
+def test_force_controlled_hertz_meets_the_closed_form(force_controlled):
+    """The body held only by its contact: the contact force balances the applied resultant to
+    round-off (equilibrium), the contact half-width and the pressure meet Hertz's closed form
+    (a = 0.1076 for F = 0.01 N/m: a_h within 2 %, pressure L2 error 7.9 % at this mesh,
+    bounded by 9 %), and the informed start a²/2R converges in at most 2 iterations."""
+    informed, record = force_controlled[:2]
+    errors = hertz.errors(informed)
+    assert errors["force"] == pytest.approx(0.01, rel=1e-9)
+    assert errors["a"] == pytest.approx(math.sqrt(0.04 / (math.pi * hertz.E_STAR)), rel=1e-12)
+    assert errors["a_h"] == pytest.approx(errors["a"], rel=0.02)
+    assert errors["pressure_L2"] < 0.09
+    assert record.newton_iterations <= 2 and informed.starts.last == "guess"
+
+
+def test_a_floating_body_is_moved_onto_the_obstacle(force_controlled):
+    """Without a guess the open start is singular; ``touch`` moves it rigidly onto the plane and
+    Newton reaches the informed start's state."""
+    informed, _, touched, record = force_controlled
+    assert touched.starts.last == "touch" and record.newton_iterations > 2
+    same_state(touched, informed)
+
+
+def test_a_motion_nothing_holds_is_refused():
+    """The half-disk held in y only on its top: its horizontal translation moves Γ3 along the
+    plane, which the contact cannot hold: a ValueError naming the motion, when it is built."""
+    body = ngc.Body(hertz.mesh(2, 0.05), hertz.material(), supports={"top": "y"}, contact_side="contact")
+    t = ngs.Parameter(0.0)
+    with pytest.raises(ValueError, match=r"the rigid motion .*translation along x.* held by neither the supports"):
+        ngc.Simulation(body, ngc.Loads(f2={"top": (0, -0.01 * t)}), time=t,
+                       contact=ngc.Contact(obstacle=Plane((0, 0), (0, 1))))
+
+
+@pytest.fixture(scope="module")
+def small():
+    return hertz.simulation(order=1, h_contact=0.05)
+
+
+@pytest.mark.parametrize("guess, error, words", [
+    ("coarse", ValueError, r"guess must be .*'nested'; got the string 'coarse'"),
+    ("nested", ValueError, r"guess='nested' needs coarser levels of the mesh and it was not refined"),
+    (3, TypeError, r"guess must be .*; got int"),
+    (np.zeros(5), ValueError, r"guess: an array of u's DOF values must be real of shape"),
+    ((0.0, 0.0, 1.0), ValueError, r"guess must have 2 components, got 3"),
+    ((0.0, math.nan), ValueError, r"guess must be a finite number"),
+    (ngs.CF((0.0, ngs.log(ngs.x - 5))), ValueError, r"guess is not finite"),
+    (Approach(0.01, direction=(0, 0, 1)), ValueError, r"guess=Approach: direction must have 2 components, got 3"),
+])
+def test_a_bad_guess_is_refused_before_any_work(small, guess, error, words):
+    """Each bad guess is an error naming ``guess``; the simulation stays at t = 0 with only its
+    initial record."""
+    with pytest.raises(error, match=words):
+        small.step(0.5, guess=guess)
+    assert small.t == 0.0 and len(small.history) == 1
+
+
+def test_a_bad_array_guess_and_approach():
+    """A NaN in u's DOF values, and approaches that are not numbers or have no direction."""
+    sim = hertz.simulation(order=1, h_contact=0.05)
+    values = np.zeros(sim.body.V.ndof)
+    values[3] = math.nan
+    with pytest.raises(ValueError, match="guess is not finite"):
+        sim.step(0.5, guess=values)
+    with pytest.raises(TypeError, match="Approach: depth must be a finite number"):
+        Approach("deep")
+    with pytest.raises(ValueError, match="Approach: direction must be a nonzero finite vector"):
+        Approach(0.01, direction=(0, 0))
+    with pytest.raises(ValueError, match="control must be 'displacement' or 'force'"):
+        hertz.simulation(control="traction")
+    with pytest.raises(ValueError, match="force must be a finite number"):
+        hertz.simulation(control="force", force=-1.0)
+    assert sim.t == 0.0
