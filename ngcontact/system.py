@@ -214,8 +214,7 @@ class StepSystem:
         self._set_displacements(state.components[0])
         phi = state.components[1]                              # φ on Γa (0 where not given)
         for names, value in self.loads.potential.items():
-            phi.Set(as_cf(value, 1, f"potential[{names!r}]"), ngs.BND,
-                    definedon=self.body.mesh.Boundaries(names))
+            set_on_boundary(phi, as_cf(value, 1, f"potential[{names!r}]"), self.body.mesh.Boundaries(names))
         if parallel.any_rank(self.body.mesh, not np.all(np.isfinite(state.vec.FV().NumPy()))):
             culprit = self.loads.nonfinite(self.body) or "a prescribed displacement or potential"
             raise ValueError(f"{culprit} is not finite at t = {t:.6g} s (NaN or inf)")
@@ -232,8 +231,7 @@ class StepSystem:
             cf = as_cf(value, support.size, f"Loads.displacement[{key!r}]")
             region = self.body.mesh.Boundaries(key)
             for j, axis in enumerate(support.axes):
-                u.components[axis].Set(support.sign * (cf[j] if support.size > 1 else cf), ngs.BND,
-                                       definedon=region)
+                set_on_boundary(u.components[axis], support.sign * (cf[j] if support.size > 1 else cf), region)
         values[self._clamped] = 0.0
 
     # ----------------------------------------------------------------------- BilinearForm protocol
@@ -364,3 +362,14 @@ class _Uncondensed:
         self.Apply, self.bulk_diagonal, self.magnitude = system.Apply, system.bulk_diagonal, system.magnitude
         self.force_scale, self.contact_magnitude = system.force_scale, system.contact_magnitude
         self.AssembleLinearization, self.mat = system._assemble_full, system._full
+
+
+def set_on_boundary(gf, cf, region):
+    """gf = cf at the DOFs of the boundary ``region`` (interpolated as ``GridFunction.Set``),
+    every other DOF kept: NGSolve's ``gf.Set(cf, BND, definedon=region)`` zeroes them, which
+    lost the warm start of every step with supports and, with two prescribed supports, the
+    values of the first."""
+    scratch = ngs.GridFunction(gf.space)
+    scratch.Set(cf, ngs.BND, definedon=region)
+    on = np.array(list(gf.space.GetDofs(region)), dtype=bool)
+    gf.vec.FV().NumPy()[on] = scratch.vec.FV().NumPy()[on]

@@ -93,6 +93,37 @@ def test_prescribed_displacement_drives_uniaxial_strain():
     assert relative_error(sim.u, exact, body.mesh) < 1e-10
 
 
+def test_two_prescribed_supports_each_hold_their_value():
+    """Left and right pulled apart by d·t each (u_x = ∓d t), a roller at the bottom: uniform
+    strain ε = 2 d t/L, u = (ε (x − L/2), −ν/(1 − ν) ε y) to round-off. NGSolve's
+    ``Set(cf, BND, definedon=right)`` zeroes every other DOF: the left support's values were
+    lost (u_x = 0 there)."""
+    L, d, time = 1.0, 1e-4, ngs.Parameter(0.0)
+    body = ngc.Body(square(), ELASTIC, grounded="top", supports={"left": "x", "right": "x", "bottom": "y"})
+    sim = ngc.Simulation(body, ngc.Loads(displacement={"left": -d * time, "right": d * time}), time=time)
+    sim.run(1.0, 1.0)
+    strain = 2 * d / L
+    exact = ngs.CF((strain * (ngs.x - L / 2), -NU / (1 - NU) * strain * ngs.y))
+    assert relative_error(sim.u, exact, body.mesh) < 1e-10
+
+
+def test_a_step_starts_from_the_last_state_away_from_the_supports():
+    """Setting the supports' values at t_n leaves every other DOF of u and φ as the last step
+    left it (Newton's warm start; it was reset to 0 wherever a support or electrode had data)."""
+    time = ngs.Parameter(0.0)
+    body = ngc.Body(square(), ELASTIC, grounded="bottom", supports={"left": "x", "bottom": "y", "top": "y"})
+    sim = ngc.Simulation(body, ngc.Loads(displacement={"top": -1e-4 * time}, potential={"bottom": 5 * time}),
+                         time=time)
+    sim.step(0.5)
+    before = sim.gfu.vec.FV().NumPy().copy()
+    sim.system.begin_step(1.0, 0.5, sim.u.vec.CreateVector(), sim.gfu)
+    after = sim.gfu.vec.FV().NumPy()
+    free = np.array(list(sim.gfu.space.FreeDofs()), dtype=bool)
+    assert np.count_nonzero(before[free]) > 0.5 * free.sum()
+    assert np.array_equal(after[free], before[free])
+    assert not np.array_equal(after[~free], before[~free])
+
+
 def test_rollers_on_a_turned_block_3d():
     """3D: a block turned about two axes, rollers (weak) on three faces through a corner,
     pressure on the face opposite the x roller: uniaxial stress, exact."""
