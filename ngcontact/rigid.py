@@ -29,9 +29,9 @@ def motions(body):
     along the axes, rotations about the centre of the mesh's bounding box divided by the body's
     size."""
     dim = body.dim
-    coordinates = np.asarray(body.mesh.ngmesh.Coordinates())
-    high = [parallel.maximum(body.mesh, c) for c in coordinates.T] if len(coordinates) else [0.0] * dim
-    low = [parallel.minimum(body.mesh, c) for c in coordinates.T] if len(coordinates) else [0.0] * dim
+    coordinates = np.asarray(body.mesh.ngmesh.Coordinates()).reshape(-1, dim)   # none on MPI's rank 0
+    high = [parallel.maximum(body.mesh, coordinates[:, i]) for i in range(dim)]       # on every rank: collective
+    low = [parallel.minimum(body.mesh, coordinates[:, i]) for i in range(dim)]
     x = [(ngs.x, ngs.y, ngs.z)[i] - (high[i] + low[i]) / 2 for i in range(dim)]
     result = [(ngs.CF(tuple(float(i == j) for j in range(dim))), f"translation along {AXES[i]}") for i in range(dim)]
     for i, j in [(0, 1)] if dim == 2 else [(1, 2), (2, 0), (0, 1)]:

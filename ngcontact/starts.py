@@ -62,6 +62,9 @@ class Approach:
         if self.direction is None and sim.gamma3 is None:
             raise ValueError("guess=Approach(depth) without a direction needs a contact (its normal): the simulation "
                              "has contact=None")
+        if self.direction is None:
+            parallel.serial_only(sim.body.mesh, "guess=Approach(depth) without a direction",
+                                 "give Approach(depth, direction=...)")
         if self.direction is not None and len(self.direction) != sim.body.dim:
             raise ValueError(f"guess=Approach: direction must have {sim.body.dim} components, got "
                              f"{len(self.direction)}")

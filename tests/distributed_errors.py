@@ -1,5 +1,5 @@
 """Run under mpiexec by tests/test_parallel.py: what does not run distributed raises a
-ValueError naming it (a serial mesh given to Body included); prints one line per case on
+ValueError naming it (a serial mesh given to Body and the guesses of ``starts`` included); prints one line per case on
 rank 0. Then two steps with
 ``run(vtk=<argv[1]>/fields)`` (the ParaView series, one file per computing rank and step)."""
 import pathlib
@@ -11,6 +11,7 @@ import ngcontact as ngc
 from ngcontact import parallel
 from ngcontact.geometries import plate
 from ngcontact.scenes import reference
+from ngcontact.starts import Approach
 
 cases = {"active_set": dict(contact=reference.contact(method="active_set")), "iterative": dict(iterative=True),
          "inverse": dict(inverse="umfpack"), "condense": dict(condense=True)}
@@ -37,6 +38,14 @@ except ValueError as err:
     message = str(err)
 if parallel.rank() == 0:
     print(f"out: {message}", flush=True)
+for name, guess in [("nested", "nested"), ("approach", Approach(1e-6))]:
+    try:
+        sim.step(2.5e-3, guess=guess)
+        message = "no error"
+    except ValueError as err:
+        message = str(err)
+    if parallel.rank() == 0:
+        print(f"{name}: {message}", flush=True)
 sim.run(2.5e-3, 5e-3, vtk=pathlib.Path(sys.argv[1]) / "fields")
 if parallel.rank() == 0:
     print(f"vtk: {len(sim.history) - 1} steps", flush=True)

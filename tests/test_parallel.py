@@ -64,7 +64,7 @@ def test_distributed_demo_equals_the_serial_run(serial, tmp_path, ranks):
 
 def test_what_does_not_run_distributed_says_so(tmp_path):
     """A serial mesh given to Body, the nodal active set, GMRES with multigrid, a serial
-    inverse, static condensation and the stream of results raise a ValueError naming the
+    inverse, static condensation, the stream of results and the guesses that need the whole mesh raise a ValueError naming the
     feature under mpiexec; ``run(vtk=)``
     writes one ParaView file per computing rank and step (the initial state and 2 steps),
     with u and φ, collected by one .pvd."""
@@ -77,6 +77,8 @@ def test_what_does_not_run_distributed_says_so(tmp_path):
     assert "inverse='umfpack'" in lines["inverse"]
     assert "condense=True" in lines["condense"]
     assert "distributed" in lines["out"]
+    assert lines["nested"].startswith("guess='nested'") and lines["approach"].startswith(
+        "guess=Approach(depth) without a direction does not run on a distributed mesh")
     assert lines["vtk"] == "2 steps"
     parts = sorted(path.name for path in tmp_path.glob("fields_proc*.vtu"))
     assert len(parts) == 2 * 3, parts                # 2 computing ranks × (initial state + 2 steps)

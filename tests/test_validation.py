@@ -284,7 +284,7 @@ def test_cutbacks_halve_without_recursion(mesh):
     def attempt(k, max_cutbacks):
         sim, depths = ngc.Simulation(body, keep_states=False), []
 
-        def step(dt):
+        def step(dt, guess=None):
             depths.append(stack_depth())
             if dt > dt0 / 2 ** k * (1 + 1e-12):
                 raise ngc.NewtonError("did not converge", iteration=1, residuals=[1.0, 0.5], step=len(sim.history),
