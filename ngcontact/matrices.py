@@ -34,14 +34,22 @@ def csr(matrix):
 def matching_positions(source, target, within=None):
     """Index arrays (s, t): entry s of ``source``'s values sits at entry t of ``target``'s,
     for the structural entries of ``source`` that ``target`` has; ``within``: a boolean array
-    over the DOFs, only the entries of rows and columns within it (None: all)."""
-    def keys(matrix):
-        _, cols, ptr = matrix.CSR()
-        rows = np.repeat(np.arange(matrix.height, dtype=np.int64), np.diff(np.asarray(ptr, dtype=np.int64)))
-        return rows, np.asarray(cols, dtype=np.int64)
-    (rs, cs), (rt, ct) = keys(source), keys(target)
-    s, t = rs * source.width + cs, rt * target.width + ct
-    kept = np.ones(len(s), dtype=bool) if within is None else within[rs] & within[cs]
-    where = np.clip(np.searchsorted(t, s), 0, len(t) - 1)
-    found = kept & (t[where] == s)
-    return np.flatnonzero(found), where[found]
+    over the DOFs, only the entries of rows and columns within it (None: all). Only the rows
+    within are read (the layer of Γ3: 1.3 s → a few ms at 63 058 DOFs, P2)."""
+    rows = np.arange(source.height, dtype=np.int64) if within is None else np.flatnonzero(within)
+    (si, sr, sc), (ti, tr, tc) = _entries(source, rows), _entries(target, rows)
+    kept = np.ones(len(si), dtype=bool) if within is None else within[sc]
+    s, t = sr * target.width + sc, tr * target.width + tc           # sorted: rows ascend, columns within rows
+    where = np.clip(np.searchsorted(t, s), 0, max(len(t) - 1, 0))
+    found = kept & (t[where] == s) if len(t) else np.zeros(len(s), dtype=bool)
+    return si[found], ti[where[found]]
+
+
+def _entries(matrix, rows):
+    """(entry indices, their rows, their columns) of the CSR ``matrix`` in the sorted ``rows``."""
+    _, cols, ptr = matrix.CSR()
+    ptr = np.asarray(ptr, dtype=np.int64)
+    starts, counts = ptr[rows], ptr[rows + 1] - ptr[rows]
+    offsets = np.cumsum(counts) - counts
+    index = np.repeat(starts - offsets, counts) + np.arange(counts.sum(), dtype=np.int64)
+    return index, np.repeat(rows, counts), np.asarray(cols, dtype=np.int64)[index]
