@@ -279,6 +279,8 @@ def main(argv=None):
         "discarded_iterations": getattr(rec, "discarded_iterations", None),
         "condense": getattr(sim, "condense", None), "realcompile": getattr(sim, "realcompile", None),
         "threads": tm is not None, "options": options,
+        "blas_env": {k: os.environ[k] for k in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+                     if k in os.environ},
         "t_import": T_IMPORT, "t_mesh": t_mesh, "t_setup": t_setup, "t_step": t_step,
         "t_solve": t_setup + t_step, "t_newton": t_newton,
         "t_residual": tim.get("residual"), "t_assembly": tim.get("assembly"),

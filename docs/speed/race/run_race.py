@@ -55,15 +55,17 @@ PEERS = ("peer-disp", "peer-force")
 # ------------------------------------------------------------------------------- running
 def contestants(args):
     """{label: (command without order/level, env)} in the order they run."""
-    def ngc(checkout, extra):
+    def ngc(checkout, extra, settings):
         env = dict(os.environ, PYTHONPATH=str(checkout),
                    PATH=str(pathlib.Path(args.ngc_py).parent) + os.pathsep + os.environ.get("PATH", ""))
+        env.update(settings)
         return [args.ngc_py, str(HERE / "ngc_hertz.py"), "--disp", DISP] + shlex.split(extra), env
 
     if args.ngc_only:
-        return {"ngc-A": ngc(args.ngc, args.ngc_args), "ngc-B": ngc(args.ngc_b, args.ngc_b_args)}
+        return {"ngc-A": ngc(args.ngc, args.ngc_args, args.ngc_env),
+                "ngc-B": ngc(args.ngc_b, args.ngc_b_args, args.ngc_b_env)}
     peer = [args.peer_py, args.peer_script, "--scene", "hertz"]
-    return {"ngc": ngc(args.ngc, args.ngc_args),
+    return {"ngc": ngc(args.ngc, args.ngc_args, args.ngc_env),
             "peer-disp": (peer + ["--control", "disp", "--disp", DISP], None),
             "peer-force": (peer, None)}
 
@@ -101,7 +103,8 @@ def race(args):
     configs = [(p, lv) for p in args.orders for lv in args.levels]
     print(f"# {len(configs)} configurations x {args.reps} repetitions x {list(cs)}; out {args.out}")
     for label, (cmd, env) in cs.items():
-        print(f"#   {label}: {' '.join(cmd)}" + (f"  [PYTHONPATH={env['PYTHONPATH']}]" if env else ""))
+        extra = {k: v for k, v in (env or {}).items() if os.environ.get(k) != v and k != "PATH"}
+        print(f"#   {label}: {' '.join(cmd)}" + (f"  {extra}" if extra else ""))
     print(f"# machine: {platform.node()}, {os.cpu_count()} cores, load average {os.getloadavg()}", flush=True)
     if not args.no_warmup:      # the peer's FFCx/CFFI JIT cache; the file cache of both
         for order in args.orders:
@@ -304,6 +307,13 @@ def levels(text):
     return value
 
 
+def setting(text):
+    name, sep, value = text.partition("=")
+    if not sep or not name:
+        raise argparse.ArgumentTypeError(f"wants NAME=VALUE, got {text!r}")
+    return name, value
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0],
                                  formatter_class=argparse.ArgumentDefaultsHelpFormatter)
@@ -317,6 +327,10 @@ def main(argv=None):
     ap.add_argument("--ngc-only", action="store_true", help="race checkout A against checkout B")
     ap.add_argument("--ngc-b", default=os.environ.get("NGC_PATH_B"), help="ngcontact checkout B (--ngc-only)")
     ap.add_argument("--ngc-b-args", default=os.environ.get("NGC_ARGS_B", ""), help="extra ngc_hertz.py arguments (B)")
+    ap.add_argument("--ngc-env", type=setting, action="append", default=[], metavar="NAME=VALUE",
+                    help="environment of A's runs (e.g. OPENBLAS_NUM_THREADS=1; repeatable)")
+    ap.add_argument("--ngc-b-env", type=setting, action="append", default=[], metavar="NAME=VALUE",
+                    help="environment of B's runs (--ngc-only)")
     ap.add_argument("--ngc-py", default=os.environ.get("NGC_PY", sys.executable))
     ap.add_argument("--peer-py", default=os.environ.get("PEER_PY", "/tmp/peer-venv/bin/python"))
     ap.add_argument("--peer-script", default=os.environ.get("PEER_SCRIPT", "/tmp/peers/fenicsx/nitsche_contact.py"))
@@ -347,6 +361,7 @@ def main(argv=None):
     if not args.ngc_only and not pathlib.Path(args.peer_script).is_file():
         ap.error(f"--peer-script: no file {args.peer_script!r} (cp -r /work/shared/peers /tmp/peers)")
     args.out = str(pathlib.Path(args.out).resolve())
+    args.ngc_env, args.ngc_b_env = dict(args.ngc_env), dict(args.ngc_b_env)
     race(args)
     print()
     print(tables(load([args.out])))
