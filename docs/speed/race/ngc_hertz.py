@@ -1,15 +1,34 @@
 #!/usr/bin/env python3
 """The FEniCSx peer's Hertz scene solved by ngcontact with its default options; one JSON line.
 
-The peer is ``nitsche_contact.py --scene hertz --control disp`` of ``../shared/peers/fenicsx``;
-this is its scene written as an ngcontact user writes it, with nothing tuned:
+The peer is ``nitsche_contact.py --scene hertz`` of ``../shared/peers/fenicsx`` (``--control
+disp`` or its default force control); this is its scene written as an ngcontact user writes it,
+with nothing tuned:
 
-* mesh: the peer's gmsh mesh (``hertz_gmsh.py``, unchanged from the turn-3 race), curved at
-  P2/P3 by a VectorH1 deformation of the arc edges; ``--hierarchy netgen`` builds the same
-  vertices and triangles by Netgen's uniform refinement of level 0 (new arc vertices projected
-  on the circle), so that the mesh also carries NGSolve's hierarchy of levels;
-* ``Body(supports={"top": "all"})``, ``Loads(displacement={"top": (0, -d t)})``: the flat top
-  moved down by d, one quasi-static step ``sim.step(1.0)`` from u = 0;
+* mesh (``--hierarchy``): ``gmsh``, the peer's gmsh mesh (``hertz_gmsh.py``, unchanged from the
+  turn-3 race), curved at P2/P3 by a VectorH1 deformation of the arc edges; ``netgen``, made by
+  ``multigrid.nested_mesh`` from gmsh's level 0 (the coarse mesh kept), the new arc vertices of
+  each split put on the circle as gmsh puts them: the peer's vertices, but not all its
+  triangles (NGSolve's ``Mesh.Refine`` bisects where gmsh splits red: 1 956 of the 3 912
+  triangles of level 1 are the peer's; P1 L1 error 0.094 against 0.052). That mesh has no
+  Netgen geometry, so ``nested.py``'s coarse levels (``nested_mesh(coarse.Copy(), k)``, curved
+  by ``mesh.Curve``) would leave the arc vertices on the chords, and ``--start nested`` is
+  refused ("the mesh's vertices differ from its kept coarse mesh refined ... times"). ``scene``:
+  ngcontact's own ``scenes.hertz.mesh`` (OCC geometry, ``RestrictH`` at the contact) refined
+  ``--refine`` + 1 times from a coarse mesh of size ``SCENE_HC`` (hc0/0.02), which gives the
+  peer's u-DOFs of the same level to +2.3 … +6.7 % at P1–P3, levels 0–2, and curved by
+  ``mesh.Curve(order)``: the mesh of ``--start nested`` (one coarser level more than the level);
+* control (``--control``): ``disp``, ``Body(supports={"top": "all"})`` and
+  ``Loads(displacement={"top": (0, -d t)})``, the flat top moved down by d; ``force``, the
+  peer's force control: ``supports={"top": "x"}`` and ``Loads(f2={"top": (0, -F/w t)})`` with w
+  the top's measured length (resultant F, the peer's ``--F``, default 0.01; the peer applies
+  −F/(2R) on its top of length 2R), the vertical motion and the rotation held by the contact
+  alone. One quasi-static step ``sim.step(1.0, guess=...)``;
+* start (``--start``): ``warm`` (no guess: ngcontact's default; under force control the body is
+  moved onto the obstacle by ``starts.Starts.touch``), ``nested`` (``guess="nested"``),
+  ``informed`` (the peer's start: ``starts.Approach(a²/2R)`` with Hertz's a for F under force
+  control, as ``scenes.hertz.informed_start``; ``Approach(d)``, the rigid shift u = (0, −d),
+  under displacement control) or ``approach=<depth>`` (``Approach(depth)``, m);
 * ``Contact(obstacle=Plane((0, 0), (0, 1)), theta=1, gamma0=...)``: the rigid plane y = 0 with
   its normal n_o = (0, −1); γ0 is matched to the peer's γ = 100 E/h_cell on average over the
   contact facets with |x| < 0.2 (``--match-gamma0``), as in the earlier races;
@@ -25,8 +44,13 @@ per facet), Hertz at the run's own vertical resultant F_h; the peak and the half
 λ_h at the Gauss points of degree 2k+4. Times (s, ``time.perf_counter``): ``t_setup`` = Body +
 Loads + Contact + Simulation, ``t_step`` = ``sim.step`` (records included), ``t_solve`` =
 ``t_setup + t_step`` (from the mesh to the converged state), ``t_newton`` = residual + assembly
-+ factorisation + solve of ``StepRecord.timings``. Works with any ngcontact checkout on
-``PYTHONPATH``; record fields a checkout lacks are written as null.
++ factorisation + solve of ``StepRecord.timings`` (the finest level's Newton); a nested start
+adds ``t_coarse`` (the coarse levels' steps, their ``StepRecord.wall_s``, inside the fine
+step's "other") and ``t_before_step`` (``t_step`` − the fine step's ``wall_s``: building the
+coarse levels and the prolongation on the first use). Newton iterations: ``newton_its`` on the
+finest level, ``coarse_its`` per coarse level (``sim.starts.nested.iterations``, coarsest
+first). Works with any ngcontact checkout on ``PYTHONPATH`` that has the options asked for;
+record fields a checkout lacks are written as null.
 """
 import argparse
 import ast
@@ -46,7 +70,9 @@ import ngsolve as ngs  # noqa: E402
 import numpy as np  # noqa: E402
 
 import ngcontact as ngc  # noqa: E402
+from ngcontact.multigrid import nested_mesh  # noqa: E402
 from ngcontact.obstacles import Plane  # noqa: E402
+from ngcontact.starts import Approach  # noqa: E402
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 import hertz_gmsh  # noqa: E402
@@ -67,22 +93,64 @@ def checkout():
     return str(root), commit, dirty
 
 
+SCENE_HC = 0.019
+"""Coarse mesh size of ``scenes.hertz.mesh`` (for hc0 = 0.02) whose refinement k + 1 has the
+u-DOFs of the peer's level k: ratios 1.023–1.067 at P1–P3, levels 0–2 (0.018 gives 0.95–1.00)."""
+
+
+def arc_vertices(ngmesh):
+    """0-based numbers of the vertices on "contact" (boundary 1 of ``hertz_gmsh.netgen_mesh``)."""
+    return sorted({v.nr - 1 for el in ngmesh.Elements1D() if el.index == 1 for v in el.vertices})
+
+
+def to_circle(xy, vertices, R):
+    """Move ``vertices`` of the coordinate view ``xy`` radially onto the circle about (0, R)."""
+    d = xy[vertices] - (0.0, R)
+    xy[vertices] = (0.0, R) + R * d / np.linalg.norm(d, axis=1)[:, None]
+
+
 def netgen_hierarchy(hc0, refine, order, R):
-    """The peer's level ``refine`` built by Netgen's uniform refinement of gmsh's level 0, the new
-    vertices of the arc projected radially on the circle after each split (gmsh puts them at the
-    arc's parametric midpoint: the same point). (ngsolve.Mesh with its levels, deformation)."""
+    """The peer's level ``refine`` as ``multigrid.nested_mesh`` of gmsh's level 0 (the coarse
+    mesh kept). Netgen's splits of a mesh without geometry leave the new arc vertices on the
+    chords; gmsh puts them at the arc's parametric midpoint, i.e. the split of the arc
+    projected radially after each split (and the later midpoints of the edges from there).
+    Those points are computed on a copy split the same way and written into the mesh.
+    (ngsolve.Mesh with its levels, deformation)."""
     pts, tri, segs = hertz_gmsh.gmsh_hertz(hc0, R, 0)
     ngmesh = hertz_gmsh.netgen_mesh(pts, tri, segs)
-    contact_index = 1                                   # netgen_mesh: boundary 1 is "contact"
+    peer = ngs.Mesh(ngmesh.Copy())                      # split as nested_mesh splits: the same numbering
     for _ in range(refine):
-        ngmesh.Refine()
-        on_arc = sorted({v.nr - 1 for el in ngmesh.Elements1D() if el.index == contact_index
-                         for v in el.vertices})
-        xy = ngmesh.Coordinates()                       # a view: writing moves the points
-        d = xy[on_arc] - (0.0, R)
-        xy[on_arc] = (0.0, R) + R * d / np.linalg.norm(d, axis=1)[:, None]
-    mesh = ngs.Mesh(ngmesh)
+        peer.Refine()
+        to_circle(peer.ngmesh.Coordinates(), arc_vertices(peer.ngmesh), R)
+    mesh = nested_mesh(ngmesh, refine)
+    xy, target = mesh.ngmesh.Coordinates(), np.asarray(peer.ngmesh.Coordinates())
+    assert xy.shape == target.shape and arc_vertices(mesh.ngmesh) == arc_vertices(peer.ngmesh) and \
+        np.allclose(xy[:len(pts)], target[:len(pts)], rtol=0, atol=1e-12 * R), \
+        "Netgen numbered the split vertices differently"
+    xy[:] = target                                      # a view: writing moves the points
     return mesh, hertz_gmsh.curve(mesh, order, R)
+
+
+def scene_hierarchy(hc0, refine, order):
+    """``scenes.hertz.mesh`` with the peer's u-DOFs of level ``refine`` (``SCENE_HC``): refined
+    ``refine + 1`` times from its kept coarse mesh, curved by ``mesh.Curve(order)``."""
+    from ngcontact.scenes import hertz
+    return hertz.mesh(2, h_contact=SCENE_HC * hc0 / 0.02, refine=refine + 1, curve=order), None
+
+
+def start_of(text):
+    """``--start``: warm, nested, informed or approach=<depth> (m, > 0)."""
+    if text in ("warm", "nested", "informed"):
+        return text
+    name, sep, value = text.partition("=")
+    try:
+        depth = float(value)
+    except ValueError:
+        depth = float("nan")
+    if name != "approach" or not sep or not depth > 0:
+        raise argparse.ArgumentTypeError(f"--start is warm, nested, informed or approach=<depth in m, > 0>, "
+                                         f"got {text!r}")
+    return depth
 
 
 def gamma_ratio(mesh):
@@ -128,10 +196,16 @@ def main(argv=None):
                                  formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     ap.add_argument("--order", type=int, choices=(1, 2, 3, 4), default=1)
     ap.add_argument("--refine", type=int, choices=range(0, 6), default=0, metavar="{0..5}")
-    ap.add_argument("--hierarchy", choices=("gmsh", "netgen"), default="gmsh",
-                    help="levels split by gmsh (the peer's) or by Netgen (same mesh, with NGSolve's levels)")
+    ap.add_argument("--hierarchy", choices=("gmsh", "netgen", "scene"), default="gmsh",
+                    help="levels split by gmsh (the peer's), by Netgen (same mesh, made by nested_mesh) or "
+                         "ngcontact's scenes.hertz.mesh with the peer's DOFs (module docstring)")
     ap.add_argument("--hc0", type=positive(float), default=0.02, help="level-0 mesh size at the contact")
+    ap.add_argument("--control", choices=("disp", "force"), default="disp",
+                    help="top moved down by --disp, or a traction of resultant --force on a top held in x")
     ap.add_argument("--disp", type=positive(float), default=0.0171, help="downward motion d of the top")
+    ap.add_argument("--force", type=positive(float), default=0.01, help="resultant F of the top's traction")
+    ap.add_argument("--start", type=start_of, default="warm", metavar="{warm,nested,informed,approach=<m>}",
+                    help="Newton's start (module docstring)")
     ap.add_argument("--theta", type=int, choices=(-1, 0, 1), default=1)
     ap.add_argument("--gamma0", type=positive(float), default=None, help="ngcontact's γ0 (overrides matching)")
     ap.add_argument("--match-gamma0", type=positive(float), default=100.0, help="peer's γ0 to match")
@@ -153,14 +227,29 @@ def main(argv=None):
     args = ap.parse_args(argv)
     if not -1.0 < args.nu < 0.5:
         ap.error(f"--nu must be in (-1, 0.5), got {args.nu}")
+    if args.start == "nested" and args.hierarchy == "gmsh":
+        ap.error("--start nested needs a mesh that keeps its coarser levels: --hierarchy netgen or scene")
     k, R, E, nu = args.order, args.R, args.E, args.nu
+    Es = E / (1.0 - nu ** 2)
 
     t0 = time.perf_counter()
     if args.hierarchy == "netgen":
         mesh, _defo = netgen_hierarchy(args.hc0, args.refine, k, R)
+    elif args.hierarchy == "scene":
+        mesh, _defo = scene_hierarchy(args.hc0, args.refine, k)
     else:
         mesh, _defo = hertz_gmsh.hertz(args.hc0, args.refine, k, R)
     t_mesh = time.perf_counter() - t0
+    width = float(ngs.Integrate(ngs.CF(1.0) * ngs.ds(mesh.Boundaries("top")), mesh))
+    if args.start == "warm":
+        guess = None
+    elif args.start == "nested":
+        guess = "nested"
+    elif args.start == "informed":              # the peer's start: a²/2R for F, or the rigid shift by d
+        a_F = math.sqrt(4.0 * args.force * R / (math.pi * Es))
+        guess = Approach(a_F * a_F / (2.0 * R) if args.control == "force" else args.disp)
+    else:
+        guess = Approach(args.start)
 
     material = ngc.Material.isotropic(E, nu, permittivity=1.0, name="isotropic, no coupling")
     ratio = gamma_ratio(mesh)
@@ -192,14 +281,18 @@ def main(argv=None):
     if args.threads == "yes":
         tm = ngs.TaskManager()
         tm.__enter__()
-    body = ngc.Body(mesh, material, supports={"top": "all"}, contact_side="contact", order=k)
+    body = ngc.Body(mesh, material, supports={"top": "all" if args.control == "disp" else "x"},
+                    contact_side="contact", order=k)
     if args.threads == "auto":
         from ngcontact.studies.bench import THREADS_FROM
         if body.ndof >= THREADS_FROM:
             tm = ngs.TaskManager()
             tm.__enter__()
     t = ngs.Parameter(0.0)
-    loads = ngc.Loads(displacement={"top": (0.0, -args.disp * t)})
+    if args.control == "disp":
+        loads = ngc.Loads(displacement={"top": (0.0, -args.disp * t)})
+    else:
+        loads = ngc.Loads(f2={"top": (0.0, -args.force / width * t)})
     contact = ngc.Contact(obstacle=Plane((0.0, 0.0), (0.0, 1.0)), theta=args.theta, gamma0=gamma0)
     sim = ngc.Simulation(body, loads, contact=contact, time=t, **options)
     t_setup = time.perf_counter() - t0
@@ -207,13 +300,16 @@ def main(argv=None):
     # ------------------------------------------------------------------ the solve
     t0 = time.perf_counter()
     try:
-        rec = sim.step(1.0)
-    except ngc.NewtonError as err:
+        rec = sim.step(1.0, guess=guess)
+    except (ngc.NewtonError, ValueError) as err:
         print(json.dumps({"code": "ngcontact", "order": k, "refine": args.refine, "ndofs": body.V.ndof,
-                          "converged": False, "error": str(err)[:500], "options": options,
-                          "t_setup": t_setup, "t_step": time.perf_counter() - t0}, default=str), flush=True)
+                          "control": args.control, "start": str(args.start), "hierarchy": args.hierarchy,
+                          "converged": False, "error": f"{type(err).__name__}: {str(err)[:500]}",
+                          "options": options, "t_setup": t_setup, "t_step": time.perf_counter() - t0},
+                         default=str), flush=True)
         return 1
     t_step = time.perf_counter() - t0
+    nested = sim.starts.nested if args.start == "nested" else None
     if profiler:
         profiler.disable()
         profiler.dump_stats(args.cprofile)
@@ -238,7 +334,6 @@ def main(argv=None):
         return float(ngs.Integrate(BFV(cf), mesh, ngs.BND, order=order, definedon=C))
 
     F_h = float(rec.contact.force[1])                    # vertical force of the plane on the body
-    Es = E / (1.0 - nu ** 2)
     a = math.sqrt(4.0 * F_h * R / (math.pi * Es))
     p0 = 2.0 * F_h / (math.pi * a)
     p_ex = p0 * ngs.sqrt(ngs.IfPos(1.0 - (x / a) ** 2, 1.0 - (x / a) ** 2, 0.0))
@@ -262,11 +357,18 @@ def main(argv=None):
     root, commit, dirty = checkout()
 
     out = {
-        "code": "ngcontact", "scene": "hertz", "control": "disp", "order": k, "refine": args.refine,
-        "hierarchy": args.hierarchy, "mesh_levels": getattr(mesh, "levels", None),
+        "code": "ngcontact", "scene": "hertz", "control": args.control, "order": k, "refine": args.refine,
+        "start": str(args.start), "guess": repr(guess), "start_used": sim.starts.last,
+        "coarse_its": None if nested is None else list(nested.iterations),
+        "coarse_ndofs": None if nested is None else [c.body.V.ndof for c in nested.levels],
+        "t_coarse": None if nested is None else sum(c.history[-1].wall_s for c in nested.levels),
+        "t_before_step": t_step - rec.wall_s,
+        "hierarchy": args.hierarchy, "mesh_levels": getattr(mesh, "levels", None), "top_width": width,
+        "force": args.force if args.control == "force" else None,
         "h_contact": args.hc0 * 2.0 ** (-args.refine), "theta": args.theta,
         "gamma0_ngcontact": gamma0, "gamma0_peer_matched": None if args.gamma0 is not None else args.match_gamma0,
-        "h_ratio_mean_min_max": ratio, "lambda_max_F": lam_max, "disp": args.disp,
+        "h_ratio_mean_min_max": ratio, "lambda_max_F": lam_max,
+        "disp": args.disp if args.control == "disp" else None,
         "ngcontact_dir": root, "ngcontact_commit": commit, "ngcontact_dirty": dirty,
         "model": sim.model, "solver": str(sim.solver),
         "ndofs": body.V.ndof, "ndofs_u": body.V.ndof, "ndofs_space": body.ndof,
@@ -286,7 +388,7 @@ def main(argv=None):
         "t_residual": tim.get("residual"), "t_assembly": tim.get("assembly"),
         "t_factorization": tim.get("factorization"), "t_linear_solve": tim.get("solve"),
         "t_record": tim.get("other"), "t_post": t_post, "timings": tim,
-        "applied_force": F_h, "resultant_vertical": F_h, "resultant_horizontal": float(rec.contact.force[0]),
+        "applied_force": args.force if args.control == "force" else F_h, "resultant_vertical": F_h, "resultant_horizontal": float(rec.contact.force[0]),
         "resultant_nitsche": integral(lam, 2 * k + 2), "resultant_raw_sigma": integral(raw, 2 * k + 2),
         "active_length": float(rec.contact.contact_area), "contact_half_width": half,
         "contact_x_min": float(xq[act].min()) if act.any() else None,

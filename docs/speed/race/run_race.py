@@ -5,7 +5,10 @@ For each (order, level) and each repetition the codes run one after the other (A
 C, ...), so that a burst of load from other jobs on this shared machine hits all of them:
 
 * ``ngc``: ``ngc_hertz.py`` (next to this file) with the ngcontact checkout ``--ngc`` on
-  ``PYTHONPATH`` and ``--ngc-args`` (default: none, i.e. ngcontact's defaults);
+  ``PYTHONPATH`` and ``--ngc-args`` (default: none, i.e. ngcontact's defaults); or, with
+  ``--variant LABEL=ARGS`` (repeatable), one ngcontact runner per variant, labelled LABEL, with
+  ``--ngc-args`` and then ARGS (e.g. ``--variant "ngc-force-informed=--control force --start
+  informed"``), all in the same interleaved sequence;
 * ``peer-disp``: ``nitsche_contact.py --scene hertz --control disp --disp 0.0171`` (the same
   problem: the top moved down, Newton from the rigid shift);
 * ``peer-force``: ``nitsche_contact.py --scene hertz`` (its own force control, informed start).
@@ -23,7 +26,9 @@ after). The tables (``--tables FILE ...`` prints them again from such files):
 2. cost per Newton iteration per u-DOF (µs; Newton time: ngcontact's residual + assembly +
    factorisation + solve, the peer's SNES) with the ratios, and setup + solve;
 3. the phase split of each ngcontact label (medians): setup, the ``StepRecord.timings``
-   phases, factorisations, GMRES iterations.
+   phases, factorisations, GMRES iterations, and for a nested start the coarse levels.
+
+Every ngcontact label is compared with every peer label (ratios ngcontact ÷ peer).
 
 "setup + solve" is from the mesh to the converged state (ngcontact: Body + Loads + Contact +
 Simulation + ``sim.step``; the peer: forms from the JIT cache + SNES); imports and meshing are
@@ -65,9 +70,10 @@ def contestants(args):
         return {"ngc-A": ngc(args.ngc, args.ngc_args, args.ngc_env),
                 "ngc-B": ngc(args.ngc_b, args.ngc_b_args, args.ngc_b_env)}
     peer = [args.peer_py, args.peer_script, "--scene", "hertz"]
-    return {"ngc": ngc(args.ngc, args.ngc_args, args.ngc_env),
-            "peer-disp": (peer + ["--control", "disp", "--disp", DISP], None),
-            "peer-force": (peer, None)}
+    runners = {label: ngc(args.ngc, args.ngc_args + " " + extra, args.ngc_env) for label, extra in args.variant} \
+        or {"ngc": ngc(args.ngc, args.ngc_args, args.ngc_env)}
+    runners.update({"peer-disp": (peer + ["--control", "disp", "--disp", DISP], None), "peer-force": (peer, None)})
+    return runners
 
 
 def run(label, cmd, env, rep, out):
@@ -92,7 +98,7 @@ def run(label, cmd, env, rep, out):
     with open(out, "a") as f:
         f.write(json.dumps(rec) + "\n")
     err = rec.get("p_l2_rel_err")
-    print(f"{label:10s} P{rec.get('order')} L{rec.get('refine')} rep {rep} rc {p.returncode} "
+    print(f"{label:18s} P{rec.get('order')} L{rec.get('refine')} rep {rep} rc {p.returncode} "
           f"its {rec.get('newton_its')} wall {wall:6.1f} s setup+solve {solve_time(rec):7.3f} s "
           f"err {err if err is not None else float('nan'):.4f} load {rec['loadavg']:.2f}", flush=True)
     return wall
@@ -173,6 +179,9 @@ def summarize(rows):
             s.update(setup_med=med(lambda x: x["t_setup"]), step_med=med(lambda x: x["t_step"]),
                      **{f"phase_{ph}": med(lambda x, ph=ph: x.get("timings", {}).get(ph))
                         for ph in ("residual", "assembly", "factorization", "solve", "other")},
+                     coarse_its=r.get("coarse_its"), coarse_ndofs=r.get("coarse_ndofs"),
+                     coarse_med=med(lambda x: x.get("t_coarse")), before_med=med(lambda x: x.get("t_before_step")),
+                     start=r.get("start"), start_used=r.get("start_used"), hierarchy=r.get("hierarchy"),
                      factorizations=r.get("factorizations"), krylov=r.get("krylov_iterations"),
                      realcompile=r.get("realcompile"), condense=r.get("condense"), threads=r.get("threads"),
                      solver=r.get("solver"), commit=r.get("ngcontact_commit"), dirty=r.get("ngcontact_dirty"))
@@ -189,6 +198,11 @@ def ratio(a, b, key):
     return a[key] / b[key] if a is not None and b is not None and b[key] > 0 else None
 
 
+def its_text(s):
+    """Newton iterations on the finest level, the coarse levels' (coarsest first) after a +."""
+    return f"{s['its']}" + (f" (+{'/'.join(map(str, s['coarse_its']))} coarse)" if s.get("coarse_its") else "")
+
+
 def fmt_ratio(a, b):
     if a is None or b is None:
         return "–"
@@ -197,56 +211,63 @@ def fmt_ratio(a, b):
 
 
 def time_to_accuracy(summary, labels, pairs):
-    head = " | ".join(labels) + "".join(f" | {a} ÷ {b}" for a, b in pairs)
-    lines = [f"| error | {head} |", "|---" * (1 + len(labels) + len(pairs)) + "|"]
+    """One row per (threshold, label): the cheapest configuration that reaches it and the
+    ratios of an ngcontact label to each peer's cheapest (``pairs``)."""
+    peers = [b for b in PEERS if b in labels]
+    lines = ["| error | label | setup+solve s min (med) | configuration | Newton its | error | "
+             + " | ".join(f"÷ {b}" for b in peers) + " |", "|---" * (6 + len(peers)) + "|"]
     for th in THRESHOLDS:
         best = {lab: cheapest(summary, lab, th) for lab in labels}
-        cells = []
         for lab in labels:
             b = best[lab]
-            cells.append("not reached" if b is None else
-                         f"{b['solve_min']:.2f} s (med {b['solve_med']:.2f}) P{b['order']} L{b['level']}, "
-                         f"{b['its']} its, err {b['err']:.4f}")
-        cells += [fmt_ratio(best[a], best[b]) for a, b in pairs]
-        lines.append(f"| ≤ {100 * th:g} % | " + " | ".join(cells) + " |")
+            if b is None:
+                lines.append(f"| ≤ {100 * th:g} % | {lab} | not reached | | | | " + " | ".join("" for _ in peers) + " |")
+                continue
+            cells = [f"≤ {100 * th:g} %", lab, f"{b['solve_min']:.3f} ({b['solve_med']:.3f})",
+                     f"P{b['order']} L{b['level']}, {b['ndofs']:,} u-DOFs", its_text(b), f"{b['err']:.4f}"]
+            cells += [fmt_ratio(b, best[peer]) if (lab, peer) in pairs else "" for peer in peers]
+            lines.append("| " + " | ".join(cells) + " |")
     lines.append("")
     lines.append("Setup + solve, minimum over the repetitions (median); ratios: of minima (of medians; "
-                 "of Newton-only minima) at each code's own cheapest configuration.")
+                 "of Newton-only minima) at each runner's own cheapest configuration.")
     return "\n".join(lines)
 
 
 def per_iteration(summary, labels, pairs):
-    configs = sorted({(o, lv) for (_, o, lv) in summary})
-    head = (" | ".join(f"its {lab}" for lab in labels) + " | " + " | ".join(f"µs/DOF/it {lab}" for lab in labels)
-            + "".join(f" | {a} ÷ {b} per it (min; med)" for a, b in pairs)
-            + " | " + " | ".join(f"setup+solve {lab} s" for lab in labels)
-            + "".join(f" | {a} ÷ {b} setup+solve (min; med)" for a, b in pairs))
-    n = 3 + 3 * len(labels) + 2 * len(pairs)
-    lines = [f"| P | L | u-DOFs | {head} |", "|---" * n + "|"]
-    for o, lv in configs:
-        ss = [summary.get((lab, o, lv)) for lab in labels]
-        if any(s is None for s in ss):
-            continue
-        by = dict(zip(labels, ss))
-        cells = [str(o), str(lv), f"{ss[0]['ndofs']:,}"]
-        cells += ["/".join(map(str, s["its_set"])) for s in ss]
-        cells += [f"{s['us_min']:.2f}" for s in ss]
-        cells += [f"{by[a]['us_min'] / by[b]['us_min']:.2f}; {by[a]['us_med'] / by[b]['us_med']:.2f}" for a, b in pairs]
-        cells += [f"{s['solve_min']:.3f} ({s['solve_med']:.3f})" for s in ss]
-        cells += [f"{by[a]['solve_min'] / by[b]['solve_min']:.2f}; {by[a]['solve_med'] / by[b]['solve_med']:.2f}"
-                  for a, b in pairs]
-        lines.append("| " + " | ".join(cells) + " |")
+    """One row per (order, level, label): iterations, µs per u-DOF per Newton iteration and
+    setup + solve, with the ratios of each ngcontact label to each peer at the same (P, L)."""
+    peers = [b for b in PEERS if b in labels]
+    head = ("| P | L | label | u-DOFs | its | µs/DOF/it (min) | " + " | ".join(f"÷ {b} per it (min; med)" for b in peers)
+            + " | setup+solve s min (med) | " + " | ".join(f"÷ {b} setup+solve (min; med)" for b in peers) + " |")
+    lines = [head, "|---" * (7 + 2 * len(peers)) + "|"]
+    for o, lv in sorted({(o, lv) for (_, o, lv) in summary}):
+        for lab in labels:
+            s = summary.get((lab, o, lv))
+            if s is None:
+                continue
+            cells = [str(o), str(lv), lab, f"{s['ndofs']:,}", its_text(s), f"{s['us_min']:.2f}"]
+            for b in peers:
+                t = summary.get((b, o, lv))
+                cells.append("" if t is None or lab in peers else
+                             f"{s['us_min'] / t['us_min']:.2f}; {s['us_med'] / t['us_med']:.2f}")
+            cells.append(f"{s['solve_min']:.3f} ({s['solve_med']:.3f})")
+            for b in peers:
+                t = summary.get((b, o, lv))
+                cells.append("" if t is None or lab in peers else
+                             f"{s['solve_min'] / t['solve_min']:.2f}; {s['solve_med'] / t['solve_med']:.2f}")
+            lines.append("| " + " | ".join(cells) + " |")
     lines.append("")
-    lines.append("µs per u-DOF per Newton iteration of the Newton time (ngcontact: residual + assembly + "
-                 "factorisation + solve of StepRecord.timings; the peer: SNES), minimum over the repetitions; "
-                 "setup + solve: minimum (median).")
+    lines.append("µs per u-DOF per Newton iteration of the finest level's Newton time (ngcontact: residual + "
+                 "assembly + factorisation + solve of StepRecord.timings; the peer: SNES), minimum over the "
+                 "repetitions; a nested start's coarse levels are not in it (they are in setup + solve). "
+                 "Setup + solve: minimum (median).")
     return "\n".join(lines)
 
 
 def phase_split(summary, labels):
-    lines = ["| label | P | L | u-DOFs | setup+solve s | setup | residual | assembly | factorization | solve | other "
-             "| its | factorizations | GMRES its | realcompile | solver |",
-             "|---" * 16 + "|"]
+    lines = ["| label | P | L | u-DOFs | setup+solve s | setup | before step | residual | assembly | factorization "
+             "| solve | other | of it coarse levels | its | factorizations | GMRES its | realcompile | solver |",
+             "|---" * 18 + "|"]
     solvers = []
     for (lab, o, lv), s in sorted(summary.items(), key=lambda kv: (kv[0][0], kv[0][1], kv[0][2])):
         if lab not in labels or "setup_med" not in s:
@@ -254,12 +275,16 @@ def phase_split(summary, labels):
         def f(key):
             return "–" if s.get(key) is None else f"{s[key]:.3f}"
         lines.append(f"| {lab} | {o} | {lv} | {s['ndofs']:,} | {s['solve_med']:.3f} | {f('setup_med')} | "
-                     f"{f('phase_residual')} | {f('phase_assembly')} | {f('phase_factorization')} | {f('phase_solve')} | "
-                     f"{f('phase_other')} | {s['its']} | {s['factorizations']} | {s['krylov']} | {s['realcompile']} | "
+                     f"{f('before_med')} | {f('phase_residual')} | {f('phase_assembly')} | {f('phase_factorization')} | "
+                     f"{f('phase_solve')} | {f('phase_other')} | {f('coarse_med')} | {its_text(s)} | "
+                     f"{s['factorizations']} | {s['krylov']} | {s['realcompile']} | "
                      f"{solvers.index(s['solver']) + 1 if s['solver'] in solvers else solvers.append(s['solver']) or len(solvers)} |")
     lines.append("")
     lines.append("Medians over the repetitions, s; setup = Body + Loads + Contact + Simulation; the other phases "
-                 "are sim.step's StepRecord.timings (other: step length, norms, records). Solvers: "
+                 "are sim.step's StepRecord.timings (other: step length, norms, records, and Newton's start: the "
+                 "coarse levels' steps of a nested start, the touch of a force-controlled warm start); before step: "
+                 "sim.step's time before its record's clock starts (a nested start's levels built at the first "
+                 "use). Solvers: "
                  + "; ".join(f"{i + 1}: {name}" for i, name in enumerate(solvers)) + ".")
     return "\n".join(lines)
 
@@ -285,8 +310,10 @@ def noise(rows, labels):
 
 
 def tables(rows):
-    labels = [lab for lab in ("ngc", "peer-disp", "peer-force", "ngc-A", "ngc-B") if any(r.get("label") == lab for r in rows)]
-    pairs = [("ngc", p) for p in PEERS if "ngc" in labels and p in labels]
+    labels = list(dict.fromkeys(r["label"] for r in rows if "label" in r))      # in the order they ran
+    ngc_labels = [lab for lab in labels if lab not in PEERS]
+    labels = ngc_labels + [p for p in PEERS if p in labels]
+    pairs = [(a, p) for a in ngc_labels for p in PEERS if p in labels and a not in ("ngc-A", "ngc-B")]
     if "ngc-A" in labels and "ngc-B" in labels:
         pairs.append(("ngc-B", "ngc-A"))
     summary = summarize(rows)
@@ -327,6 +354,9 @@ def main(argv=None):
     ap.add_argument("--ngc-only", action="store_true", help="race checkout A against checkout B")
     ap.add_argument("--ngc-b", default=os.environ.get("NGC_PATH_B"), help="ngcontact checkout B (--ngc-only)")
     ap.add_argument("--ngc-b-args", default=os.environ.get("NGC_ARGS_B", ""), help="extra ngc_hertz.py arguments (B)")
+    ap.add_argument("--variant", type=setting, action="append", default=[], metavar="LABEL=ARGS",
+                    help="an ngcontact runner LABEL with these extra ngc_hertz.py arguments (repeatable; "
+                         "replaces the single 'ngc')")
     ap.add_argument("--ngc-env", type=setting, action="append", default=[], metavar="NAME=VALUE",
                     help="environment of A's runs (e.g. OPENBLAS_NUM_THREADS=1; repeatable)")
     ap.add_argument("--ngc-b-env", type=setting, action="append", default=[], metavar="NAME=VALUE",
@@ -362,6 +392,11 @@ def main(argv=None):
         ap.error(f"--peer-script: no file {args.peer_script!r} (cp -r /work/shared/peers /tmp/peers)")
     args.out = str(pathlib.Path(args.out).resolve())
     args.ngc_env, args.ngc_b_env = dict(args.ngc_env), dict(args.ngc_b_env)
+    names = [label for label, _ in args.variant]
+    if args.variant and args.ngc_only:
+        ap.error("--variant races ngcontact runners against the peer; --ngc-only races two checkouts")
+    if len(set(names)) < len(names) or set(names) & set(PEERS):
+        ap.error(f"--variant labels must be distinct and not a peer's ({', '.join(PEERS)}), got {names}")
     race(args)
     print()
     print(tables(load([args.out])))
