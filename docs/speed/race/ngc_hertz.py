@@ -241,6 +241,7 @@ def main(argv=None):
         mesh, _defo = hertz_gmsh.hertz(args.hc0, args.refine, k, R)
     t_mesh = time.perf_counter() - t0
     width = float(ngs.Integrate(ngs.CF(1.0) * ngs.ds(mesh.Boundaries("top")), mesh))
+    start_name = args.start if isinstance(args.start, str) else f"approach={args.start:g}"
     if args.start == "warm":
         guess = None
     elif args.start == "nested":
@@ -303,7 +304,7 @@ def main(argv=None):
         rec = sim.step(1.0, guess=guess)
     except (ngc.NewtonError, ValueError) as err:
         print(json.dumps({"code": "ngcontact", "order": k, "refine": args.refine, "ndofs": body.V.ndof,
-                          "control": args.control, "start": str(args.start), "hierarchy": args.hierarchy,
+                          "control": args.control, "start": start_name, "hierarchy": args.hierarchy,
                           "converged": False, "error": f"{type(err).__name__}: {str(err)[:500]}",
                           "options": options, "t_setup": t_setup, "t_step": time.perf_counter() - t0},
                          default=str), flush=True)
@@ -358,7 +359,7 @@ def main(argv=None):
 
     out = {
         "code": "ngcontact", "scene": "hertz", "control": args.control, "order": k, "refine": args.refine,
-        "start": str(args.start), "guess": repr(guess), "start_used": sim.starts.last,
+        "start": start_name, "guess": repr(guess), "start_used": sim.starts.last,
         "coarse_its": None if nested is None else list(nested.iterations),
         "coarse_ndofs": None if nested is None else [c.body.V.ndof for c in nested.levels],
         "t_coarse": None if nested is None else sum(c.history[-1].wall_s for c in nested.levels),
