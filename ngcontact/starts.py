@@ -167,8 +167,13 @@ class Starts:
         """Set the displacement ``u`` (GridFunction, holding the warm start with the supports'
         values at ``target``) to the start of the step t → target (s) from ``start`` (from
         ``resolve``), or, for a body held only by its contact whose start leaves Γ3 open, to
-        ``touch``."""
-        values = start(self.sim, t, target) if start is not None else None
+        ``touch``. The time Parameter is left as it was (at ``target``): the coarse levels of
+        a nested start share it, and a level that fails restores it to its own time."""
+        now = self.sim.time.Get()
+        try:
+            values = start(self.sim, t, target) if start is not None else None
+        finally:
+            self.sim.time.Set(now)
         self.last = "warm" if start is None else "guess"
         if isinstance(start, Nested) and start.fallback:
             self.last = start.fallback

@@ -158,3 +158,36 @@ def test_a_bad_array_guess_and_approach():
     with pytest.raises(ValueError, match="force must be a finite number"):
         hertz.simulation(control="force", force=-1.0)
     assert sim.t == 0.0
+
+
+def approaching_obstacle():
+    """The half-disk (P2, one refinement) with its top moved down by 0.02 R t and the plane
+    coming up from 0.01 R below its place (the gap along the body's normal, 0.01 R (1 − t)
+    more): Newton's residual reads the time Parameter."""
+    mesh = hertz.mesh(2, None, 1, curve=2)
+    body = ngc.Body(mesh, hertz.material(), grounded="top", supports={"top": "all"}, contact_side="contact",
+                    order=2)
+    t, n = ngs.Parameter(0.0), ngs.specialcf.normal(2)
+    gap = (ngs.y + 0.01 * (1 - t)) / ngs.IfPos(-n[1], -n[1], 1.0)
+    return ngc.Simulation(body, ngc.Loads(displacement={"top": (0.0, -0.02 * t)}), contact=ngc.Contact(gap=gap),
+                          time=t)
+
+
+def test_a_failed_coarse_level_falls_back_at_the_right_time(monkeypatch):
+    """A coarse level whose Newton fails (made to fail after moving the shared time Parameter
+    back to 0, as a failed step's restore does) leaves the warm start, the reason in
+    ``starts.last``, and the finest level solved at t_n: the warm start's state (at t = 0 the
+    obstacle would be 0.01 R further)."""
+    warm_sim, sim = approaching_obstacle(), approaching_obstacle()
+    warm_sim.step(1.0)
+    level = sim.starts.nested.levels[0]
+
+    def fail(target, guess=None):
+        sim.time.Set(0.0)
+        raise ngc.NewtonError("did not converge", iteration=3, residuals=[1.0, 0.9], step=1, time=target)
+
+    monkeypatch.setattr(level, "advance", fail)
+    sim.step(1.0, guess="nested")
+    assert sim.starts.last.startswith("level 0 of 2: ")
+    assert warm_sim.history[-1].contact.contact_area > 0
+    same_state(sim, warm_sim)
