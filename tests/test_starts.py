@@ -191,3 +191,14 @@ def test_a_failed_coarse_level_falls_back_at_the_right_time(monkeypatch):
     assert sim.starts.last.startswith("level 0 of 2: ")
     assert warm_sim.history[-1].contact.contact_area > 0
     same_state(sim, warm_sim)
+
+
+def test_the_hertz_study_starts_each_level_from_the_one_below():
+    """``python -m ngcontact hertz``'s cases from level 1 on: the finest level in at most 3
+    Newton iterations, the coarse levels' counted apart, and the errors of the warm start."""
+    from ngcontact.studies import hertz as study
+    row, _ = study.case(1, 2, "obstacle")
+    warm = hertz.simulation(1, refine=2)
+    warm.run(1.0, 1.0)
+    assert row["newton"] <= 3 and row["coarse_newton"] >= 8
+    assert row["pressure_L2"] == pytest.approx(hertz.errors(warm)["pressure_L2"], rel=1e-6)
