@@ -6,7 +6,9 @@ solution's, and needs about one iteration per point of Γ3 it has to release whe
 overestimates the set (``starts``). The solution of the level below has the contact zone to
 within a facet of that level: on the Hertz half-disk (P2, 21 447 DOFs) the finest level then
 takes 3 Newton iterations instead of 18 from the warm start, the coarsest level its own
-cold-start count at 1/16 of the DOFs (docs/speed.md).
+cold-start count at 1/16 of the DOFs (docs/speed.md). The same in order instead of mesh
+(``Nested.first_order``, the start "p1"): a body of order p >= 2 solved with P1 on its own
+mesh first, for meshes without a hierarchy.
 
 The levels are the meshes of ``multigrid.nested_mesh`` (the geometries' ``refine=``): its
 kept coarse mesh refined 0, 1, ... times, curved as the finest. Each coarser level has a
@@ -93,15 +95,16 @@ def level_mesh(mesh, level):
     return result
 
 
-def coarse_simulation(sim, mesh):
+def coarse_simulation(sim, mesh, order=None):
     """A Simulation of ``sim``'s scene (body, loads, contact, time Parameter, u0, Newton's
-    tolerance, limit and model) on ``mesh``, with ``COARSE_OPTIONS``."""
+    tolerance, limit and model) on ``mesh``, at ``order`` (default: the body's orders), with
+    ``COARSE_OPTIONS``."""
     body = sim.body
     names = {part: body.region_names(part) or None for part in ("clamped", "grounded", "contact_side")}
     supports = {s.key: "normal" if s.normal or s.sign != 1 else "".join("xyz"[a] for a in s.axes)
                 for s in body.supports}
-    coarse = type(body)(mesh, body.material, supports=supports or None, order=body.order, order_phi=body.order_phi,
-                        **names)
+    orders = dict(order=body.order, order_phi=body.order_phi) if order is None else dict(order=order, order_phi=order)
+    coarse = type(body)(mesh, body.material, supports=supports or None, **orders, **names)
     return type(sim)(coarse, sim.loads, contact=sim.contact, time=sim.time, u0=sim.u0, rtol=sim.newton.rtol,
                      maxit=sim.newton.maxit, limit_steps=sim.newton.step_length is not None, electric=sim.electric,
                      **COARSE_OPTIONS)
@@ -112,14 +115,39 @@ class Nested:
     its first use, kept for later steps (the coarse levels are stepped to the times of the
     steps they start). ``iterations``: the Newton iterations of each coarse level in the last
     start (coarsest first); ``fallback``: why the last start fell back to the warm start
-    (a coarse level failed), or None."""
+    (a coarse level failed), or None.
 
-    def __init__(self, sim):
-        levels = levels_below(sim.body.mesh)
-        self.prolongation = Prolongation(sim.body.mesh, sim.body.order)
-        self.levels = [coarse_simulation(sim, level_mesh(sim.body.mesh, k)) for k in range(levels)]
-        self._saved = [None] * levels
+    ``levels`` and ``prolongation(k, values)`` (level k's u to level k + 1's, the last level's
+    to ``sim``'s) default to the coarser meshes; ``first_order`` builds the start "p1"."""
+
+    def __init__(self, sim, levels=None, prolongation=None):
+        if levels is None:
+            count = levels_below(sim.body.mesh)
+            prolongation = Prolongation(sim.body.mesh, sim.body.order)
+            levels = [coarse_simulation(sim, level_mesh(sim.body.mesh, k)) for k in range(count)]
+        self.levels, self.prolongation = levels, prolongation
+        self._saved = [None] * len(levels)
         self.iterations, self.fallback = [], None
+
+    @classmethod
+    def first_order(cls, sim):
+        """The start "p1": the step solved with P1 on ``sim``'s own mesh first, its u
+        interpolated into the body's space (exact: P1 is in Pp). Any mesh, no hierarchy: Hertz
+        P2/P3 on one to three refinements 1.2-2.7x faster than the warm start (docs/speed.md).
+        A ValueError naming ``guess`` for a body of order 1."""
+        if sim.body.order < 2:
+            raise ValueError(f"guess='p1' starts a body of order >= 2 from P1 on its mesh; the body has order "
+                             f"{sim.body.order} (guess='nested' starts from coarser meshes)")
+        parallel.serial_only(sim.body.mesh, "guess='p1'", "not yet tested on a distributed mesh")
+        level = coarse_simulation(sim, sim.body.mesh, order=1)
+        into = ngs.GridFunction(sim.body.V)
+
+        def interpolate(k, values):
+            level.u.vec.FV().NumPy()[:] = values
+            into.Set(level.u)
+            return into.vec.FV().NumPy().copy()
+
+        return cls(sim, [level], interpolate)
 
     def __call__(self, sim, t, target):
         """The DOF values of u on ``sim``'s mesh at ``target`` (s), prolonged from the coarse

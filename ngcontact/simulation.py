@@ -308,7 +308,7 @@ class Simulation:
         out : a directory to stream every step into as it is computed (``results``: records,
             restart state, ParaView series); after ``resume(out)``, the same dt and T continue
             the interrupted run on its own nominal steps.
-        guess : Newton's start (``step``): "nested" for every step, another guess for the first.
+        guess : Newton's start (``step``): "nested" or "p1" for every step, another guess for the first.
         If a step fails even at the smallest cut-back, the NewtonError is raised with
         ``error.history`` holding every step computed so far (also in ``history``).
         The arguments are checked before the first step (``arguments.run``: the directories
@@ -353,7 +353,7 @@ class Simulation:
                 continue
             try:
                 records = self.advance(target, max_cutbacks, after, guess)
-                guess = guess if isinstance(guess, str) else None           # "nested": every step
+                guess = guess if isinstance(guess, str) else None           # "nested", "p1": every step
             except NewtonError as err:
                 err.history = self.history
                 raise

@@ -19,7 +19,9 @@ Guesses:
   of u (numpy);
 * ``Approach(depth)``: the warm start moved rigidly by ``depth`` (m) along the contact normal
   (or a given direction): the informed start of force control, e.g. a²/2R for Hertz;
-* ``"nested"``: nested iteration on the coarser levels of the mesh (``nested``).
+* ``"nested"``: nested iteration on the coarser levels of the mesh (``nested``);
+* ``"p1"``: for a body of order p >= 2, the step solved with P1 on the same mesh first (any
+  mesh: no hierarchy needed; ``nested.Nested.first_order``).
 
 A body held only by its contact (``rigid.Floating``: e.g. u_x = 0 on top and a traction there)
 has a singular Jacobian while Γ3 is open. Without a guess, a step whose start leaves Γ3 open
@@ -39,7 +41,7 @@ from .nested import Nested
 from .rigid import Floating, normal_components
 
 GUESSES = ("None, a displacement (a tuple of numbers or a CoefficientFunction in m, a GridFunction of u, a numpy "
-           "array of u's DOF values), an ngcontact.starts.Approach or 'nested'")
+           "array of u's DOF values), an ngcontact.starts.Approach, 'nested' or 'p1'")
 
 
 class Approach:
@@ -113,7 +115,7 @@ class Starts:
         self.floating = Floating(sim.body, sim.gamma3)
         if self.floating and sim.gamma3 is not None:
             parallel.serial_only(sim.body.mesh, "a body held only in part by its supports (force control)")
-        self._nested, self._motions = None, None
+        self._nested, self._first_order, self._motions = None, None, None
         self.last = None
 
     @property
@@ -123,6 +125,13 @@ class Starts:
             self._nested = Nested(self.sim)
         return self._nested
 
+    @property
+    def first_order(self):
+        """The start "p1" (``nested.Nested.first_order``), built at its first use."""
+        if self._first_order is None:
+            self._first_order = Nested.first_order(self.sim)
+        return self._first_order
+
     def resolve(self, guess):
         """The start for ``guess`` (module docstring), checked: a TypeError or ValueError naming
         ``guess`` for one of the wrong kind, shape or values, or that cannot apply here."""
@@ -130,9 +139,9 @@ class Starts:
         if guess is None:
             return None
         if isinstance(guess, str):
-            if guess != "nested":
+            if guess not in ("nested", "p1"):
                 raise ValueError(f"guess must be {GUESSES}; got the string {guess!r}")
-            return self.nested
+            return self.nested if guess == "nested" else self.first_order
         if isinstance(guess, Approach):
             guess.check(self.sim)
             return guess

@@ -33,19 +33,23 @@ def same_state(sim, reference):
     assert np.max(np.abs(u - v)) <= 1e-8 * np.max(np.abs(v))
 
 
-@pytest.mark.parametrize("guess", ["nested", Approach(0.006), Approach(0.03)])
+@pytest.mark.parametrize("guess", ["nested", "p1", Approach(0.006), Approach(0.03)])
 def test_a_guess_changes_the_iterations_not_the_solution(warm, guess):
     """From the rigid approach by 0.006 (close to the solution's contact set), 0.03 (deeper
-    than the top's 0.02: every point of Γ3 penetrates) or the coarse level's solution, Newton
-    reaches the warm start's state; nested iteration in at most 3 iterations on the finest
-    level where the warm start u = 0 takes 13."""
+    than the top's 0.02: every point of Γ3 penetrates), the coarse level's solution or the P1
+    solution on the same mesh, Newton reaches the warm start's state; nested iteration in at
+    most 3 iterations on the finest level and "p1" in at most 5 where the warm start u = 0
+    takes 13."""
     sim, record = solved(guess)
     same_state(sim, warm[0])
     assert sim.starts.last == "guess" and warm[0].starts.last == "warm"
     assert warm[1].newton_iterations >= 10
-    if guess == "nested":
-        assert record.newton_iterations <= 3
-        assert len(sim.starts.nested.iterations) == 1 and sim.starts.nested.iterations[0] >= 10
+    if guess in ("nested", "p1"):
+        start = sim.starts.nested if guess == "nested" else sim.starts.first_order
+        assert record.newton_iterations <= (3 if guess == "nested" else 5)
+        assert len(start.iterations) == 1 and start.iterations[0] >= 8
+    if guess == "p1":
+        assert start.levels[0].body.mesh is sim.body.mesh and start.levels[0].body.order == 1
 
 
 def test_nested_iteration_on_every_step_of_a_run():
@@ -125,8 +129,9 @@ def small():
 
 
 @pytest.mark.parametrize("guess, error, words", [
-    ("coarse", ValueError, r"guess must be .*'nested'; got the string 'coarse'"),
+    ("coarse", ValueError, r"guess must be .*'nested' or 'p1'; got the string 'coarse'"),
     ("nested", ValueError, r"guess='nested' needs coarser levels of the mesh and it was not refined"),
+    ("p1", ValueError, r"guess='p1' starts a body of order >= 2 from P1 on its mesh; the body has order 1"),
     (3, TypeError, r"guess must be .*; got int"),
     (np.zeros(5), ValueError, r"guess: an array of u's DOF values must be real of shape"),
     ((0.0, 0.0, 1.0), ValueError, r"guess must have 2 components, got 3"),

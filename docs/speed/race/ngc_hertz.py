@@ -25,7 +25,7 @@ with nothing tuned:
   −F/(2R) on its top of length 2R), the vertical motion and the rotation held by the contact
   alone. One quasi-static step ``sim.step(1.0, guess=...)``;
 * start (``--start``): ``warm`` (no guess: ngcontact's default; under force control the body is
-  moved onto the obstacle by ``starts.Starts.touch``), ``nested`` (``guess="nested"``),
+  moved onto the obstacle by ``starts.Starts.touch``), ``nested`` (``guess="nested"``), ``p1`` (``guess="p1"``: P1 on the same mesh first),
   ``informed`` (the peer's start: ``starts.Approach(a²/2R)`` with Hertz's a for F under force
   control, as ``scenes.hertz.informed_start``; ``Approach(d)``, the rigid shift u = (0, −d),
   under displacement control) or ``approach=<depth>`` (``Approach(depth)``, m);
@@ -139,8 +139,8 @@ def scene_hierarchy(hc0, refine, order):
 
 
 def start_of(text):
-    """``--start``: warm, nested, informed or approach=<depth> (m, > 0)."""
-    if text in ("warm", "nested", "informed"):
+    """``--start``: warm, nested, p1, informed or approach=<depth> (m, > 0)."""
+    if text in ("warm", "nested", "p1", "informed"):
         return text
     name, sep, value = text.partition("=")
     try:
@@ -148,7 +148,7 @@ def start_of(text):
     except ValueError:
         depth = float("nan")
     if name != "approach" or not sep or not depth > 0:
-        raise argparse.ArgumentTypeError(f"--start is warm, nested, informed or approach=<depth in m, > 0>, "
+        raise argparse.ArgumentTypeError(f"--start is warm, nested, p1, informed or approach=<depth in m, > 0>, "
                                          f"got {text!r}")
     return depth
 
@@ -204,7 +204,7 @@ def main(argv=None):
                     help="top moved down by --disp, or a traction of resultant --force on a top held in x")
     ap.add_argument("--disp", type=positive(float), default=0.0171, help="downward motion d of the top")
     ap.add_argument("--force", type=positive(float), default=0.01, help="resultant F of the top's traction")
-    ap.add_argument("--start", type=start_of, default="warm", metavar="{warm,nested,informed,approach=<m>}",
+    ap.add_argument("--start", type=start_of, default="warm", metavar="{warm,nested,p1,informed,approach=<m>}",
                     help="Newton's start (module docstring)")
     ap.add_argument("--theta", type=int, choices=(-1, 0, 1), default=1)
     ap.add_argument("--gamma0", type=positive(float), default=None, help="ngcontact's γ0 (overrides matching)")
@@ -244,8 +244,8 @@ def main(argv=None):
     start_name = args.start if isinstance(args.start, str) else f"approach={args.start:g}"
     if args.start == "warm":
         guess = None
-    elif args.start == "nested":
-        guess = "nested"
+    elif args.start in ("nested", "p1"):
+        guess = args.start
     elif args.start == "informed":              # the peer's start: a²/2R for F, or the rigid shift by d
         a_F = math.sqrt(4.0 * args.force * R / (math.pi * Es))
         guess = Approach(a_F * a_F / (2.0 * R) if args.control == "force" else args.disp)
@@ -310,7 +310,7 @@ def main(argv=None):
                          default=str), flush=True)
         return 1
     t_step = time.perf_counter() - t0
-    nested = sim.starts.nested if args.start == "nested" else None
+    nested = {"nested": sim.starts._nested, "p1": sim.starts._first_order}.get(args.start)
     if profiler:
         profiler.disable()
         profiler.dump_stats(args.cprofile)
