@@ -83,7 +83,8 @@ class Approach:
         return sim.u.vec.FV().NumPy() + shift.vec.FV().NumPy()
 
     def __repr__(self):
-        return f"Approach(depth={self.depth:g}, direction={None if self.direction is None else self.direction.tolist()})"
+        direction = None if self.direction is None else self.direction.tolist()
+        return f"Approach(depth={self.depth:g}, direction={direction})"
 
 
 class Field:
@@ -189,8 +190,9 @@ class Starts:
         if values is None and self.floating and self.sim.gamma3 is not None and self.open(u):
             values = self.touch(u)
             self.last = "touch" if values is not None else self.last
-        if values is not None:
-            set_free(u, values)
+        if values is not None:                           # u's free DOFs from values, the held ones kept
+            free = ~self.sim.system.held
+            u.vec.FV().NumPy()[free] = values[free]
 
     def _components(self, u):
         """(u·n − g at the sample points of Γ3, r·n of the free motions there (points × motions))."""
@@ -234,8 +236,3 @@ class Starts:
         depth = max(depth, 0.0) * (1 + 1e-6) + 1e-12 * body.size
         return u.vec.FV().NumPy() + depth * (self._motions @ direction)
 
-
-def set_free(u, values):
-    """u's free DOFs (of its space) from ``values`` (numpy); the others keep their values."""
-    free = np.array(list(u.space.FreeDofs()), dtype=bool)
-    u.vec.FV().NumPy()[free] = values[free]

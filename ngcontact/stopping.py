@@ -113,10 +113,11 @@ class ConvergenceTest:
         stalling = len(residuals) > STALL and value > 0.5 * residuals[-STALL - 1]
         if verdict.converged or not (small or stalling):
             return verdict                                   # the floor cannot decide
-        verdict.floor = ROUNDOFF * self.norm.dual(self.system.magnitude(x))
-        contact = getattr(self.system, "contact_magnitude", None)
+        contact = self.system.contact_magnitude(x) if hasattr(self.system, "contact_magnitude") else None
+        verdict.floor = ROUNDOFF * self.norm.dual(self.system.magnitude(x) if contact is None
+                                                  else self.system.magnitude(x, contact))
         if contact is not None and verdict.floor > 0:
-            verdict.contact_share = min(1.0, ROUNDOFF * self.norm.dual(contact(x)) / verdict.floor)
+            verdict.contact_share = min(1.0, ROUNDOFF * self.norm.dual(contact) / verdict.floor)
         if value <= verdict.floor:                           # round-off: no iteration can do better
             verdict.converged, verdict.uncertifiable = small, not small
         return verdict

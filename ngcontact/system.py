@@ -119,7 +119,8 @@ class StepSystem:
         self._positions = {}
         self.generation = 0                                    # counts the changes of K
         # the Dirichlet DOFs of V: all of them, and those of Γ1 (u = 0)
-        self._held = ~np.array(list(body.V.FreeDofs()), dtype=bool)
+        self.held = ~np.array(list(body.V.FreeDofs()), dtype=bool)  # public: Newton starts keep them
+        self._boundary_dofs = {}                               # per support component or electrode: its DOFs
         clamped = ngs.VectorH1(body.mesh, order=body.order, dirichlet=body.region_names("clamped"))
         self._clamped = ~np.array(list(clamped.FreeDofs()), dtype=bool)
 
@@ -214,7 +215,7 @@ class StepSystem:
         self._set_displacements(state.components[0])
         phi = state.components[1]                              # φ on Γa (0 where not given)
         for names, value in self.loads.potential.items():
-            set_on_boundary(phi, as_cf(value, 1, f"potential[{names!r}]"), self.body.mesh.Boundaries(names))
+            self._set_on_boundary(("φ", names), phi, as_cf(value, 1, f"potential[{names!r}]"), names)
         if parallel.any_rank(self.body.mesh, not np.all(np.isfinite(state.vec.FV().NumPy()))):
             culprit = self.loads.nonfinite(self.body) or "a prescribed displacement or potential"
             raise ValueError(f"{culprit} is not finite at t = {t:.6g} s (NaN or inf)")
@@ -225,14 +226,27 @@ class StepSystem:
         if not self.body.supports:
             return
         values = u.vec.FV().NumPy()
-        values[self._held] = 0.0
+        values[self.held] = 0.0
         for key, value in self.loads.displacement.items():
             support = self.body.support_of(key)
             cf = as_cf(value, support.size, f"Loads.displacement[{key!r}]")
-            region = self.body.mesh.Boundaries(key)
             for j, axis in enumerate(support.axes):
-                set_on_boundary(u.components[axis], support.sign * (cf[j] if support.size > 1 else cf), region)
+                self._set_on_boundary(("u", axis, key), u.components[axis],
+                                      support.sign * (cf[j] if support.size > 1 else cf), key)
         values[self._clamped] = 0.0
+
+    def _set_on_boundary(self, key, gf, cf, names):
+        """gf = cf at the DOFs of the boundaries ``names`` (interpolated as ``GridFunction.Set``),
+        every other DOF kept: NGSolve's ``gf.Set(cf, BND, definedon=...)`` zeroes them, which lost
+        the warm start of every step with supports and, with two prescribed supports, the values
+        of the first. The DOFs of each region are found once (``key``), not at every step."""
+        region = self.body.mesh.Boundaries(names)
+        on = self._boundary_dofs.get(key)
+        if on is None:
+            on = self._boundary_dofs[key] = np.array(list(gf.space.GetDofs(region)), dtype=bool)
+        kept = gf.vec.FV().NumPy()[~on]
+        gf.Set(cf, ngs.BND, definedon=region)
+        gf.vec.FV().NumPy()[~on] = kept
 
     # ----------------------------------------------------------------------- BilinearForm protocol
     def Apply(self, x, r):
@@ -334,17 +348,19 @@ class StepSystem:
             diagonal = parallel.distributed_values(self._constant, diagonal)
         return diagonal
 
-    def magnitude(self, x):
+    def magnitude(self, x, contact=None):
         """|K| |x| + |f + K_A x_{n−1}/dt| + |R_Γ3'| |x| (numpy), with the Γ3 Jacobian of the
-        last linearisation (``contact_magnitude``): the size of the terms that sum to R(x),
-        whose round-off limits how far Newton can reduce it. On a distributed mesh (cumulated
-        values) |K| is the sum of the ranks' |K_p|, an upper bound of |K| at interface DOFs."""
+        last linearisation (``contact``: ``contact_magnitude(x)`` if already computed): the size
+        of the terms that sum to R(x), whose round-off limits how far Newton can reduce it. On a
+        distributed mesh (cumulated values) |K| is the sum of the ranks' |K_p|, an upper bound of
+        |K| at interface DOFs."""
         if self._absK is None:
             self._absK = abs(csr(self.K))
         bulk = self._absK @ np.abs(parallel.cumulated(x))
         if parallel.is_distributed(self.body.mesh):
             bulk = parallel.distributed_values(self._constant, bulk)
-        return bulk + np.abs(parallel.cumulated(self._constant)) + self.contact_magnitude(x)
+        return bulk + np.abs(parallel.cumulated(self._constant)) + \
+            (self.contact_magnitude(x) if contact is None else contact)
 
     @property
     def uncondensed(self):
@@ -363,13 +379,3 @@ class _Uncondensed:
         self.force_scale, self.contact_magnitude = system.force_scale, system.contact_magnitude
         self.AssembleLinearization, self.mat = system._assemble_full, system._full
 
-
-def set_on_boundary(gf, cf, region):
-    """gf = cf at the DOFs of the boundary ``region`` (interpolated as ``GridFunction.Set``),
-    every other DOF kept: NGSolve's ``gf.Set(cf, BND, definedon=region)`` zeroes them, which
-    lost the warm start of every step with supports and, with two prescribed supports, the
-    values of the first."""
-    scratch = ngs.GridFunction(gf.space)
-    scratch.Set(cf, ngs.BND, definedon=region)
-    on = np.array(list(gf.space.GetDofs(region)), dtype=bool)
-    gf.vec.FV().NumPy()[on] = scratch.vec.FV().NumPy()[on]
