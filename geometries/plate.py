@@ -10,7 +10,7 @@ Boundary names (use them for the parts of (2.5)-(2.6)):
 
 Lengths in metres. ``refine`` applies ``mesh.Refine()`` that many times (nested meshes,
 h halves each time): far cheaper than generating a fine mesh; the coarse mesh is kept for
-the multigrid solver (``ngcontact.multigrid.nested_mesh``).
+the multigrid solver (``ngcontact.meshes.nested_mesh``).
 
 Before meshing, the lengths must be in (0, 1000] m and the mesh sizes at most the longest
 side, both at least ``NETGEN_RESOLUTION`` of it, ``refine`` in [0, ``checks.MAX_REFINE``],
@@ -24,7 +24,7 @@ over the ranks (``ngcontact.parallel.distributed_mesh``; no coarse mesh is kept:
 from netgen.occ import Box, OCCGeometry, Pnt, Rectangle, X, Y, Z
 
 from ngcontact import checks, parallel
-from ngcontact.multigrid import nested_mesh
+from ngcontact.meshes import nested_mesh
 
 
 NETGEN_RESOLUTION = 2e-4

@@ -5,9 +5,10 @@ The public API is the names below; ``ngcontact.geometries`` (meshes with named
 boundaries), ``ngcontact.scenes`` (ready scenes and manufactured solutions) and
 ``ngcontact.contact_laws`` (the laws p, R_ν, φ_L, ψ), ``ngcontact.parallel`` (runs under
 mpiexec on a distributed mesh) and ``ngcontact.checks`` (checks of user input: ranges,
-booleans, sizes against the machine's memory) are public modules too.
+booleans, sizes against the machine's memory), ``ngcontact.meshes`` (nested meshes: a mesh refined
+with its coarse mesh kept) and ``ngcontact.schemes`` (the time schemes) are public modules too.
 """
-from . import checks, contact_laws, parallel
+from . import checks, contact_laws, meshes, parallel, schemes
 from .admissible import PhysicsWarning
 from .body import Body
 from .contact import Contact
@@ -21,4 +22,4 @@ from .webgui import save_html
 
 __all__ = ["Body", "Contact", "Loads", "Material", "Simulation", "History", "StepRecord", "ContactRecord",
            "NewtonError", "PhysicsWarning", "METHODS", "EPS0", "academic", "pzt5a", "batio3", "save_html", "contact_laws",
-           "parallel", "checks"]
+           "parallel", "checks", "meshes", "schemes"]

@@ -111,10 +111,10 @@ def run(sim, dt, T, max_cutbacks, progress, vtk, on_step, out):
     return dt, T, max_cutbacks, progress
 
 
-def gamma3_data(contact, gamma3, mesh, time, t):
+def gamma3_data(contact, gamma3, mesh, at, t):
     """The data of Γ3 written as CoefficientFunctions (gap, an obstacle's gap and normal, the
-    foundation potential) must be finite on Γ3 at time t (s; the time Parameter ``time`` is
-    set to it for the check, then back): else a ValueError naming it, before Newton meets
+    foundation potential) must be finite on Γ3 at time t (s; evaluated inside ``at(t)``, the
+    time scheme's ``StepCoefficients.at``): else a ValueError naming it, before Newton meets
     NaN."""
     named = [("Contact.foundation_potential", gamma3.foundation_potential)] \
         if isinstance(contact.foundation_potential, ngs.CoefficientFunction) else []
@@ -125,11 +125,7 @@ def gamma3_data(contact, gamma3, mesh, time, t):
         named.append(("Contact.gap", gamma3.gap))
     if not named:
         return
-    now = time.Get()
-    time.Set(t)
-    try:
+    with at(t):
         for name, cf in named:
             if parallel.any_rank(mesh, not np.all(np.isfinite(gamma3.side.sample(cf)))):
                 raise ValueError(f"{name} is not finite (NaN or inf) on Γ3 at t = {t:.6g} s")
-    finally:
-        time.Set(now)

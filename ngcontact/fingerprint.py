@@ -154,7 +154,7 @@ class _Sampler:
     sampled on a region at ``times`` on the simulation's time Parameter."""
 
     def __init__(self, sim, times):
-        self.time, self.mesh, self.times = sim.time, sim.body.mesh, times
+        self.at, self.mesh, self.times = sim.scheme.coefficients.at, sim.body.mesh, times
         self._points = {}
 
     def __call__(self, value, region):
@@ -186,14 +186,11 @@ class _Sampler:
         mean over all its centres."""
         points = self.points(region)
         kept = np.unique(np.linspace(0, len(points) - 1, SAMPLE_POINTS).round().astype(int))
-        saved, values = self.time.Get(), []
-        try:
-            for t in self.times:
-                self.time.Set(t)
+        values = []
+        for t in self.times:
+            with self.at(t):
                 v = evaluate(points)
-                values.append(np.vstack([v[kept], v.mean(axis=0)]).tolist())
-        finally:
-            self.time.Set(saved)
+            values.append(np.vstack([v[kept], v.mean(axis=0)]).tolist())
         return values
 
 

@@ -70,20 +70,22 @@ def normal_stress(sigma, n, direction=None):
     return (n if direction is None else direction) * (S * n)
 
 
-def step_normal_stress(T, u, phi, inv_dt, u_old=None, direction=None):
-    """σ_ν of a backward Euler step: ν·(F ε(u) + A ε(u − u_old)/dt + Eᵀ∇φ)ν (Pa), with
-    1/dt given as ``inv_dt`` (1/s). ``u_old=None``: the variation σ_ν(v, ξ) in the test
-    functions, A ε(v)/dt included. ``direction``: the traction's component along it (n_o)."""
-    rate = inv_dt * (strain(u) - strain(u_old)) if u_old is not None else inv_dt * strain(u)
+def step_normal_stress(T, u, phi, rate, anchor=None, direction=None):
+    """σ_ν of a time step: ν·(F ε(u) + c A ε(u − û) + Eᵀ∇φ)ν (Pa), with the scheme's rate
+    coefficient c = ``rate`` (1/s) and anchor û = ``anchor`` (``schemes.StepCoefficients``;
+    backward Euler: 1/dt and u_{n−1}). ``anchor=None``: the variation σ_ν(v, ξ) in the test
+    functions, c A ε(v) included. ``direction``: the traction's component along it (n_o)."""
+    rate = rate * (strain(u) - strain(anchor)) if anchor is not None else rate * strain(u)
     return normal_stress(stress(T, u, phi, rate), ngs.specialcf.normal(u.dim), direction)
 
 
-def boundary_stiffness(body, inv_dt):
-    """p² (λ_max(F + Eᵀ C⁻¹ E) + λ_max(A)/dt)/h (N/m³): the stiffness of σ_ν per unit normal
-    displacement at a facet of height h = ``specialcf.mesh_size``, p the order of u. The
-    factor p² follows the inverse inequality of degree-p polynomials. Nitsche's γ and the
-    penalty's ε are multiples of it (``Contact.gamma0``, ``Contact.penalty``)."""
-    return body.order ** 2 * body.tensors.stiffness(inv_dt) / ngs.specialcf.mesh_size
+def boundary_stiffness(body, rate):
+    """p² (λ_max(F + Eᵀ C⁻¹ E) + c λ_max(A))/h (N/m³): the stiffness of σ_ν per unit normal
+    displacement at a facet of height h = ``specialcf.mesh_size``, p the order of u, c the
+    scheme's rate coefficient ``rate`` (1/s; 1/dt for backward Euler). The factor p² follows
+    the inverse inequality of degree-p polynomials. Nitsche's γ and the penalty's ε are
+    multiples of it (``Contact.gamma0``, ``Contact.penalty``)."""
+    return body.order ** 2 * body.tensors.stiffness(rate) / ngs.specialcf.mesh_size
 
 
 # ------------------------------------------------------------------------ the bulk forms on Ω
@@ -194,12 +196,13 @@ def _support_gammas(T, order, gamma0):
     return scale * T.stiffness(0.0), scale * (T.stiffness(1.0) - T.stiffness(0.0))
 
 
-def support_multiplier(T, order, u, phi, u_old, inv_dt, gamma0):
+def support_multiplier(T, order, u, phi, anchor, rate, gamma0):
     """λ (Pa) of a weak normal support, read off its residual terms −∫ λ v_ν:
-    λ = σ_ν − γ_el u_ν − γ_A (u − u_old)_ν / dt → σ_ν; its traction is λ ν."""
+    λ = σ_ν − γ_el u_ν − γ_A c (u − û)_ν → σ_ν (c = ``rate``, û = ``anchor``, the time
+    scheme's: ``step_normal_stress``); its traction is λ ν."""
     n = ngs.specialcf.normal(u.dim)
     gamma_el, gamma_A = _support_gammas(T, order, gamma0)
-    lam = step_normal_stress(T, u, phi, inv_dt, u_old) - gamma_el * (u * n)
+    lam = step_normal_stress(T, u, phi, rate, anchor) - gamma_el * (u * n)
     if T.viscous:
-        lam = lam - gamma_A * inv_dt * ((u - u_old) * n)
+        lam = lam - gamma_A * rate * ((u - anchor) * n)
     return lam

@@ -18,10 +18,11 @@ from .observables import Gamma3
 from .obstacles import check_normal
 
 
-def build(body, contact, system, time, realcompile=False):
-    """(Gamma3, GapCheck) of ``contact`` on ``body``, its terms added to ``system``; ``time``:
-    the simulation's time Parameter (set to 0 for the checks); ``realcompile``: compile the
-    Γ3 Jacobian's integrand to machine code now (``StepSystem.use_machine_code``)."""
+def build(body, contact, system, realcompile=False):
+    """(Gamma3, GapCheck) of ``contact`` on ``body``, its terms added to ``system`` (with the
+    time scheme's coefficients ``system.coefficients``: the data are checked at t = 0);
+    ``realcompile``: compile the Γ3 Jacobian's integrand to machine code now
+    (``StepSystem.use_machine_code``)."""
     side = ContactSide(body)
     if contact.obstacle is not None:
         gap, normal = contact.obstacle.fields(body.dim)
@@ -30,15 +31,16 @@ def build(body, contact, system, time, realcompile=False):
         gap, normal, sampled_normal = as_cf(contact.gap, 1, "Contact.gap"), ngs.specialcf.normal(body.dim), None
     foundation_potential = as_cf(contact.foundation_potential, 1, "Contact.foundation_potential")
     data = Gamma3(side, contact, None, None, gap, foundation_potential, normal, sampled_normal)
-    arguments.gamma3_data(contact, data, body.mesh, time, 0.0)
-    time.Set(0.0)
+    coefficients = system.coefficients
+    arguments.gamma3_data(contact, data, body.mesh, coefficients.at, 0.0)
     gap_check = GapCheck(body, data)
-    gap_check(0.0)
-    if sampled_normal is not None:
-        check_normal(side, gap, normal, body.size)
+    with coefficients.at(0.0):
+        gap_check(0.0)
+        if sampled_normal is not None:
+            check_normal(side, gap, normal, body.size)
     beta = BondingField(side, contact)
-    enforcement = METHODS[contact.method](body, contact, side, gap=gap, u_old=system.u_old,
-                                          inv_dt=system.inv_dt, normal=normal)
+    enforcement = METHODS[contact.method](body, contact, side, gap=gap, coefficients=coefficients,
+                                          normal=normal)
 
     def terms(state, test):
         return forms.contact_terms(contact, enforcement, beta.gf, gap, foundation_potential, state, test, normal)

@@ -84,13 +84,13 @@ class MaterialTensors:
     def viscous(self):
         return bool(np.any(self.A))
 
-    def stiffness(self, inv_dt=0.0):
-        """λ_max(F + Eᵀ C⁻¹ E) + λ_max(A)/dt, in Pa: the scale of σ_ν per unit strain in a
-        backward Euler step of length dt (``inv_dt`` = 1/dt in 1/s, a number or a Parameter).
-        The open-circuit tensor F + Eᵀ C⁻¹ E bounds the coupled stiffness; A/dt is the
-        viscous stiffness of the step."""
+    def stiffness(self, rate=0.0):
+        """λ_max(F + Eᵀ C⁻¹ E) + c λ_max(A), in Pa: the scale of σ_ν per unit strain in a
+        time step whose rate coefficient is c = ``rate`` (1/s, a number or a Parameter; 1/dt
+        for a backward Euler step of length dt). The open-circuit tensor F + Eᵀ C⁻¹ E bounds
+        the coupled stiffness; c A is the viscous stiffness of the step."""
         elastic = np.linalg.eigvalsh(self.F + self.E.T @ np.linalg.solve(self.C, self.E)).max()
-        return elastic + inv_dt * (np.linalg.eigvalsh(self.A).max() if self.viscous else 0.0)
+        return elastic + rate * (np.linalg.eigvalsh(self.A).max() if self.viscous else 0.0)
 
 
 @dataclass(frozen=True)

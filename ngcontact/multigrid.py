@@ -17,7 +17,8 @@ is non-symmetric (glue, conduction) and indefinite (the negated electric equatio
          (V-cycles on the nested meshes, a direct solve on the coarsest mesh) for P1, its
          "bddc" for P2 and higher (``bulk_kind``), for the SPD forms
 
-           u: (F̃ ε(u), ε(v)) + (1/dt)(A ε(u), ε(v)),  F̃ = F + Eᵀ C⁻¹ E (piezo-stiffened),
+           u: (F̃ ε(u), ε(v)) + c (A ε(u), ε(v)),  F̃ = F + Eᵀ C⁻¹ E (piezo-stiffened),
+              (c the time scheme's rate coefficient, 1/dt for backward Euler)
            φ: (C ∇φ, ∇ξ),
 
   y = S r;  y += B (r − J y);  y += S (r − J y).
@@ -31,7 +32,7 @@ NGSolve's multigrid needs the space to exist on the coarse mesh and be updated a
 refinement. The body's spaces are made on the refined mesh, so the preconditioner builds its
 own hierarchy on a replica: a copy of the coarse mesh refined the same number of times, whose
 DOFs are numbered as the body's (checked: the vertices must coincide). A mesh carries its
-coarse mesh when made by ``nested_mesh`` (``ngcontact.geometries`` use it).
+coarse mesh when made by ``meshes.nested_mesh`` (``ngcontact.geometries`` use it).
 """
 import time as wallclock
 
@@ -42,30 +43,7 @@ from . import forms
 from .linear_solver import gmres, untimed
 from .supports import dirichlet_flags
 from .machine_code import compiled
-
-COARSE = "ngcontact_coarse"
-"""The attribute of an ngsolve.Mesh that holds (coarse netgen mesh, refinements)."""
-
-
-def nested_mesh(ngmesh, refine=0):
-    """``ngsolve.Mesh(ngmesh)`` refined ``refine`` times by ``mesh.Refine()`` (h halves each
-    time), keeping a copy of the coarse mesh for the multigrid preconditioner."""
-    if int(refine) != refine or refine < 0:
-        raise ValueError(f"refine must be an integer >= 0, got {refine}")
-    coarse = ngmesh.Copy()
-    mesh = ngs.Mesh(ngmesh)
-    for _ in range(int(refine)):
-        mesh.Refine()
-    setattr(mesh, COARSE, (coarse, int(refine)))
-    return mesh
-
-
-def refinements(mesh):
-    """How many times ``mesh`` was refined from its kept coarse mesh (None if it keeps none:
-    not made by ``nested_mesh``)."""
-    kept = getattr(mesh, COARSE, None)
-    return None if kept is None else kept[1]
-
+from .meshes import COARSE, nested_mesh, refinements  # noqa: F401  (nested_mesh: the documented place of old)
 
 def bulk_kind(body):
     """The bulk preconditioner of ``body``'s fields: "multigrid" when u or φ is P1 (BDDC's
@@ -81,10 +59,10 @@ def needs_nested_mesh(body):
 
 
 class Hierarchy:
-    """The bulk preconditioners B of the u and φ forms (module docstring) at 1/dt =
-    ``inv_dt`` (1/s), on V and W of ``body``: for multigrid (``bulk_kind``) on the replica
-    hierarchy, a copy of the coarse mesh refined as the body's; for BDDC on the body's own
-    mesh (one level). ``set_inv_dt`` changes 1/dt on the finest level only: the
+    """The bulk preconditioners B of the u and φ forms (module docstring) at the time scheme's
+    rate coefficient c = ``rate`` (1/s; 1/dt for backward Euler), on V and W of ``body``: for
+    multigrid (``bulk_kind``) on the replica hierarchy, a copy of the coarse mesh refined as the
+    body's; for BDDC on the body's own mesh (one level). ``set_rate`` changes c on the finest level only: the
     coarse levels keep the first one (a spectrally equivalent coarse correction: the viscous
     term scales the elastic one by 1 + τ/dt for Kelvin-Voigt A = τF), which saves rebuilding
     the hierarchy at a cut-back. ``realcompile``: compile the integrands to machine code (the
@@ -92,14 +70,14 @@ class Hierarchy:
     (the potential at t = 0 solves for φ with u held: no u hierarchy, ~9× the φ one's size,
     is built for it; ``pre_u`` is then None)."""
 
-    def __init__(self, body, inv_dt, realcompile=False, displacement=True):
+    def __init__(self, body, rate, realcompile=False, displacement=True):
         self.kind = bulk_kind(body)
         kept = getattr(body.mesh, COARSE, None)
         if self.kind == "bddc":
             self.mesh, levels = body.mesh, 0
         elif kept is None:
             raise ValueError("the multigrid solver needs nested meshes: build the mesh with "
-                             "ngcontact.multigrid.nested_mesh(ngmesh, refine) (ngcontact.geometries do)")
+                             "ngcontact.meshes.nested_mesh(ngmesh, refine) (ngcontact.geometries do)")
         else:
             coarse, levels = kept
             self.mesh = ngs.Mesh(coarse.Copy())
@@ -110,10 +88,10 @@ class Hierarchy:
         (u, v), (phi, xi) = self.V.TnT(), self.W.TnT()
         stiffened = T.F + T.E.T @ np.linalg.solve(T.C, T.E) if body.coupled else T.F
         strain = forms.strain
-        self.inv_dt = ngs.Parameter(inv_dt)
+        self.rate = ngs.Parameter(rate)
         integrand = ngs.InnerProduct(forms.matrix_cf(stiffened) * strain(u), strain(v))
         if T.viscous:
-            integrand = integrand + self.inv_dt * forms.a(T, u, v)
+            integrand = integrand + self.rate * forms.a(T, u, v)
         self.form_u = self.pre_u = None
         if displacement:
             self.form_u = ngs.BilinearForm(self.V, symmetric=True)
@@ -143,10 +121,10 @@ class Hierarchy:
         if self.W.ndof:
             self.form_phi.Assemble()
 
-    def set_inv_dt(self, inv_dt):
-        """1/dt (1/s) of the u form's finest level (module docstring)."""
-        if inv_dt != self.inv_dt.Get():
-            self.inv_dt.Set(inv_dt)
+    def set_rate(self, rate):
+        """c (1/s) of the u form's finest level (module docstring)."""
+        if rate != self.rate.Get():
+            self.rate.Set(rate)
             if self.form_u is not None:
                 self.form_u.Assemble()
 
@@ -207,8 +185,9 @@ class MultigridSolver:
     Parameters
     ----------
     body : the Body (its mesh made by ``nested_mesh``).
-    system : the StepSystem (its ``inv_dt``, 1/s); when its ``generation`` (the time step
-        size) changes, the finest level takes the new 1/dt (``Hierarchy.set_inv_dt``).
+    system : the StepSystem (its ``coefficients.rate``, 1/s); when its ``generation`` (the
+        rate coefficient, with the time step) changes, the finest level takes the new c
+        (``Hierarchy.set_rate``).
     layer : BitArray of the DOFs on the Γ3 facets (``ContactSide``), or None.
     electric : whether φ is an unknown.
     tol : GMRES's relative reduction of the preconditioned residual (Newton asks for less
@@ -250,10 +229,10 @@ class MultigridSolver:
             if self.hierarchy is None or generation != self._generation:
                 start = wallclock.perf_counter()
                 if self.hierarchy is None:
-                    self.hierarchy = Hierarchy(self.body, self.system.inv_dt.Get(), self.realcompile,
+                    self.hierarchy = Hierarchy(self.body, self.system.coefficients.rate.Get(), self.realcompile,
                                                self.displacement)
                 else:
-                    self.hierarchy.set_inv_dt(self.system.inv_dt.Get())
+                    self.hierarchy.set_rate(self.system.coefficients.rate.Get())
                 self._generation = generation
                 self.setup_s += wallclock.perf_counter() - start
             if self._masks[0] is not freedofs:

@@ -10,7 +10,7 @@ cold-start count at 1/16 of the DOFs (docs/speed.md). The same in order instead 
 (``Nested.first_order``, the start "p1"): a body of order p >= 2 solved with P1 on its own
 mesh first, for meshes without a hierarchy.
 
-The levels are the meshes of ``multigrid.nested_mesh`` (the geometries' ``refine=``): its
+The levels are the meshes of ``meshes.nested_mesh`` (the geometries' ``refine=``): its
 kept coarse mesh refined 0, 1, ... times, curved as the finest. Each coarser level has a
 Simulation of the same scene (``coarse_simulation``), stepped to the same times.
 
@@ -26,7 +26,7 @@ replica of the coarse mesh refined as the body's (``multigrid``'s replica).
 import ngsolve as ngs
 import numpy as np
 
-from . import multigrid, parallel
+from . import meshes, parallel
 from .newton import NewtonError
 
 COARSE_OPTIONS = dict(keep_states=False, physical_checks=False, realcompile=False, reuse_factorization=False)
@@ -36,13 +36,13 @@ results are starts only), no compilation to machine code and a factorisation per
 
 
 def levels_below(mesh):
-    """The number of coarser levels of ``mesh`` (made by ``multigrid.nested_mesh``), or a
+    """The number of coarser levels of ``mesh`` (made by ``meshes.nested_mesh``), or a
     ValueError naming ``guess`` if it has none."""
-    levels = multigrid.refinements(mesh)
+    levels = meshes.refinements(mesh)
     if not levels:
         why = ("it keeps no coarse mesh" if levels is None else "it was not refined (refine=0)")
         raise ValueError(f"guess='nested' needs coarser levels of the mesh and {why}: build it with "
-                         "ngcontact.multigrid.nested_mesh(ngmesh, refine) with refine >= 1 (ngcontact.geometries "
+                         "ngcontact.meshes.nested_mesh(ngmesh, refine) with refine >= 1 (ngcontact.geometries "
                          "and scenes take refine=...)")
     return levels
 
@@ -55,7 +55,7 @@ class Prolongation:
 
     def __init__(self, mesh, order):
         parallel.serial_only(mesh, "guess='nested'", "NGSolve cannot refine a distributed mesh")
-        coarse, levels = getattr(mesh, multigrid.COARSE)
+        coarse, levels = getattr(mesh, meshes.COARSE)
         replica = ngs.Mesh(coarse.Copy())
         H, L = ngs.VectorH1(replica, order=order), ngs.VectorL2(replica, order=order)
         self.matrices, self.sizes = [], [H.ndof]
@@ -88,8 +88,8 @@ class Prolongation:
 
 def level_mesh(mesh, level):
     """The mesh of ``level`` (0: the kept coarse mesh) below ``mesh``, curved as ``mesh``."""
-    coarse, _ = getattr(mesh, multigrid.COARSE)
-    result = multigrid.nested_mesh(coarse.Copy(), level)
+    coarse, _ = getattr(mesh, meshes.COARSE)
+    result = meshes.nested_mesh(coarse.Copy(), level)
     if mesh.GetCurveOrder() > 1:
         result.Curve(mesh.GetCurveOrder())
     return result
@@ -105,7 +105,7 @@ def coarse_simulation(sim, mesh, order=None):
                 for s in body.supports}
     orders = dict(order=body.order, order_phi=body.order_phi) if order is None else dict(order=order, order_phi=order)
     coarse = type(body)(mesh, body.material, supports=supports or None, **orders, **names)
-    return type(sim)(coarse, sim.loads, contact=sim.contact, time=sim.time, u0=sim.u0, rtol=sim.newton.rtol,
+    return type(sim)(coarse, sim.loads, contact=sim.contact, time=sim.time, u0=sim.u0, scheme=sim.scheme.name, rtol=sim.newton.rtol,
                      maxit=sim.newton.maxit, limit_steps=sim.newton.step_length is not None, electric=sim.electric,
                      **COARSE_OPTIONS)
 

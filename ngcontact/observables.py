@@ -89,8 +89,9 @@ class Recorder:
             if support.normal:
                 for name in support.names:
                     dx, indicator = element_boundary_layer(body.mesh, body.mesh.Boundaries(name))
-                    lam = forms.support_multiplier(body.tensors, body.order, u, phi, self.system.u_old,
-                                                   self.system.inv_dt, SLIP_GAMMA0)
+                    coefficients = self.system.coefficients           # the time scheme's c and û
+                    lam = forms.support_multiplier(body.tensors, body.order, u, phi, coefficients.anchor,
+                                                   coefficients.rate, SLIP_GAMMA0)
                     weak[name] = [(indicator * lam * n[i]).Compile() * dx for i in range(body.dim)]
         return weak
 

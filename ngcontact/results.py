@@ -9,12 +9,17 @@
   every field of its StepRecord (``time``, ``newton_iterations``, ``residuals``,
   ``reaction``, ``boundary_reaction/<name>``, ``electrode_charge/<name>``, ``timings/<phase>``,
   ...), of its ContactRecord as ``contact/<field>``, and the state a restart needs as
-  ``restart/<part>`` (the (u, φ) vector, β before and after clipping, the enforcement's own
-  unknowns, the predictor's memory, t);
+  ``restart/<part>``: the time scheme's own restart state (``save`` of a scheme in
+  ``ngcontact.schemes``; backward Euler: the (u, φ) vector, β before and after clipping, the
+  enforcement's own unknowns, the predictor's memory, t); run.json names the scheme;
 * ``fields.pvd`` with ``vtk/fields_NNNNNN.vtu`` (u and φ, NGSolve's ``VTKOutput``) and
   ``gamma3.pvd`` with ``vtk/gamma3_NNNNNN.vtp`` (the facets of Γ3 with β, the contact
   pressure, the multiplier, the charge flux density, the potential and the contact set as
   cell data): ParaView time series.
+
+The module reads a simulation through a ``Source`` (its mesh, fields, history, the scheme's
+``save``, ...), never the Simulation itself; the restart state is whatever the time scheme
+saves, and the simulation puts it back (``Simulation.resume``).
 
 Why one archive per step: a run may be killed at any moment (SIGKILL included), and a step
 must then be either wholly on disk or absent. Each archive is written to a temporary name and
@@ -23,10 +28,11 @@ while its metadata is written can be left unreadable as a whole. ``numpy.load`` 
 archives; ``read(DIR)`` stacks them into arrays.
 
 ``Simulation.resume(DIR)`` puts the last step on disk back into a simulation of the same scene
-(history, time, state, β, the enforcement's unknowns, the predictor's memory), and
+and scheme (its history, and the scheme's restart state through its ``load``), and
 ``run(dt, T, out=DIR)`` with the same dt and T then computes only the nominal steps not yet
 reached. Both check first that DIR holds this scene (the fingerprints agree, and at resume
-the state at t = 0 too) and ``read``, ``resume`` and a continued stream that every step
+the state at t = 0 too; a run of another time scheme is refused) and ``read``, ``resume`` and a
+continued stream that every step
 archive is there and readable: a ValueError names each differing field with both values, or
 the archive that is missing or damaged and what to do.
 """
@@ -34,16 +40,44 @@ import json
 import os
 import pathlib
 import zipfile
+from dataclasses import dataclass
 from importlib.metadata import PackageNotFoundError, version
+from typing import Callable
 
 import ngsolve as ngs
 import numpy as np
 
 from . import parallel
-from .fingerprint import fingerprint, mismatch
+from .fingerprint import mismatch
 from .records import ContactRecord, History, StepRecord
 
 DICTS = ("boundary_reaction", "electrode_charge", "timings")
+SCHEME_OF_OLD = "backward_euler"
+"""The scheme of a run.json written before runs named their time scheme."""
+
+
+@dataclass(frozen=True)
+class Source:
+    """What this module reads of a simulation (``Simulation.results_source`` makes it).
+
+    mesh : the ngsolve.Mesh.  fields : (u, φ), GridFunctions written to VTK.
+    subdivision : VTK's subdivision of the elements (the highest order − 1).
+    side : the ContactSide Γ3, or None.  history : the History of the steps so far.
+    description : JSON values of the run that must match at resume: ``ndof``, ``dim``,
+        ``model`` and ``scheme`` (the time scheme's name).
+    fingerprint : T ↦ the scene's fingerprint for a run to T (``ngcontact.fingerprint``).
+    save : () ↦ the time scheme's restart state, named numpy arrays (its ``save``).
+    start : (the state vector (u, φ) at t = 0 as numpy, the ranges of u and φ in it).
+    """
+    mesh: object
+    fields: tuple
+    subdivision: int
+    side: object
+    history: History
+    description: dict
+    fingerprint: Callable
+    save: Callable
+    start: tuple
 
 
 def _version():
@@ -72,18 +106,18 @@ class Stream:
         scene, dt and T there. A directory holding another run (dt, T, start or scene) is
         refused before anything is written."""
 
-    def __init__(self, sim, directory, dt, T, start, resumed=None):
-        parallel.serial_only(sim.body.mesh, "run(out=...): streaming the results", "each rank holds part of the state")
-        self.sim, self.dir = sim, pathlib.Path(directory)
-        info = dict(dt=dt, T=T, start=start, ndof=sim.X.ndof, dim=sim.body.dim, ngcontact=_version(),
-                    model=sim.model, format="one numpy archive per step, see ngcontact.results",
-                    fingerprint=fingerprint(sim, T))
+    def __init__(self, source, directory, dt, T, start, resumed=None):
+        parallel.serial_only(source.mesh, "run(out=...): streaming the results", "each rank holds part of the state")
+        self.source, self.dir = source, pathlib.Path(directory)
+        info = dict(dt=dt, T=T, start=start, **source.description, ngcontact=_version(),
+                    format="one numpy archive per step, see ngcontact.results", fingerprint=source.fingerprint(T))
         existing = _run_info(self.dir)
         if existing is not None:
             if any(existing.get(k) != info[k] for k in ("dt", "T", "start")):
                 raise ValueError(f"out: {str(self.dir)!r} holds another run (dt {existing.get('dt')}, T "
                                  f"{existing.get('T')}, start {existing.get('start')}); resume it with the same dt "
                                  "and T, or write to a new directory")
+            _check_scheme(existing, info["scheme"], self.dir, "out")
             _check_scene(existing, info["fingerprint"], self.dir, "out")
         continuing = resumed is not None and pathlib.Path(resumed["directory"]).resolve() == self.dir.resolve()
         self._times = {}                              # step -> time of the steps of this run on disk
@@ -96,9 +130,9 @@ class Stream:
         (self.dir / "vtk").mkdir(exist_ok=True)
         _atomic_write(self.dir / "run.json", lambda p: p.write_text(json.dumps(info, indent=1)))
         if not continuing:
-            for record in sim.history[:-1]:           # steps computed before this run: records only
+            for record in source.history[:-1]:        # steps computed before this run: records only
                 self._save(record, restart=False)
-            self(sim.history[-1])                     # the state the run starts from
+            self(source.history[-1])                  # the state the run starts from
 
     def __call__(self, record):
         """Write one step: its archive last, so that a step on disk has its VTK files too."""
@@ -106,22 +140,19 @@ class Stream:
         self._save(record, restart=True)
 
     def _save(self, record, restart):
-        """The archive of a step: its record, and with ``restart`` the simulation's restart state."""
+        """The archive of a step: its record, and with ``restart`` the time scheme's restart state."""
         arrays = record_arrays(record)
         if restart:
-            arrays.update({f"restart/{k}": v for k, v in restart_arrays(self.sim).items()})
+            arrays.update({f"restart/{k}": np.asarray(v) for k, v in self.source.save().items()})
         _atomic_write(self.dir / "steps" / f"{record.step:06d}.npz", lambda p: _savez(p, arrays))
 
     def _write_vtk(self, n, record):
-        sim = self.sim
-        order = max(sim.body.order, sim.body.order_phi)
-        writer = ngs.VTKOutput(sim.body.mesh, coefs=[sim.u, sim.phi], names=["displacement", "potential"],
-                               filename=str(self.dir / "vtk" / f"fields_{n:06d}"), subdivision=order - 1)
-        writer.Do(time=record.time)
+        source = self.source
+        fields_writer(source, self.dir / "vtk" / f"fields_{n:06d}").Do(time=record.time)
         (self.dir / "vtk" / f"fields_{n:06d}.pvd").unlink(missing_ok=True)
         if record.contact is not None:
             _atomic_write(self.dir / "vtk" / f"gamma3_{n:06d}.vtp",
-                          lambda p: p.write_text(_gamma3_vtp(sim.side, record.contact)))
+                          lambda p: p.write_text(_gamma3_vtp(source.side, record.contact)))
         self._times = {m: t for m, t in self._times.items() if m < n}     # a redone step replaces
         self._times[n] = record.time
         for name, ext in (("fields", "vtu"), ("gamma3", "vtp")):
@@ -132,6 +163,13 @@ class Stream:
                 _atomic_write(self.dir / f"{name}.pvd", lambda p, e=entries: p.write_text(
                     '<?xml version="1.0"?>\n<VTKFile type="Collection" version="1.0" byte_order="LittleEndian">\n'
                     f"<Collection>\n{e}</Collection>\n</VTKFile>\n"))
+
+
+def fields_writer(source, filename, **options):
+    """NGSolve's VTKOutput of u and φ ("displacement", "potential") of ``source`` into
+    ``filename`` (a stem; ``options`` such as ``legacy=False`` go to VTKOutput)."""
+    return ngs.VTKOutput(source.mesh, coefs=list(source.fields), names=["displacement", "potential"],
+                         filename=str(filename), subdivision=source.subdivision, **options)
 
 
 def _savez(path, arrays):
@@ -200,19 +238,6 @@ def record_from_arrays(data):
     return StepRecord(**plain, **dicts, contact=ContactRecord(**contact) if contact else None)
 
 
-def restart_arrays(sim):
-    """What a restart needs beyond the record: the scheme's checkpoint as arrays."""
-    saved = sim.scheme.checkpoint()
-    arrays = dict(t=np.asarray(saved.t), state=saved.state)
-    if saved.beta is not None:
-        arrays.update(beta=saved.beta, beta_unclipped=saved.beta_unclipped)
-    if saved.hook is not None:
-        arrays["hook"] = np.asarray(saved.hook)
-    if saved.last is not None:
-        arrays.update(last_state=saved.last[0], last_dt=np.asarray(saved.last[1]))
-    return arrays
-
-
 def read(directory):
     """The steps on disk as (run info, History): the run.json dictionary and the StepRecords
     of every step, in order. Raises a ValueError naming the file if run.json is missing, a
@@ -221,44 +246,41 @@ def read(directory):
     return info, history
 
 
-def restore(sim, directory):
-    """Put the last step of ``directory`` back into ``sim``, a freshly built simulation of the
-    same scene: its history, time, state, β, the enforcement's unknowns, the predictor's
-    memory. Returns the run info, with ``directory``.
+def restore(source, directory):
+    """The last step of ``directory`` for ``source`` (a freshly built simulation of the same
+    scene and time scheme): (the run info with ``directory``, the History on disk, the
+    scheme's restart state as named arrays, for its ``load``).
 
-    The scene is checked first: the fingerprint stored in run.json (``fingerprint``) must be
-    this simulation's, and the state at t = 0 (u0 and the potential it gives) the one of step
-    0 on disk; a difference is a ValueError naming each differing field with both values. A
-    run.json without a fingerprint (written before ngcontact stored one) is refused: its
-    scene cannot be checked, and continuing it with another scene is the silent wrong result
-    this check exists to prevent; such a run is computed again into a new directory."""
-    from .backward_euler import Checkpoint
-    parallel.serial_only(sim.body.mesh, "resume()", "streaming the results is serial only")
+    The scene is checked first: the time scheme named in run.json must be the source's, the
+    fingerprint stored there (``fingerprint``) must be this simulation's, and the state at
+    t = 0 (u0 and the potential it gives) the one of step 0 on disk; a difference is a
+    ValueError naming each differing field with both values. A run.json without a
+    fingerprint (written before ngcontact stored one) is refused: its scene cannot be
+    checked, and continuing it with another scene is the silent wrong result this check
+    exists to prevent; such a run is computed again into a new directory."""
+    parallel.serial_only(source.mesh, "resume()", "streaming the results is serial only")
     if not isinstance(directory, (str, os.PathLike)):
         raise TypeError(f"resume: directory must be a path (str or pathlib.Path), got {directory!r}")
     directory = pathlib.Path(directory)
-    if len(sim.history) != 1:
-        raise ValueError(f"resume: the simulation has computed {len(sim.history) - 1} step(s) already; resume "
+    if len(source.history) != 1:
+        raise ValueError(f"resume: the simulation has computed {len(source.history) - 1} step(s) already; resume "
                          f"{str(directory)!r} into a freshly built simulation of its scene")
     info = _run_info(directory)
     if info is None:
         raise ValueError(f"resume: {str(directory)!r} holds no streamed run (no run.json)")
-    _check_scene(info, fingerprint(sim, info["T"]), directory, "resume")
+    _check_scheme(info, source.description["scheme"], directory, "resume")
+    _check_scene(info, source.fingerprint(info["T"]), directory, "resume")
     info, history, paths = _read(directory)
     if not history:
         raise ValueError(f"resume: {str(directory)!r} holds no computed step to resume from")
     first = _load(paths[0], 0, len(paths) - 1)[1]
-    _check_start(sim, first.get("restart/state", first.get("state")), directory)
-    r = {k[len("restart/"):]: v for k, v in _load(paths[-1], len(paths) - 1, len(paths) - 1)[1].items()
-         if k.startswith("restart/")}
-    if not {"t", "state"} <= set(r):
+    _check_start(source.start, first.get("restart/state", first.get("state")), directory)
+    restart = {k[len("restart/"):]: v for k, v in _load(paths[-1], len(paths) - 1, len(paths) - 1)[1].items()
+               if k.startswith("restart/")}
+    if not {"t", "state"} <= set(restart):
         raise ValueError(f"resume: {str(paths[-1])!r} holds no restart state (the run was stopped while the "
                          "steps before it were written); run again into a new directory")
-    saved = Checkpoint(float(r["t"]), r["state"], r.get("beta"), r.get("beta_unclipped"),
-                       r.get("hook"), (r["last_state"], float(r["last_dt"])) if "last_state" in r else None)
-    sim.scheme.restore(saved)
-    sim.history[:] = history
-    return dict(info, directory=str(directory))
+    return dict(info, directory=str(directory)), history, restart
 
 
 # ----------------------------------------------------------------------- checks of a directory
@@ -277,6 +299,15 @@ def _run_info(directory):
     return info
 
 
+def _check_scheme(info, scheme, directory, who):
+    """Raise unless the run ``info`` was computed with the time scheme ``scheme``."""
+    stored = info.get("scheme", SCHEME_OF_OLD)
+    if stored != scheme:
+        raise ValueError(f"{who}: {str(directory)!r} holds a run of the time scheme {stored!r}, this simulation's "
+                         f"scheme is {scheme!r}: build it with Simulation(scheme={stored!r}), or write to a new "
+                         "directory")
+
+
 def _check_scene(info, current, directory, who):
     """Raise unless the fingerprint ``current`` is the one stored in the run ``info``."""
     if "fingerprint" not in info:
@@ -288,14 +319,15 @@ def _check_scene(info, current, directory, who):
         raise ValueError(f"{who}: {str(directory)!r} was computed with {found}: not the same scene")
 
 
-def _check_start(sim, saved, directory):
-    """Raise unless ``saved``, the state of step 0 on disk (or None), is ``sim``'s state at t = 0
-    to 1e-8 of its size, for u and φ apart (u0, and φ0 from the data at t = 0)."""
-    if saved is None or len(saved) != sim.X.ndof:
+def _check_start(start, saved, directory):
+    """Raise unless ``saved``, the state of step 0 on disk (or None), is the state at t = 0 of
+    ``start`` (``Source.start``) to 1e-8 of its size, for u and φ apart (u0, and φ0 from the
+    data at t = 0)."""
+    now, ranges = start
+    if saved is None or len(saved) != len(now):
         return
-    now = sim.gfu.vec.FV().NumPy()
-    for i, (name, unit) in enumerate((("u", "m"), ("φ", "V"))):
-        part = slice(sim.X.Range(i).start, sim.X.Range(i).stop)
+    for (name, unit), r in zip((("u", "m"), ("φ", "V")), ranges):
+        part = slice(r.start, r.stop)
         difference = np.abs(saved[part] - now[part]).max(initial=0.0)
         size = max(np.abs(saved[part]).max(initial=0.0), np.abs(now[part]).max(initial=0.0))
         if difference > 1e-8 * size:

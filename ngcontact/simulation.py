@@ -1,8 +1,8 @@
-"""The simulation of a body under loads in contact on Γ3: backward Euler steps, their records,
-and the cut-back policy.
+"""The simulation of a body under loads in contact on Γ3: time steps, their records, and the
+cut-back policy.
 
 ``Simulation`` puts the pieces together (the step system of ``forms``, the enforcement
-method, Newton, the backward Euler scheme, the recorder), then ``step(dt)`` makes one
+method, Newton, the time scheme of ``schemes``, the recorder), then ``step(dt)`` makes one
 transactional step, ``advance(t)`` reaches a time with cut-backs where Newton fails, and
 ``run(dt, T)`` steps to a final time.
 """
@@ -14,9 +14,9 @@ import ngsolve as ngs
 import numpy as np
 
 from . import arguments, gamma3, parallel, results
+from .fingerprint import fingerprint
 from .admissible import (PhysicsWarning, check_initial_displacement, check_supports_at_start, flags, scene_flags,
                          stiff_contact_terms)
-from .backward_euler import BackwardEuler
 from .checks import integer, number, uses_only
 from .electric_part import electric_parts, solves_potential
 from .enforcement import METHODS
@@ -26,6 +26,7 @@ from .newton import Newton, NewtonError, NewtonResult, Timings
 from .observables import Recorder
 from .progress import bar
 from .records import History
+from .schemes import DEFAULT, StepCoefficients, scheme_class
 from .solver_choice import choose
 from .starts import Starts
 from .step_length import StepLength
@@ -34,7 +35,8 @@ from .system import StepSystem, has_interior_dofs
 
 
 class Simulation:
-    """Backward Euler time stepping of a Body under Loads, with a contact law on Γ3.
+    """Time stepping of a Body under Loads, with a contact law on Γ3 (backward Euler, the
+    paper's scheme, by default).
 
     Parameters
     ----------
@@ -42,7 +44,9 @@ class Simulation:
     loads : Loads (CoefficientFunctions may depend on ``time``).
     contact : Contact or None; None leaves Γ3 traction-free and charge-free.
     time : ngsolve.Parameter used in the loads and the contact data (created if not given);
-        set to t_n at step n.
+        the time scheme sets it to t_n at step n.
+    scheme : the time scheme, a name of ``schemes.SCHEMES``: "backward_euler" (default, the
+        paper's (4.3)–(4.5)).
     u0 : initial displacement (number tuple or CoefficientFunction), zero on Γ1 and admissible;
         default 0. Newton's start of a step may differ from it (``step(dt, guess=...)``).
     inverse : the direct factorisation of the Newton corrections ("sparsecholesky",
@@ -83,7 +87,7 @@ class Simulation:
         Newton iteration (also the default for Nitsche's θ = −1, see ``inverse``).
     iterative : GMRES preconditioned by Γ3 solves around block multigrid (P1, nested meshes)
         or BDDC (P2+) instead of a factorisation (``multigrid``): None (default) in 3D from
-        10⁵ DOFs, for P1 when the mesh was made by ``multigrid.nested_mesh``
+        10⁵ DOFs, for P1 when the mesh was made by ``meshes.nested_mesh``
         (``ngcontact.geometries`` do), without condensation (``solver_choice``); True or False.
 
     The arguments are checked before any work (``arguments``): the options True or False
@@ -95,13 +99,15 @@ class Simulation:
 
     def __init__(self, body, loads=None, *, contact=None, time=None, u0=None, inverse=None,
                  rtol=1e-10, maxit=50, keep_states=True, predictor=False, condense=None, realcompile=None,
-                 limit_steps=True, reuse_factorization=True, iterative=None, electric=None, physical_checks=True):
+                 limit_steps=True, reuse_factorization=True, iterative=None, electric=None, physical_checks=True,
+                 scheme=DEFAULT):
         options = arguments.simulation(body, loads, contact, time, inverse, dict(
             keep_states=keep_states, predictor=predictor, condense=condense, realcompile=realcompile,
             limit_steps=limit_steps, reuse_factorization=reuse_factorization, iterative=iterative,
             electric=electric, physical_checks=physical_checks))
         keep_states, predictor, condense, realcompile, limit_steps, reuse_factorization, iterative, electric, \
             physical_checks = options.values()
+        Scheme = scheme_class(scheme)
         self.body = body
         self.parallel_notes = parallel.check_simulation(body.mesh, contact, inverse, condense, reuse_factorization,
                                                        iterative)
@@ -122,7 +128,8 @@ class Simulation:
         if contact is not None and not METHODS[contact.method].condensable:
             self.condense = False
         kept = body.region("contact_side") if contact is not None else None
-        self.system = StepSystem(body, self.loads, self.X, self.time, condense=self.condense, kept=kept)
+        coefficients = StepCoefficients(self.time, body.V)        # t_n, c, û: written by the scheme only
+        self.system = StepSystem(body, self.loads, self.X, coefficients, condense=self.condense, kept=kept)
         if not self.electric:
             # φ = 0: its DOFs leave the free sets in place (after the step system's last
             # FinalizeUpdate, which would reset them; UNUSED coupling types would break
@@ -131,7 +138,7 @@ class Simulation:
                 free[self.X.Range(1)] = False
         self.gamma3, self._gap_check, self._machine_code = None, None, None
         if contact is not None:
-            self.gamma3, self._gap_check = gamma3.build(body, contact, self.system, self.time, realcompile is True)
+            self.gamma3, self._gap_check = gamma3.build(body, contact, self.system, realcompile is True)
             if realcompile is None:              # by what the run will do (``machine_code``)
                 self._machine_code = MachineCode(self.system, self.gamma3.side.B.ndof, body.dim, self.electric)
         solver, self._potential_solver = choose(body, contact, self.system, self.X, inverse=inverse,
@@ -144,9 +151,9 @@ class Simulation:
             limit = StepLength(self.gamma3.side, self.gfu, self.gamma3.gap, normal=self.gamma3.sampled_normal)
         self.newton = Newton(self.system, self.gfu, solver=solver, rtol=rtol, maxit=maxit, hook=hook,
                              step_length=limit)
-        self.scheme = BackwardEuler(self.system, self.newton, self.gfu,
-                                    self.gamma3.beta if contact is not None else None, predictor,
-                                    self.gamma3.normal if contact is not None else None)
+        self.scheme = Scheme(coefficients, self.system, self.newton, self.gfu,
+                             self.gamma3.beta if contact is not None else None, predictor,
+                             self.gamma3.normal if contact is not None else None)
         self.starts = Starts(self)              # checks that the supports and the contact hold the body
         self.recorder = Recorder(body, self.gfu, self.system, self.gamma3)
         self.history = History()
@@ -204,7 +211,7 @@ class Simulation:
             given = np.zeros(self.body.V.ndof - self.body.V.FreeDofs().NumSet())
         start, timings = wallclock.perf_counter(), Timings()
         # φ0 with u = u0 held: the potential's free DOFs only, with the terms of a step of 1 s
-        self.system.begin_step(0.0, 1.0, self.u.vec, self.gfu)
+        self.scheme.start()
         check_supports_at_start(self.body, self.u, given)
         phi_only = ngs.BitArray(self.X.FreeDofs())
         phi_only[self.X.Range(0)] = False
@@ -228,23 +235,22 @@ class Simulation:
 
     # ----------------------------------------------------------------------- stepping
     def step(self, dt, guess=None):
-        """One backward Euler step of length dt (s); returns its StepRecord. ``guess``: Newton's
-        start for this step instead of the last state (``starts``: a displacement, which may
-        penetrate, ``starts.Approach(depth)`` or "nested"), checked first.
-
-        Transactional: either t, u, φ, β and the history all advance, or they are left
-        bitwise as they were and the error (``NewtonError`` if Newton fails) is raised.
-        dt and the data of Γ3 at t + dt are checked first (``arguments.time_step``,
-        ``arguments.gamma3_data``)."""
+        """One step of the time scheme, of length dt (s); returns its StepRecord. ``guess``:
+        Newton's start instead of the last state (``starts``: a displacement, which may
+        penetrate, ``starts.Approach(depth)``, "nested" or "p1"). Transactional: either t, u,
+        φ, β and the history all advance, or they are left bitwise as they were and the error
+        (``NewtonError`` if Newton fails) is raised. dt, the guess and the data of Γ3 at t + dt
+        are checked first (``arguments.time_step``, ``arguments.gamma3_data``)."""
         dt, guessed = arguments.time_step(dt, self.t), self.starts.resolve(guess)
         n, start = len(self.history), wallclock.perf_counter()
         saved, timings = self.scheme.checkpoint(), Timings()
         try:
             if self.contact is not None:                    # the data at t_n, before the solve
-                arguments.gamma3_data(self.contact, self.gamma3, self.body.mesh, self.time, self.t + dt)
+                at = self.scheme.coefficients.at
+                arguments.gamma3_data(self.contact, self.gamma3, self.body.mesh, at, self.t + dt)
                 if self.contact.obstacle is None and isinstance(self.contact.gap, ngs.CoefficientFunction):
-                    self.time.Set(self.t + dt)
-                    self._gap_check(self.t + dt)
+                    with at(self.t + dt):
+                        self._gap_check(self.t + dt)
             result = self.scheme.advance(dt, step=n, timer=timings, start=partial(self.starts.apply, guessed))
             record = self._record(n, result, start, timings)
         except BaseException:
@@ -323,11 +329,9 @@ class Simulation:
             self._machine_code.expect(steps * ITERATIONS_PER_STEP)
         callbacks = [on_step] if on_step else []
         if out is not None:                      # checks the directory, writes the history so far
-            callbacks.insert(0, results.Stream(self, out, dt, T, start, resumed))
+            callbacks.insert(0, results.Stream(self.results_source(), out, dt, T, start, resumed))
         if vtk is not None:                      # distributed: one .vtu per computing rank and step, one .pvd
-            writer = ngs.VTKOutput(self.body.mesh, coefs=[self.u, self.phi], names=["displacement", "potential"],
-                                   filename=str(vtk), subdivision=max(self.body.order, self.body.order_phi) - 1,
-                                   legacy=False)
+            writer = results.fields_writer(self.results_source(), vtk, legacy=False)
             writer.Do(time=self.t)
             callbacks.insert(0, lambda record: writer.Do(time=record.time))
 
@@ -363,11 +367,22 @@ class Simulation:
     def resume(self, directory):
         """Continue a run streamed into ``directory`` (``run(..., out=directory)``) that was
         interrupted: its last step on disk becomes this simulation's state and history (the
-        simulation must be freshly built, of the same scene: ``results.restore`` checks it and
-        the step archives). Then ``run(dt, T, out=directory)`` with the run's dt and T computes
-        the rest. Returns self."""
-        self._resumed = results.restore(self, directory)
+        simulation must be freshly built, of the same scene and time scheme: ``results.restore``
+        checks it and the step archives; the scheme puts back its own restart state). Then
+        ``run(dt, T, out=directory)`` with the run's dt and T computes the rest. Returns self."""
+        info, history, restart = results.restore(self.results_source(), directory)
+        self.scheme.load(restart)
+        self.history[:] = history
+        self._resumed = info
         return self
+
+    def results_source(self):
+        """What ``results`` reads of this simulation (``results.Source``)."""
+        body, X, side = self.body, self.X, self.gamma3.side if self.gamma3 is not None else None
+        return results.Source(body.mesh, (self.u, self.phi), max(body.order, body.order_phi) - 1, side, self.history,
+                              dict(ndof=X.ndof, dim=body.dim, model=self.model, scheme=self.scheme.name),
+                              partial(fingerprint, self), self.scheme.save,
+                              (self.gfu.vec.FV().NumPy(), [X.Range(0), X.Range(1)]))
 
     # ----------------------------------------------------------------------- reading the state
     def state(self, n):

@@ -3,7 +3,7 @@ reuse_factorization=, iterative=)``), chosen by the system's symmetry, size and 
 
 * ``iterative`` (``multigrid.MultigridSolver``, GMRES with Γ3 solves around block multigrid
   for P1, block BDDC for P2 and higher): by default in 3D from ``ITERATIVE_FROM`` DOFs
-  without static condensation, for P1 on nested meshes (``multigrid.nested_mesh``); direct
+  without static condensation, for P1 on nested meshes (``meshes.nested_mesh``); direct
   factorisations fill in like n^(4/3) there.
 * on a mesh distributed over MPI ranks: NGSolve's "masterinverse" (the Jacobian gathered
   and factorised on rank 0) at every Newton iteration;
@@ -13,7 +13,8 @@ reuse_factorization=, iterative=)``), chosen by the system's symmetry, size and 
   skew Γ3 part makes GMRES slower than factorising, docs/speed.md).
 """
 from .linear_solver import NAMES, PARALLEL_NAMES, DirectSolver, KeptFactorization, factorization_worth
-from .multigrid import MultigridSolver, needs_nested_mesh, refinements
+from .meshes import refinements
+from .multigrid import MultigridSolver, needs_nested_mesh
 
 ITERATIVE_FROM = 100_000
 """DOFs from which 3D simulations on nested meshes solve iteratively by default (docs/scale.md)."""
@@ -46,7 +47,7 @@ def choose(body, contact, system, space, *, inverse, reuse_factorization, iterat
             raise ValueError("iterative=True needs condense=False (the multigrid preconditioner acts on all DOFs)")
         if needs_nested_mesh(body) and refinements(body.mesh) is None:
             raise ValueError("iterative=True needs nested meshes: make the mesh with "
-                             "ngcontact.multigrid.nested_mesh(ngmesh, refine) (ngcontact.geometries do)")
+                             "ngcontact.meshes.nested_mesh(ngmesh, refine) (ngcontact.geometries do)")
         layer = space.GetDofs(body.region("contact_side")) if contact is not None else None
 
         newton = MultigridSolver(body, system, layer, electric=electric, realcompile=realcompile)

@@ -179,11 +179,8 @@ class Starts:
         ``resolve``), or, for a body held only by its contact whose start leaves Γ3 open, to
         ``touch``. The time Parameter is left as it was (at ``target``): the coarse levels of
         a nested start share it, and a level that fails restores it to its own time."""
-        now = self.sim.time.Get()
-        try:
+        with self.sim.scheme.coefficients.at(target):     # t_n kept: a coarse level may move it
             values = start(self.sim, t, target) if start is not None else None
-        finally:
-            self.sim.time.Set(now)
         self.last = "warm" if start is None else "guess"
         if isinstance(start, Nested) and start.fallback:
             self.last = start.fallback

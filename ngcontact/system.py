@@ -1,23 +1,24 @@
-"""The nonlinear system of one backward Euler step, assembled in the parts of ``forms``.
+"""The nonlinear system of one time step, assembled in the parts of ``forms``.
 
 The bulk of the step residual (``forms``) is linear with constant coefficients: with
 
   K_el : b(u, v) + e(v, φ) + e(u, ξ) − c(φ, ξ)     (``forms.bulk``),
   K_A  : a(u, v)                                    (``forms.a``, Kelvin-Voigt viscosity),
 
-assembled once, the residual of the step to t_n with time step dt at x = (u, φ) is
+assembled once, the residual of the step to t_n at x = (u, φ) is
 
-  R(x) = K_el x + (1/dt) K_A (x − x_{n−1}) − f(t_n) + R_Γ3(x),
+  R(x) = K_el x + c K_A (x − x̂) − f(t_n) + R_Γ3(x),
 
-where only R_Γ3 (``forms.contact_terms``) is nonlinear. Its Jacobian is
-K = K_el + (1/dt) K_A plus R_Γ3'(x): each Newton iteration assembles the Γ3 terms only and
-adds matrices of one sparsity pattern.
+where the time scheme sets t_n, the rate coefficient c (1/s) and the anchor û of x̂ = (û, 0)
+(``schemes.StepCoefficients``; backward Euler: c = 1/k, û = u_{n−1}), and only R_Γ3
+(``forms.contact_terms``) is nonlinear. Its Jacobian is K = K_el + c K_A plus R_Γ3'(x):
+each Newton iteration assembles the Γ3 terms only and adds matrices of one sparsity pattern.
 
 ``StepSystem`` offers what ``Newton`` uses of a nonlinear NGSolve ``BilinearForm``:
 ``Apply``, ``AssembleLinearization``, ``mat`` and, for static condensation, ``condense``,
 ``harmonic_extension``, ``harmonic_extension_trans`` and ``inner_solve``. With
 ``condense=True`` the element-interior DOFs of the elements away from Γ3 appear in K only;
-they are eliminated once per time step size by a condensed form of K, and ``mat`` is the
+they are eliminated once per value of c by a condensed form of K, and ``mat`` is the
 Schur complement of K plus R_Γ3' on the remaining (coupling) DOFs. The interior DOFs of the
 elements at Γ3 are kept as coupling DOFs of the system's own space.
 """
@@ -59,21 +60,20 @@ class StepSystem:
     ----------
     body, loads : Body and Loads (CoefficientFunctions of the ``time`` Parameter).
     X : the system's own product space V × W (``body.space()``); condensation marks DOFs on it.
-    time : the Parameter the loads depend on; ``begin_step`` sets it to t_n (s).
+    coefficients : the ``schemes.StepCoefficients`` of the time scheme: t_n (the Parameter the
+        loads depend on), the rate coefficient c and the anchor û, read here, written by the
+        scheme only.
     condense : static condensation of the interior DOFs away from ``kept`` (a boundary
         region, Γ3).
 
-    ``u_old`` (GridFunction of u_{n−1}) and ``inv_dt`` (Parameter 1/dt, 1/s) are the step's
-    coefficients, for the Γ3 terms to use; ``generation`` counts the changes of the bulk
-    matrix K (with dt), after which a kept factorisation no longer fits. ``add_boundary_terms(terms, side)`` adds R_Γ3;
-    ``begin_step(t, dt, u_old, state)`` prepares the step; ``boundary_residual`` holds R_Γ3
-    at the last ``Apply``.
+    ``generation`` counts the changes of the bulk matrix K (with c), after which a kept
+    factorisation no longer fits. ``add_boundary_terms(terms, side)`` adds R_Γ3;
+    ``begin_step(state)`` prepares the step the scheme has set; ``boundary_residual`` holds
+    R_Γ3 at the last ``Apply``.
     """
 
-    def __init__(self, body, loads, X, time, *, condense=False, kept=None):
-        self.body, self.X, self.time = body, X, time
-        self.u_old = ngs.GridFunction(body.V, name="u_old")
-        self.inv_dt = ngs.Parameter(1.0)
+    def __init__(self, body, loads, X, coefficients, *, condense=False, kept=None):
+        self.body, self.X, self.coefficients = body, X, coefficients
         self.loads = loads
         self.condense = bool(condense)
         if self.condense and kept is not None:
@@ -98,10 +98,10 @@ class StepSystem:
             self._K_condensed = ngs.BilinearForm(X, symmetric=False, condense=True)
             bulk = forms.bulk(T, trial, test)
             if T.viscous:
-                bulk = bulk + self.inv_dt * forms.a(T, trial[0], test[0])
+                bulk = bulk + coefficients.rate * forms.a(T, trial[0], test[0])
             self._K_condensed += bulk * ngs.dx
             for elastic, viscous, dx in weak_supports:
-                self._K_condensed += (elastic if viscous is None else elastic + self.inv_dt * viscous) * dx
+                self._K_condensed += (elastic if viscous is None else elastic + coefficients.rate * viscous) * dx
             self._schur = None
         self.f = ngs.LinearForm(X)
         for integral in forms.f(body, loads, test):
@@ -111,11 +111,11 @@ class StepSystem:
         self.mat = self._full
         self.boundary = None
         self._x_old = ngs.GridFunction(X)
-        self._constant = self._x_old.vec.CreateVector()       # f + (1/dt) K_A x_{n−1}
+        self._constant = self._x_old.vec.CreateVector()       # f + c K_A x̂
         self.boundary_residual = self._x_old.vec.CreateVector()
         self.boundary_residual[:] = 0.0
-        self._internal = self._x_old.vec.CreateVector()       # K x − (1/dt) K_A x_{n−1}
-        self._dt, self._linearized = None, False
+        self._internal = self._x_old.vec.CreateVector()       # K x − c K_A x̂
+        self._rate, self._linearized = None, False
         self._positions = {}
         self.generation = 0                                    # counts the changes of K
         # the Dirichlet DOFs of V: all of them, and those of Γ1 (u = 0)
@@ -185,33 +185,29 @@ class StepSystem:
         self._linearized = False
 
     # ----------------------------------------------------------------------- one step
-    def begin_step(self, t, dt, u_old, state):
-        """Prepare the step to t_n = ``t`` (s) with time step ``dt`` (s) from u_{n−1} =
-        ``u_old`` (a vector of V): set the time Parameter, assemble f(t_n), (1/dt) K_A x_{n−1}
-        and, when dt changed, K (and its condensed form); set the electrode potentials at
-        t_n in the ``state`` GridFunction (u, φ)."""
-        self.time.Set(t)
-        if dt != self._dt:
-            self.inv_dt.Set(1.0 / dt)
-            inv_dt = self.inv_dt.Get()
+    def begin_step(self, state):
+        """Prepare the step the scheme has set (t_n, c, û of ``coefficients``): assemble
+        f(t_n), c K_A x̂ and, when c changed, K (and its condensed form); set the supports'
+        displacements and the electrode potentials at t_n in the ``state`` GridFunction (u, φ)."""
+        t, rate = self.coefficients.t, self.coefficients.rate.Get()
+        if rate != self._rate:
             K = parallel.local_matrix(self.K).AsVector()
             K.data = parallel.local_matrix(self.K_el.mat).AsVector()
             if self.K_A is not None:
-                K.data += inv_dt * parallel.local_matrix(self.K_A.mat).AsVector()
+                K.data += rate * parallel.local_matrix(self.K_A.mat).AsVector()
             if self.condense:
                 self._K_condensed.Assemble()
             self._absK = None
-            self._dt = dt
+            self._rate = rate
             self.generation += 1
-        self.u_old.vec.data = u_old
         self.f.Assemble()
         if parallel.any_rank(self.body.mesh, not np.all(np.isfinite(self.f.vec.FV().NumPy()))):
             culprit = self.loads.nonfinite(self.body) or "a load"
             raise ValueError(f"{culprit} is not finite at t = {t:.6g} s (NaN or inf)")
         self._constant.data = self.f.vec
         if self.K_A is not None:
-            self._x_old.components[0].vec.data = self.u_old.vec
-            self._constant.data += self.inv_dt.Get() * (self.K_A.mat * self._x_old.vec)
+            self._x_old.components[0].vec.data = self.coefficients.anchor.vec
+            self._constant.data += rate * (self.K_A.mat * self._x_old.vec)
         self._set_displacements(state.components[0])
         phi = state.components[1]                              # φ on Γa (0 where not given)
         for names, value in self.loads.potential.items():
@@ -322,7 +318,7 @@ class StepSystem:
 
     # ----------------------------------------------------------------------- for Newton's norms
     def force_scale(self, norm):
-        """S = max(‖f_n‖, ‖K x − (1/dt) K_A x_{n−1}‖) at the x of the last ``Apply``, in the
+        """S = max(‖f_n‖, ‖K x − c K_A x̂‖) at the x of the last ``Apply``, in the
         scaled norm ``norm`` (a ``newton.ResidualNorm``) over every DOF, held ones included:
         the step's loads and the bulk's internal forces (at held DOFs: the reactions of the
         supports and the charges of the electrodes), without the Γ3 terms (``stopping``)."""
@@ -340,7 +336,7 @@ class StepSystem:
         return total
 
     def bulk_diagonal(self):
-        """The diagonal of the bulk's K = K_el + K_A/dt (numpy, cumulated on a distributed
+        """The diagonal of the bulk's K = K_el + c K_A (numpy, cumulated on a distributed
         mesh): the scales of Newton's norms come from it (``newton.ResidualNorm``), not from the
         Γ3 terms, so that a stiff contact term cannot set the units it is measured in."""
         diagonal = csr(self.K).diagonal()
@@ -349,7 +345,7 @@ class StepSystem:
         return diagonal
 
     def magnitude(self, x, contact=None):
-        """|K| |x| + |f + K_A x_{n−1}/dt| + |R_Γ3'| |x| (numpy), with the Γ3 Jacobian of the
+        """|K| |x| + |f + c K_A x̂| + |R_Γ3'| |x| (numpy), with the Γ3 Jacobian of the
         last linearisation (``contact``: ``contact_magnitude(x)`` if already computed): the size
         of the terms that sum to R(x), whose round-off limits how far Newton can reduce it. On a
         distributed mesh (cumulated values) |K| is the sum of the ranks' |K_p|, an upper bound of

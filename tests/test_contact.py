@@ -86,7 +86,8 @@ def test_reduces_to_chouly_hild():
         x = sim.gfu.vec.CreateVector()
         rng = np.random.default_rng(1)
         x.FV().NumPy()[:] = rng.normal(size=len(x)) * 3e-5
-        sim.system.begin_step(0.7, 0.1, sim.u.vec, sim.gfu)                  # the loads at t = 0.7
+        sim.scheme.coefficients.set(0.7, 10.0, sim.u.vec)                     # the loads at t = 0.7
+        sim.system.begin_step(sim.gfu)
         r1, r2 = x.CreateVector(), x.CreateVector()
         sim.system.Apply(x, r1)
         ch.Apply(x, r2)

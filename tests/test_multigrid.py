@@ -6,7 +6,7 @@ import ngsolve as ngs
 import pytest
 
 import ngcontact as ngc
-from ngcontact import multigrid, solver_choice
+from ngcontact import meshes, multigrid, solver_choice
 from ngcontact.geometries import block
 from ngcontact.scenes import reference as scene
 
@@ -83,7 +83,7 @@ def test_chosen_by_size_and_dimension(monkeypatch):
     assert not solver_choice.iterative_by_default(body2, condense=False)
     plain = ngc.Body(ngs.Mesh(body3.mesh.ngmesh), body3.material, clamped="left", grounded="top",
                      contact_side="bottom")
-    assert multigrid.refinements(plain.mesh) is None
+    assert meshes.refinements(plain.mesh) is None
     assert not solver_choice.iterative_by_default(plain, condense=False)
     t = ngs.Parameter(0)
     sim = ngc.Simulation(body3, scene.loads(t, 3), contact=scene.contact(), time=t)
@@ -109,7 +109,7 @@ def test_bad_input_names_the_parameter():
     with pytest.raises(ValueError, match="nested_mesh"):
         ngc.Simulation(plain, scene.loads(t, 3), contact=scene.contact(), time=t, iterative=True)
     with pytest.raises(ValueError, match="refine must be an integer"):
-        multigrid.nested_mesh(block(maxh=0.02).ngmesh, refine=-1)
+        meshes.nested_mesh(block(maxh=0.02).ngmesh, refine=-1)
 
 
 def test_a_mesh_changed_after_nesting_is_refused():

@@ -16,6 +16,7 @@ from ngcontact.geometries import block, plate
 from ngcontact.loads import as_cf
 from ngcontact.scenes import reference as scene
 from ngcontact.studies import bench
+from ngcontact.schemes import StepCoefficients
 from ngcontact.system import StepSystem
 
 
@@ -39,7 +40,7 @@ def monolithic_residual(body, loads, u_old, inv_dt):
 @pytest.mark.parametrize("mesh", [plate(maxh=0.01), block(maxh=0.02)], ids=["2D", "3D"])
 def test_step_system_equals_the_monolithic_form(mesh):
     """R(x) and R'(x) of StepSystem (K_el, K_A assembled once, f per step) equal the plain
-    form's at a random state, u_{n−1}, t and dt, and again after t and dt change."""
+    form's at a random state, anchor û, t and rate coefficient c, and again after t and c change."""
     dim = mesh.dim
     body = ngc.Body(mesh, ngc.pzt5a(relaxation_time=2e-3), clamped="left", grounded="top",
                     contact_side="bottom", order=2)
@@ -50,7 +51,8 @@ def test_step_system_equals_the_monolithic_form(mesh):
     rng = np.random.default_rng(3)
     u_old = ngs.GridFunction(body.V)
     u_old.vec.FV().NumPy()[:] = rng.normal(size=body.V.ndof) * 1e-5
-    system = StepSystem(body, loads, body.space(), t)
+    coefficients = StepCoefficients(t, body.V)
+    system = StepSystem(body, loads, body.space(), coefficients)
     reference = monolithic_residual(body, loads, u_old, inv_dt)
     gfu = ngs.GridFunction(system.X)
     state = gfu.vec
@@ -58,7 +60,8 @@ def test_step_system_equals_the_monolithic_form(mesh):
                                                                np.full(body.W.ndof, 50.0)]
     r1, r2 = state.CreateVector(), state.CreateVector()
     for time, rate in ((0.3, 400.0), (0.7, 100.0)):
-        system.begin_step(time, 1 / rate, u_old.vec, gfu)
+        coefficients.set(time, rate, u_old.vec)             # a scheme's t_n, c, û
+        system.begin_step(gfu)
         inv_dt.Set(rate)
         system.Apply(state, r1)
         reference.Apply(state, r2)

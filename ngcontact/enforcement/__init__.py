@@ -14,9 +14,10 @@ from .penalty import Penalty
 class Enforcement(Protocol):
     """The protocol of an enforcement method.
 
-    ``Method(body, contact, side, *, gap, u_old, inv_dt, normal)``: the Body, the Contact
+    ``Method(body, contact, side, *, gap, coefficients, normal)``: the Body, the Contact
     data (θ, γ0, penalty, ...), the ContactSide Γ3, the gap g (CoefficientFunction, m), the
-    GridFunction of u_{n−1}, the Parameter 1/dt of the step (1/s) and the contact normal
+    time scheme's ``schemes.StepCoefficients`` (the rate coefficient c, 1/s, and the anchor
+    û of the viscous stress c A ε(u − û); backward Euler: 1/dt and u_{n−1}) and the contact normal
     (the body's ν, or an obstacle's n_o): u_ν = u·normal, σ_ν = σν·normal.
 
     ``traction`` below is p(u_ν) − γ_ν β² R_ν(u_ν) (Pa), the integrand of j_a (2.28), so that

@@ -26,7 +26,7 @@ class NodalConstraint:
 
     condensable = False                    # the saddle point systems take the full Jacobian
 
-    def __init__(self, body, contact, side, *, gap, u_old, inv_dt, normal):
+    def __init__(self, body, contact, side, *, gap, coefficients, normal):
         if body.order != 1:
             raise ValueError(f"Contact.method 'active_set' is the paper's P1 scheme: it needs "
                              f"Body order 1, got {body.order}")

@@ -7,7 +7,7 @@ the Signorini term of the step residual, for test functions (v, ξ):
 
   S = −(θ/γ) ∫_Γ3 σ̃_ν σ_ν(v, ξ) + (1/γ) ∫_Γ3 [P]_- (θ σ_ν(v, ξ) − γ v_ν),
 
-where σ_ν(v, ξ) is the variation of σ_ν: ν·(F ε(v) + A ε(v)/dt + Eᵀ∇ξ)ν. It is consistent
+where σ_ν(v, ξ) is the variation of σ_ν: ν·(F ε(v) + c A ε(v) + Eᵀ∇ξ)ν (c the time scheme's rate coefficient, 1/dt for backward Euler). It is consistent
 (the exact solution makes the two terms −∫σ̃_ν v_ν), and with p = 0, γ_ν = 0, A = 0 and
 E = 0 it is exactly Chouly & Hild's method. On the set P ≤ 0 (P = 0 counts as contact, so a
 body starting exactly at the gap gets contact stiffness at once) the constraint is active.
@@ -24,11 +24,11 @@ class Nitsche:
     newton_hook = None
     condensable = True
 
-    def __init__(self, body, contact, side, *, gap, u_old, inv_dt, normal):
+    def __init__(self, body, contact, side, *, gap, coefficients, normal):
         self.tensors, self.theta, self.gap = body.tensors, contact.theta, gap
-        self.u_old, self.inv_dt = u_old, inv_dt
+        self.coefficients = coefficients                    # the time scheme's c and û
         self.n = normal
-        self.gamma = contact.gamma0 * boundary_stiffness(body, inv_dt)
+        self.gamma = contact.gamma0 * boundary_stiffness(body, coefficients.rate)
 
     @classmethod
     def keeps_symmetry(cls, contact):
@@ -37,7 +37,7 @@ class Nitsche:
 
     def sigma_n(self, u, phi):
         """σ_ν of the step at (u, φ), Pa."""
-        return step_normal_stress(self.tensors, u, phi, self.inv_dt, self.u_old, self.n)
+        return step_normal_stress(self.tensors, u, phi, self.coefficients.rate, self.coefficients.anchor, self.n)
 
     def P(self, u, phi, traction):
         """P = σ̃_ν − γ (u_ν − g); [P]_- = min(P, 0) is the Nitsche contact stress."""
@@ -50,7 +50,7 @@ class Nitsche:
         negative_part = ngs.IfPos(P, 0, P)
         terms = -negative_part * (v * self.n)
         if theta != 0:
-            variation = step_normal_stress(self.tensors, v, xi, self.inv_dt, direction=self.n)
+            variation = step_normal_stress(self.tensors, v, xi, self.coefficients.rate, direction=self.n)
             terms = terms + theta / gamma * (negative_part - effective) * variation
         return terms
 

@@ -18,10 +18,10 @@ class Penalty:
     newton_hook = None
     condensable = True
 
-    def __init__(self, body, contact, side, *, gap, u_old, inv_dt, normal):
+    def __init__(self, body, contact, side, *, gap, coefficients, normal):
         self.gap = gap
         self.n = normal
-        self.epsilon = contact.penalty * boundary_stiffness(body, inv_dt)
+        self.epsilon = contact.penalty * boundary_stiffness(body, coefficients.rate)
 
     @classmethod
     def keeps_symmetry(cls, contact):

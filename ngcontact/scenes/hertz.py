@@ -27,7 +27,7 @@ from netgen.meshing import MeshingParameters
 from netgen.occ import Box, Circle, OCCGeometry, Pnt, Rectangle, Sphere, Y, Z
 
 import ngcontact as ngc
-from ngcontact.multigrid import nested_mesh
+from ngcontact.meshes import nested_mesh
 from ngcontact.obstacles import Plane
 from ngcontact.starts import Approach
 
@@ -43,7 +43,7 @@ def material():
 def mesh(dim=2, h_contact=None, refine=0, curve=1):
     """The half-disk (half-ball) with mesh size h_contact (m) near the contact point over
     |x| < 0.25 R (default 0.02 R in 2D, 0.04 R in 3D), coarser away, ``refine`` uniform
-    refinements (``multigrid.nested_mesh``: boundary points on the circle or sphere, the coarse
+    refinements (``meshes.nested_mesh``: boundary points on the circle or sphere, the coarse
     mesh kept for multigrid and nested iteration) and ``mesh.Curve(curve)``."""
     h_contact = (0.02 if dim == 2 else 0.04) * R if h_contact is None else h_contact
     if dim == 2:

@@ -1,0 +1,34 @@
+"""Time schemes: each poses its step through ``StepCoefficients`` (t_n, c, û) and owns what
+changes from step to step (the state, β, the memory it needs), saving and restoring it bitwise.
+
+A scheme is a class with
+
+* ``name``: its name in ``SCHEMES`` (``Simulation(scheme=...)``, the run.json of a stream);
+* ``__init__(coefficients, system, newton, state, beta=None, predictor=False, normal=None)``;
+* ``start()``: the coefficients of step 0 (t = 0, u held at u0) and ``system.begin_step``;
+* ``advance(dt, *, step, timer, start)``: one step of length dt from the current state;
+  returns Newton's result;
+* ``t``: the time of the last step (s);
+* ``checkpoint()`` / ``restore(saved)``: an in-memory copy of everything ``advance`` changes;
+* ``save()`` / ``load(arrays)``: the same as named numpy arrays, for a restart from disk
+  (``results``).
+
+A new scheme is one new module here and one entry in ``SCHEMES``.
+"""
+from .backward_euler import BackwardEuler
+from .coefficients import StepCoefficients
+
+SCHEMES = {BackwardEuler.name: BackwardEuler}
+"""The time schemes by name; the default is "backward_euler", the paper's scheme (4.3)–(4.5)."""
+
+DEFAULT = BackwardEuler.name
+
+
+def scheme_class(name):
+    """The scheme called ``name``, or a ValueError naming ``scheme``, the value and the choices."""
+    if not isinstance(name, str) or name not in SCHEMES:
+        raise ValueError(f"scheme must be one of {', '.join(repr(s) for s in SCHEMES)}, got {name!r}")
+    return SCHEMES[name]
+
+
+__all__ = ["SCHEMES", "DEFAULT", "BackwardEuler", "StepCoefficients", "scheme_class"]

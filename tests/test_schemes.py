@@ -1,0 +1,128 @@
+"""The time scheme owns the step (issue 24, item 1): it alone writes t_n, the rate coefficient c
+and the anchor û (``schemes.StepCoefficients``); a scheme is one class in ``schemes.SCHEMES``
+that the rest reads through that protocol; results store the scheme's own restart state and
+refuse a run of another scheme."""
+import json
+import pathlib
+import re
+
+import ngsolve as ngs
+import numpy as np
+import pytest
+
+import ngcontact as ngc
+from ngcontact import schemes
+from ngcontact.scenes import reference
+
+PACKAGE = pathlib.Path(ngc.__file__).parent
+DT, COARSE = 2.5e-3, 0.01
+
+
+def test_an_unknown_scheme_is_refused_before_any_work():
+    body = reference.body(1, COARSE)
+    for bad in ("bdf9", "", 2, None):
+        with pytest.raises(ValueError, match=re.escape(f"scheme must be one of 'backward_euler', got {bad!r}")):
+            ngc.Simulation(body, scheme=bad)
+
+
+def test_only_the_scheme_writes_the_time_and_the_rate():
+    """Outside ``ngcontact/schemes`` no module sets the time Parameter or the step coefficients:
+    data at another time are read inside ``StepCoefficients.at``."""
+    writes = re.compile(r"\.time\.Set\(|coefficients\.(set|rate\.Set)\(|anchor\.vec\.data\s*=")
+    found = [f"{path.relative_to(PACKAGE)}:{n}" for path in PACKAGE.rglob("*.py") if "schemes" not in path.parts
+             for n, line in enumerate(path.read_text().splitlines(), 1) if writes.search(line)]
+    assert found == []
+
+
+def test_at_puts_the_time_back_even_on_error():
+    coefficients = schemes.StepCoefficients(ngs.Parameter(7.0), ngs.VectorH1(ngs.Mesh(ngs.unit_square.GenerateMesh(
+        maxh=0.5))))
+    assert coefficients.t == 0.0                     # t_0 = 0
+    coefficients.set(0.25, 40.0)
+    with pytest.raises(RuntimeError):
+        with coefficients.at(3.0):
+            assert coefficients.time.Get() == 3.0
+            raise RuntimeError
+    assert (coefficients.t, coefficients.rate.Get()) == (0.25, 40.0)
+
+
+class Logged(schemes.BackwardEuler):
+    """Backward Euler that logs the step coefficients it hands the system (a scheme defined
+    outside the package, registered in SCHEMES)."""
+    name = "logged_backward_euler"
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.log = []
+
+    def advance(self, dt, **kwargs):
+        u_before = self.state.components[0].vec.FV().NumPy().copy()
+        result = super().advance(dt, **kwargs)
+        c = self.coefficients
+        self.log.append((dt, c.t, c.rate.Get(), np.array_equal(c.anchor.vec.FV().NumPy(), u_before)))
+        return result
+
+
+def test_a_scheme_from_outside_the_package_runs_through_the_protocol(monkeypatch, tmp_path):
+    """A registered scheme is chosen by name, sets c = 1/dt and û = u_{n−1} at t_n for every step
+    (a cut-back step too), gives backward Euler's states bitwise, and its run refuses to resume
+    into the default scheme (and the other way round), naming both."""
+    monkeypatch.setitem(schemes.SCHEMES, Logged.name, Logged)
+    runs = {}
+    for name in (Logged.name, "backward_euler"):
+        sim = reference.simulation(1, COARSE, scheme=name, reuse_factorization=False)
+        sim.run(DT, 2 * DT, out=tmp_path / name)
+        sim.step(DT / 2)
+        runs[name] = sim
+    logged = runs[Logged.name].scheme.log
+    assert [(dt, t) for dt, t, _, _ in logged] == [(DT, DT), (DT, 2 * DT), (DT / 2, 2.5 * DT)]
+    assert all(rate == 1.0 / dt and same for dt, _, rate, same in logged)
+    assert np.array_equal(runs[Logged.name].gfu.vec.FV().NumPy(), runs["backward_euler"].gfu.vec.FV().NumPy())
+    assert json.loads((tmp_path / Logged.name / "run.json").read_text())["scheme"] == Logged.name
+    with pytest.raises(ValueError, match=f"holds a run of the time scheme '{Logged.name}', this simulation's "
+                                         "scheme is 'backward_euler'"):
+        reference.simulation(1, COARSE).resume(tmp_path / Logged.name)
+    with pytest.raises(ValueError, match=f"^out: .*holds a run of the time scheme 'backward_euler', this "
+                                         f"simulation's scheme is '{Logged.name}'"):
+        reference.simulation(1, COARSE, scheme=Logged.name).run(DT, 2 * DT, out=tmp_path / "backward_euler")
+    resumed = reference.simulation(1, COARSE, scheme=Logged.name, reuse_factorization=False)
+    resumed.resume(tmp_path / Logged.name)
+    assert resumed.t == 2 * DT and len(resumed.history) == 3
+
+
+def test_a_run_json_without_a_scheme_is_backward_euler(tmp_path):
+    """Runs streamed before run.json named the scheme were backward Euler's: they resume."""
+    reference.simulation(1, COARSE).run(DT, 2 * DT, out=tmp_path)
+    info = json.loads((tmp_path / "run.json").read_text())
+    del info["scheme"]
+    (tmp_path / "run.json").write_text(json.dumps(info))
+    assert reference.simulation(1, COARSE).resume(tmp_path).t == 2 * DT
+
+
+def test_save_and_load_put_the_scheme_back_bitwise():
+    """The scheme's restart arrays, loaded into a fresh simulation, continue as the first one
+    does, bitwise (state, β, predictor memory)."""
+    first = reference.simulation(1, COARSE, predictor=True, reuse_factorization=False)
+    first.run(DT, 3 * DT)
+    saved = {k: np.copy(v) for k, v in first.scheme.save().items()}
+    assert {"t", "state", "beta", "beta_unclipped", "last_state", "last_dt"} <= set(saved)
+    second = reference.simulation(1, COARSE, predictor=True, reuse_factorization=False)
+    second.scheme.load(saved)
+    assert second.time.Get() == first.t == second.t
+    for sim in (first, second):
+        sim.step(DT)
+    assert np.array_equal(first.gfu.vec.FV().NumPy(), second.gfu.vec.FV().NumPy())
+    assert np.array_equal(first.beta.values, second.beta.values)
+    with pytest.raises(ValueError, match="the restart state lacks state"):
+        second.scheme.load(dict(t=np.asarray(0.0)))
+
+
+def test_nested_meshes_keep_their_coarse_mesh():
+    from netgen.geom2d import unit_square
+    mesh = ngc.meshes.nested_mesh(unit_square.GenerateMesh(maxh=0.5), refine=2)
+    coarse, levels = ngc.meshes.coarse(mesh)
+    assert levels == ngc.meshes.refinements(mesh) == 2
+    assert mesh.ne == 16 * ngs.Mesh(coarse).ne                  # each refinement splits a triangle in 4
+    assert ngc.meshes.refinements(ngs.Mesh(unit_square.GenerateMesh(maxh=0.5))) is None
+    with pytest.raises(ValueError, match="refine must be an integer >= 0, got 1.5"):
+        ngc.meshes.nested_mesh(unit_square.GenerateMesh(maxh=0.5), refine=1.5)
