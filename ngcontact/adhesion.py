@@ -10,6 +10,10 @@ previous displacement u_{n-1}, before (u_n, φ_n) are solved (k = dt in the pape
   solved exactly per facet: β_n = (β_{n-1} + k b)/(1 + k a) where β_{n-1} a > b, else
   β_n = β_{n-1}. The factor 1/(1 + k a) lies in (0, 1] for every k: β stays in [0, 1]
   and decays monotonically, whatever the step (the discrete analogue of (2.9)).
+
+A second-order scheme (``schemes.bdf2``) solves (2.9) by its own formula through ``solve``:
+β_n = β̂ − κ [β_n a − b]_+ with its combination β̂ of earlier values, κ = 1/c and a from an
+extrapolated u_ν: the implicit update is the case β̂ = β_{n−1}, κ = k, a from u_{n−1}.
 """
 import ngsolve as ngs
 import numpy as np
@@ -65,7 +69,14 @@ class BondingField:
             self.unclipped = beta - dt * rate() / self.side.measure
             beta[:] = np.clip(self.unclipped, 0, 1)
         else:
-            a, b = decay() / self.side.measure, c.eps_a
-            decays = beta * a > b
-            beta[:] = np.where(decays, (beta + dt * b) / (1 + dt * a), beta)
-            self.unclipped = beta.copy()
+            self.solve(u_normal, dt, beta.copy())
+
+    def solve(self, u_normal, kappa, beta_hat):
+        """β_n = β̂ − κ [β_n a − b]_+ per facet, exactly: a = P_B(γ_ν R_ν(u_ν)²) with u_ν the
+        CoefficientFunction ``u_normal``, b = ε_a, κ (s) and β̂ = ``beta_hat`` (facet values):
+        β_n = (β̂ + κ b)/(1 + κ a) where β̂ a > b, else β̂; then clipped to [0, 1] (a
+        combination β̂ of earlier values may leave it; ``unclipped`` keeps the values before)."""
+        a, b = self._integrals(u_normal)[1]() / self.side.measure, self.contact.eps_a
+        decays = beta_hat * a > b
+        self.unclipped = np.where(decays, (beta_hat + kappa * b) / (1 + kappa * a), beta_hat)
+        self.values[:] = np.clip(self.unclipped, 0, 1)

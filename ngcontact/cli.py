@@ -68,6 +68,11 @@ def parser():
                       help="manufactured cases: u ~ (x - x_c)_+^K at the contact-set ends (default 4)")
     conv.add_argument("--dt-halvings", metavar="J", type=int, default=0,
                       help="time-step variant: halve dt J times on the finest mesh, first order given")
+    conv.add_argument("--dt0", metavar="S", type=float, default=0.25,
+                      help="time-step variant: the largest time step, s (default 0.25; T = 1 s)")
+    conv.add_argument("--scheme", choices=tuple(ngcontact.schemes.SCHEMES), default="backward_euler",
+                      help="time-step variant: the time scheme (default backward_euler, the paper's; bdf2 is "
+                           "second order)")
     conv.add_argument("--out", metavar="DIR", default="convergence", help="output directory")
     conv.add_argument("--resume", action="store_true",
                       help="reuse the runs already in OUT/cases (and the streamed fine run of --case reference)")
@@ -166,7 +171,7 @@ def _dispatch(args):
     elif args.command == "convergence":
         from .studies import convergence
         convergence.command(args.orders, args.levels, args.case, args.smoothness, args.dt_halvings, args.out,
-                            args.resume)
+                            args.resume, scheme=args.scheme, dt0=args.dt0)
     elif args.command == "stability":
         from .studies import stability
         stability.command(args.out, args.quick, args.resume)

@@ -21,7 +21,7 @@ DT, COARSE = 2.5e-3, 0.01
 def test_an_unknown_scheme_is_refused_before_any_work():
     body = reference.body(1, COARSE)
     for bad in ("bdf9", "", 2, None):
-        with pytest.raises(ValueError, match=re.escape(f"scheme must be one of 'backward_euler', got {bad!r}")):
+        with pytest.raises(ValueError, match=re.escape(f"scheme must be one of 'backward_euler', 'bdf2', got {bad!r}")):
             ngc.Simulation(body, scheme=bad)
 
 
@@ -126,3 +126,74 @@ def test_nested_meshes_keep_their_coarse_mesh():
     assert ngc.meshes.refinements(ngs.Mesh(unit_square.GenerateMesh(maxh=0.5))) is None
     with pytest.raises(ValueError, match="refine must be an integer >= 0, got 1.5"):
         ngc.meshes.nested_mesh(unit_square.GenerateMesh(maxh=0.5), refine=1.5)
+
+
+class LoggedBDF2(schemes.BDF2):
+    """BDF2 that logs (t_n, c, û) of every step."""
+    name = "logged_bdf2"
+
+    def advance(self, dt, **kwargs):
+        result = super().advance(dt, **kwargs)
+        c = self.coefficients
+        self.log.append((c.t, c.rate.Get(), c.anchor.vec.FV().NumPy().copy()))
+        return result
+
+    log = None
+
+
+def test_bdf2_differentiates_the_quadratic_through_the_last_three_states(monkeypatch):
+    """For steps of varying length, c (u_n − û) is the derivative at t_n of the quadratic through
+    (t_{n−2}, u_{n−2}), (t_{n−1}, u_{n−1}), (t_n, u_n) (numpy's polyfit, DOF by DOF); the first
+    step and a step more than 1 + √2 times the last are backward Euler's."""
+    monkeypatch.setitem(schemes.SCHEMES, LoggedBDF2.name, LoggedBDF2)
+    sim = reference.simulation(1, COARSE, scheme=LoggedBDF2.name)
+    sim.scheme.log = []
+    steps = [DT, DT, 0.5 * DT, 1.2 * DT, 3 * 1.2 * DT, DT]
+    for dt in steps:
+        sim.step(dt)
+    assert sim.scheme.orders == [1, 2, 2, 2, 1, 2]
+    times = np.array(sim.history.times)
+    states = np.array([r.state[:sim.body.V.ndof] for r in sim.history])
+    moving = np.abs(states[-1]) > 1e-3 * np.abs(states[-1]).max()
+    for n in range(1, len(steps) + 1):
+        t_n, c, anchor = sim.scheme.log[n - 1]
+        assert t_n == pytest.approx(times[n], rel=1e-14)
+        rate = c * (states[n] - anchor)
+        if sim.scheme.orders[n - 1] == 1:
+            expected = (states[n] - states[n - 1]) / (times[n] - times[n - 1])
+        else:
+            fit = np.polyfit(times[n - 2:n + 1] - times[n], states[n - 2:n + 1], 2)
+            expected = fit[1]                            # d/dt at t_n of a t² + b t + c, in t − t_n
+        assert np.allclose(rate[moving], expected[moving], rtol=1e-7, atol=0), n
+
+
+def test_a_bdf2_run_resumes_bitwise(tmp_path):
+    """The scheme's memory (u_{n−2}, β_{n−2}, k_{n−1}) is in its restart state: a run resumed
+    from disk continues as the run that went on, bitwise, with BDF2 steps at once."""
+    first = reference.simulation(1, COARSE, scheme="bdf2", reuse_factorization=False)
+    first.run(DT, 3 * DT, out=tmp_path)
+    second = reference.simulation(1, COARSE, scheme="bdf2", reuse_factorization=False).resume(tmp_path)
+    for sim in (first, second):
+        sim.step(DT)
+    assert second.scheme.orders == [2]
+    assert np.array_equal(first.gfu.vec.FV().NumPy(), second.gfu.vec.FV().NumPy())
+    assert np.array_equal(first.beta.values, second.beta.values)
+
+
+def test_a_failed_bdf2_step_leaves_the_memory_as_it_was():
+    """Transactional: a step that fails (here: a load that is NaN at t = 3 DT) restores the
+    state and the scheme's memory, and the next step is the one the run would have made."""
+    time = ngs.Parameter(0.0)
+    body = reference.body(1, COARSE)
+    bad = ngs.IfPos(time - 2.5 * DT, ngs.CF(float("nan")), 1.0)
+    loads = ngc.Loads(f2={"top": (0, -reference.PRESSURE * time / reference.PUSH_END * bad)})
+    sim = ngc.Simulation(body, loads, contact=reference.contact(), time=time, scheme="bdf2",
+                         reuse_factorization=False)
+    sim.run(DT, 2 * DT)
+    saved = sim.scheme.save()
+    with pytest.raises(ValueError, match="not finite"):
+        sim.step(DT)
+    after = sim.scheme.save()
+    assert saved.keys() == after.keys()
+    assert all(np.array_equal(saved[k], after[k]) for k in saved)
+    assert sim.scheme.orders == [1, 2]

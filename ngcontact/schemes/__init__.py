@@ -16,10 +16,12 @@ A scheme is a class with
 A new scheme is one new module here and one entry in ``SCHEMES``.
 """
 from .backward_euler import BackwardEuler
+from .bdf2 import BDF2
 from .coefficients import StepCoefficients
 
-SCHEMES = {BackwardEuler.name: BackwardEuler}
-"""The time schemes by name; the default is "backward_euler", the paper's scheme (4.3)–(4.5)."""
+SCHEMES = {BackwardEuler.name: BackwardEuler, BDF2.name: BDF2}
+"""The time schemes by name: "backward_euler" (the default, the paper's scheme (4.3)–(4.5)) and
+"bdf2" (variable-step BDF2, second order: ``bdf2``)."""
 
 DEFAULT = BackwardEuler.name
 
@@ -31,4 +33,4 @@ def scheme_class(name):
     return SCHEMES[name]
 
 
-__all__ = ["SCHEMES", "DEFAULT", "BackwardEuler", "StepCoefficients", "scheme_class"]
+__all__ = ["SCHEMES", "DEFAULT", "BackwardEuler", "BDF2", "StepCoefficients", "scheme_class"]

@@ -50,8 +50,8 @@ class BackwardEuler:
         self.hook = newton.hook
         self.predictor = predictor
         self.t = 0.0
-        normal = ngs.specialcf.normal(state.space.mesh.dim) if normal is None else normal
-        self._u_normal = state.components[0] * normal
+        self._normal = ngs.specialcf.normal(state.space.mesh.dim) if normal is None else normal
+        self._u_normal = state.components[0] * self._normal
         self._last = None                                   # (x_{n−1}, dt_n) for the predictor
 
     def start(self):
@@ -106,7 +106,7 @@ class BackwardEuler:
     def save(self):
         """The checkpoint as named arrays (the restart state of a step archive): ``t``,
         ``state``, ``beta``, ``beta_unclipped``, ``hook``, ``last_state``, ``last_dt``."""
-        saved = self.checkpoint()
+        saved = BackwardEuler.checkpoint(self)             # this class's part (a subclass adds its own)
         arrays = dict(t=np.asarray(saved.t), state=saved.state)
         if saved.beta is not None:
             arrays.update(beta=saved.beta, beta_unclipped=saved.beta_unclipped)
@@ -121,6 +121,6 @@ class BackwardEuler:
         missing = {"t", "state"} - set(arrays)
         if missing:
             raise ValueError(f"the restart state lacks {', '.join(sorted(missing))}")
-        self.restore(Checkpoint(float(arrays["t"]), arrays["state"], arrays.get("beta"),
-                                arrays.get("beta_unclipped"), arrays.get("hook"),
-                                (arrays["last_state"], float(arrays["last_dt"])) if "last_state" in arrays else None))
+        last = (arrays["last_state"], float(arrays["last_dt"])) if "last_state" in arrays else None
+        BackwardEuler.restore(self, Checkpoint(float(arrays["t"]), arrays["state"], arrays.get("beta"),
+                                               arrays.get("beta_unclipped"), arrays.get("hook"), last))

@@ -107,18 +107,22 @@ def manufactured_study(orders=(1, 2), levels=3, case="viscous", dt=0.25, T=1.0, 
 
 
 def time_study(order=2, level=2, halvings=4, case="viscous", dt0=0.25, T=1.0, maxh=MANUFACTURED_MAXH,
-               smoothness=4, progress=True, store=None):
-    """Errors for dt = dt0 / 2^j (j < halvings) on one mesh: the time-step part of (4.12)."""
+               smoothness=4, progress=True, store=None, scheme="backward_euler"):
+    """Errors for dt = dt0 / 2^j (j < halvings) on one mesh: the time-step part of (4.12);
+    ``scheme``: the time scheme (``ngcontact.schemes``)."""
     runs = []
+    extra = () if scheme == "backward_euler" else (scheme,)      # the keys of earlier stores unchanged
     with bar(halvings, "convergence in dt", progress, unit="run") as shown:
         for j in range(halvings):
-            runs.append(_stored(store, (order, level, case, dt0 / 2**j, T, maxh, "nonlinear", smoothness, 1, 10.0)))
+            runs.append(_stored(store, (order, level, case, dt0 / 2**j, T, maxh, "nonlinear", smoothness, 1, 10.0)
+                                + extra))
             shown.write(_line(runs[-1]))
             shown.update()
     return add_rates(runs, by="dt")
 
 
-def _manufactured_run(order, level, case, dt, T, maxh, time_profile, smoothness, theta, gamma0):
+def _manufactured_run(order, level, case, dt, T, maxh, time_profile, smoothness, theta, gamma0,
+                      scheme="backward_euler"):
     mesh = plate(*MANUFACTURED_PLATE, maxh=maxh, refine=level)
     body = ngc.Body(mesh, scaled_pzt(), clamped="left", grounded="top", contact_side="bottom", order=order)
     mms = ContactManufactured(body.tensors, case=case, time_profile=time_profile, smoothness=smoothness)
@@ -126,7 +130,7 @@ def _manufactured_run(order, level, case, dt, T, maxh, time_profile, smoothness,
     start = wallclock.perf_counter()
     with ngs.TaskManager():
         sim = ngc.Simulation(body, mms.loads(body, time), contact=mms.contact(time, theta, gamma0), time=time,
-                             u0=mms.cf(mms.u.subs(t_symbol, 0), time), keep_states=False,
+                             u0=mms.cf(mms.u.subs(t_symbol, 0), time), keep_states=False, scheme=scheme,
                              physical_checks=False)      # unit-size manufactured fields: scale-free
 
         worst, final = _measured_run(sim, dt, T, lambda: dict(zip(PARTS, mms.errors(sim) + (mms.beta_error(sim),))))
@@ -279,15 +283,18 @@ def save(runs, out, title, by="h"):
     return plot(runs, out, title, by)
 
 
-def command(orders, levels, case, smoothness, dt_halvings, out, resume=False):
+def command(orders, levels, case, smoothness, dt_halvings, out, resume=False, scheme="backward_euler", dt0=0.25):
     """``python -m ngcontact convergence``: run the study, write errors.csv and the charts
-    into ``out``, print the fitted rates (from three levels or more)."""
+    into ``out``, print the fitted rates (from three levels or more); with ``dt_halvings``
+    the time-step variant with the time ``scheme`` from the step ``dt0`` (s)."""
     parallel.refuse_under_mpiexec("convergence")
     orders = common.orders("--orders", orders)
     levels = checks.integer("--levels", levels, 1, checks.MAX_REFINE)
     case = checks.choice("--case", case, CASES)
     smoothness = checks.integer("--smoothness", smoothness, 3, MAX_SMOOTHNESS)
     dt_halvings = checks.integer("--dt-halvings", dt_halvings, 0, MAX_HALVINGS)
+    ngc.schemes.scheme_class(scheme)
+    dt0 = checks.number("--dt0", dt0, 0, 1.0, low_open=True, unit="s")
     resume = checks.flag("resume", resume)
     manufactured = checks.estimated_vertices(MANUFACTURED_PLATE, MANUFACTURED_MAXH)
     if dt_halvings:                    # the finest run: the first order on level levels - 1
@@ -303,8 +310,9 @@ def command(orders, levels, case, smoothness, dt_halvings, out, resume=False):
     out = checks.writable_directory(out)
     store = CaseStore(out, resume)                      # each finished run, for --resume
     if dt_halvings:
-        runs = time_study(orders[0], levels - 1, dt_halvings, smoothness=smoothness, store=store)
-        paths = save(runs, out, f"time steps, P{orders[0]}, level {levels - 1}", by="dt")
+        runs = time_study(orders[0], levels - 1, dt_halvings, smoothness=smoothness, store=store, scheme=scheme,
+                          dt0=dt0)
+        paths = save(runs, out, f"time steps ({scheme}), P{orders[0]}, level {levels - 1}", by="dt")
         rate = fitted_rate(runs, orders[0], by='dt')
         print(f"fitted rate in dt: {rate:.2f}" if rate == rate else "no fitted rate in dt: fewer than 3 points")
     else:
