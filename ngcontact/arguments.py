@@ -129,3 +129,27 @@ def gamma3_data(contact, gamma3, mesh, at, t):
         for name, cf in named:
             if parallel.any_rank(mesh, not np.all(np.isfinite(gamma3.side.sample(cf)))):
                 raise ValueError(f"{name} is not finite (NaN or inf) on Γ3 at t = {t:.6g} s")
+
+
+def controlled(sim, dt, rtol, dt_min, event_dt):
+    """The error-controlled steps of ``run``: None without ``rtol`` (then ``dt_min`` and
+    ``event_dt`` must be None too), else (dt_min, event_dt) in s, checked: rtol in (0, 0.1] and
+    at least 100 times Newton's tolerance,
+    a scheme with an error estimate, 0 < dt_min <= event_dt <= dt (defaults 1e-6 dt and
+    1e-3 dt), a serial run. A ValueError or TypeError naming the parameter otherwise."""
+    if rtol is None:
+        for name, value in (("dt_min", dt_min), ("event_dt", event_dt)):
+            if value is not None:
+                raise ValueError(f"run: {name} = {value!r} is for error-controlled steps: give rtol too")
+        return None
+    rtol = number("rtol", rtol, 0, 0.1, low_open=True)
+    if rtol < 100 * sim.newton.rtol:
+        raise ValueError(f"run: rtol = {rtol:g} is below 100 × Newton's tolerance ({sim.newton.rtol:g}): the error "
+                         "estimate would measure Newton's inexactness; a larger rtol, or Simulation(rtol=...) smaller")
+    if not hasattr(sim.scheme, "local_error"):
+        raise ValueError(f"run(rtol={rtol:g}): the scheme {sim.scheme.name!r} has no local error estimate to choose "
+                         "steps by; use Simulation(scheme='bdf2'), or fixed steps (no rtol)")
+    parallel.serial_only(sim.body.mesh, "run(rtol=...): error-controlled steps", "use fixed steps")
+    dt_min = number("dt_min", 1e-6 * dt if dt_min is None else dt_min, 0, dt, low_open=True, unit="s")
+    event_dt = number("event_dt", 1e-3 * dt if event_dt is None else event_dt, dt_min, dt, unit="s")
+    return dt_min, event_dt

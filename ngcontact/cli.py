@@ -51,6 +51,11 @@ def parser():
                       help="number of time steps over the load history, 0 to 0.5 s (default 200)")
     demo.add_argument("--theta", type=int, default=1, choices=(1, 0, -1), help="Nitsche variant")
     demo.add_argument("--gamma0", type=float, default=10.0, help="Nitsche parameter γ0 (default 10)")
+    demo.add_argument("--scheme", choices=tuple(ngcontact.schemes.SCHEMES), default="backward_euler",
+                      help="time scheme (default backward_euler, the paper's; bdf2 is second order)")
+    demo.add_argument("--rtol", type=float, default=None,
+                      help="choose the time steps by this local error target (with --scheme bdf2; the first step "
+                           "0.5 s / STEPS)")
     demo.add_argument("--resume", action="store_true",
                       help="continue the run interrupted in OUT/run (same settings) instead of starting again")
 
@@ -167,7 +172,8 @@ def _dispatch(args):
     if args.command == "demo":
         from . import demo
         demo.run(order=args.order, out=args.out, maxh=args.maxh, steps=args.steps, theta=args.theta,
-                 gamma0=args.gamma0, resume=args.resume, dim=args.dim, refine=args.refine)
+                 gamma0=args.gamma0, resume=args.resume, dim=args.dim, refine=args.refine, scheme=args.scheme,
+                 rtol=args.rtol)
     elif args.command == "convergence":
         from .studies import convergence
         convergence.command(args.orders, args.levels, args.case, args.smoothness, args.dt_halvings, args.out,

@@ -24,7 +24,8 @@ def header(dim):
             f"{'beta_min':>8} {flux:>17}")
 
 
-def run(order=1, out="results", maxh=None, steps=200, theta=1, gamma0=10.0, resume=False, dim=2, refine=0):
+def run(order=1, out="results", maxh=None, steps=200, theta=1, gamma0=10.0, resume=False, dim=2, refine=0,
+        scheme="backward_euler", rtol=None):
     """Run the reference scene (``scenes.reference``) over its load history in ``steps``
     time steps, print a line per step, write summary.json and charts into ``out``. Every
     step is streamed into ``out/run`` as it is computed (``ngcontact.results``), with these
@@ -45,6 +46,9 @@ def run(order=1, out="results", maxh=None, steps=200, theta=1, gamma0=10.0, resu
     dim : 2 (the plate, plane strain) or 3 (the block L1 × WIDTH × L2).
     refine : int in [0, 10], times the mesh is refined (nested meshes: from 10⁵ DOFs in 3D the Newton
         corrections are solved by GMRES with multigrid, ``solver_choice``).
+    scheme : the time scheme ("backward_euler", the paper's; "bdf2").
+    rtol : steps chosen by this error target (``Simulation.run``; needs "bdf2"), the first of
+        length 0.5 s / ``steps``; the chart history.png shows the steps taken.
 
     Returns
     -------
@@ -67,11 +71,13 @@ def run(order=1, out="results", maxh=None, steps=200, theta=1, gamma0=10.0, resu
                           checks.estimated_ndof(checks.estimated_vertices(sides, maxh), dim, refine, order))
     out = checks.writable_directory(out)
     settings = dict(order=order, maxh=maxh, dim=dim, refine=refine, steps=steps, theta=theta, gamma0=gamma0)
+    if scheme != "backward_euler" or rtol is not None:     # (demo.json of earlier runs have neither)
+        settings.update(scheme=scheme, rtol=rtol)
     if resume:                                       # before meshing
         _check_resumable(out / "run", settings)
     lead = parallel.rank() == 0                      # under mpiexec rank 0 prints and writes
     say = print if lead else _quiet
-    sim = reference.simulation(order, maxh, refine, dim, contact=contact, keep_states=dim == 2)
+    sim = reference.simulation(order, maxh, refine, dim, contact=contact, keep_states=dim == 2, scheme=scheme)
     body, mesh = sim.body, sim.body.mesh
     distributed = parallel.is_distributed(mesh)
     tip = [(reference.L1, 0.0) if dim == 2 else (reference.L1, reference.WIDTH / 2, 0.0)]
@@ -106,7 +112,7 @@ def run(order=1, out="results", maxh=None, steps=200, theta=1, gamma0=10.0, resu
     start = wallclock.perf_counter()
     T = reference.LOAD_HISTORY[-1][0]
     with ngs.TaskManager() if body.ndof >= THREADS_FROM else nullcontext():
-        history = sim.run(T / steps, T, on_step=report, out=None if distributed else out / "run")
+        history = sim.run(T / steps, T, on_step=report, out=None if distributed else out / "run", rtol=rtol)
     wall = wallclock.perf_counter() - start
     for n in range(1, len(history)):                 # steps of a resumed run: from their kept states
         if n not in deflection and sim.keep_states:
@@ -156,7 +162,7 @@ def _row(rec, deflection):
     c = rec.contact
     vertical = len(rec.reaction) - 1
     load = reference.PRESSURE * float(np.interp(rec.time, *zip(*reference.LOAD_HISTORY)))
-    return dict(times=rec.time, load=load, newton_iterations=int(rec.newton_iterations),
+    return dict(times=rec.time, dt=np.nan if rec.dt is None else rec.dt, load=load, newton_iterations=int(rec.newton_iterations),
                 contact_length=c.contact_area, max_pressure=max(c.pressure.max(), 0.0),
                 charge_flux=c.charge_flux, tip_deflection=float(deflection),
                 reaction_y=float(rec.reaction[vertical]), contact_force_y=float(c.force[vertical]),
@@ -164,9 +170,9 @@ def _row(rec, deflection):
 
 
 def _plot_overview(path, columns, history):
-    """Load, contact length, min β and tip deflection over time."""
-    fig = Figure(figsize=(8, 6), layout="constrained")
-    axes = fig.subplots(3, 1, sharex=True)
+    """Load, contact length, min β, tip deflection and the time steps over time."""
+    fig = Figure(figsize=(8, 7.5), layout="constrained")
+    axes = fig.subplots(4, 1, sharex=True, height_ratios=(1, 1, 1, 0.7))
     time = np.array(columns["times"])
     axes[0].plot(time, 1e-6 * np.array(columns["load"]), color="C3")
     axes[0].set_ylabel("pressure on top [MPa]")
@@ -177,8 +183,13 @@ def _plot_overview(path, columns, history):
     beta = history.contact_column("beta")[1:]
     axes[2].plot(time, beta.min(axis=1), color="C1", label="min β")
     axes[2].plot(time, beta.mean(axis=1), "--", color="C1", label="mean β")
-    axes[2].set(xlabel="time t [s]", ylabel="bonding field β", ylim=(-0.05, 1.05))
+    axes[2].set(ylabel="bonding field β", ylim=(-0.05, 1.05))
     axes[2].legend()
+    axes[3].semilogy(time, columns["dt"], ".-", color="C4", markersize=2, linewidth=0.8)
+    for rec in history[1:]:
+        if rec.event:
+            axes[3].axvline(rec.time, color="grey", linestyle=":", linewidth=0.7)
+    axes[3].set(xlabel="time t [s]", ylabel="time step k [s]")
     axes[0].set_title("push: contact zone grows; pull: contact opens, glue debonds, plate lifts off")
     fig.savefig(path, dpi=120)
 

@@ -79,6 +79,13 @@ class StepRecord:
         Q = −∫ D·ν da (C; C/m in 2D).
     state : copy of the (u, φ) coefficient vector (with ``keep_states``), else None.
     contact : ContactRecord, or None without a contact law.
+    scheme : the time scheme's name; dt : the step's length k_n (s; None at step 0);
+        order : the order of the scheme's formula for this step (1 or 2).
+    error_estimate : with ``run(rtol=...)``, the step's estimated local error ÷ rtol (<= 1 for
+        an accepted step; None where the scheme had no estimate yet); rejected : the tries of
+        this step rejected before it (error, event or Newton failure; ``Simulation.rejections``);
+        event : the event of Γ3 located at this step ("first contact", "lift-off", "β reaches 0"),
+        or None; dt_next : the step the controller proposes next (s).
     """
     step: int
     time: float
@@ -95,6 +102,13 @@ class StepRecord:
     krylov_failures: int = 0
     discarded_iterations: int = 0
     boundary_reaction: dict = field(default_factory=dict)
+    scheme: str = None
+    dt: float = None
+    order: int = None
+    error_estimate: float = None
+    rejected: int = 0
+    event: str = None
+    dt_next: float = None
 
 
 class History(list):

@@ -106,17 +106,17 @@ class Stream:
         scene, dt and T there. A directory holding another run (dt, T, start or scene) is
         refused before anything is written."""
 
-    def __init__(self, source, directory, dt, T, start, resumed=None):
+    def __init__(self, source, directory, dt, T, start, resumed=None, rtol=None):
         parallel.serial_only(source.mesh, "run(out=...): streaming the results", "each rank holds part of the state")
         self.source, self.dir = source, pathlib.Path(directory)
-        info = dict(dt=dt, T=T, start=start, **source.description, ngcontact=_version(),
+        info = dict(dt=dt, T=T, start=start, rtol=rtol, **source.description, ngcontact=_version(),
                     format="one numpy archive per step, see ngcontact.results", fingerprint=source.fingerprint(T))
         existing = _run_info(self.dir)
         if existing is not None:
-            if any(existing.get(k) != info[k] for k in ("dt", "T", "start")):
+            if any(existing.get(k) != info[k] for k in ("dt", "T", "start", "rtol")):
                 raise ValueError(f"out: {str(self.dir)!r} holds another run (dt {existing.get('dt')}, T "
-                                 f"{existing.get('T')}, start {existing.get('start')}); resume it with the same dt "
-                                 "and T, or write to a new directory")
+                                 f"{existing.get('T')}, start {existing.get('start')}, rtol {existing.get('rtol')}); "
+                                 "resume it with the same dt, T and rtol, or write to a new directory")
             _check_scheme(existing, info["scheme"], self.dir, "out")
             _check_scene(existing, info["fingerprint"], self.dir, "out")
         continuing = resumed is not None and pathlib.Path(resumed["directory"]).resolve() == self.dir.resolve()

@@ -13,16 +13,15 @@ from functools import partial
 import ngsolve as ngs
 import numpy as np
 
-from . import arguments, gamma3, parallel, results
+from . import arguments, gamma3, parallel, results, stepping
 from .fingerprint import fingerprint
-from .admissible import (PhysicsWarning, check_initial_displacement, check_supports_at_start, flags, scene_flags,
-                         stiff_contact_terms)
+from .admissible import PhysicsWarning, check_initial_displacement, check_supports_at_start, flags, scene_flags
 from .checks import integer, number, uses_only
 from .electric_part import electric_parts, solves_potential
 from .enforcement import METHODS
 from .loads import Loads, as_cf
 from .machine_code import ITERATIONS_PER_STEP, MachineCode
-from .newton import Newton, NewtonError, NewtonResult, Timings
+from .newton import Newton, NewtonResult, Timings
 from .observables import Recorder
 from .progress import bar
 from .records import History
@@ -157,7 +156,7 @@ class Simulation:
         self.starts = Starts(self)              # checks that the supports and the contact hold the body
         self.recorder = Recorder(body, self.gfu, self.system, self.gamma3)
         self.history = History()
-        self.cutbacks = []
+        self.cutbacks, self.rejections = [], []
         self.physical_checks = bool(physical_checks)
         self.flags = scene_flags(contact) if self.physical_checks else []     # what makes no physical sense
         for message in self.flags:
@@ -229,6 +228,9 @@ class Simulation:
     def _record(self, n, result, start, timings):
         """The StepRecord of step n, with its wall time since ``start`` split into ``timings``."""
         record = self.recorder.record(n, self.t, result, keep_state=self.keep_states)
+        record.scheme = self.scheme.name
+        if n:
+            record.dt, record.order = self.t - self.history[-1].time, self.scheme.last_order
         record.wall_s = wallclock.perf_counter() - start
         record.timings = dict(timings, other=record.wall_s - sum(timings.values()))
         return record
@@ -275,34 +277,15 @@ class Simulation:
         cut-back is listed in ``cutbacks``. If even the smallest step fails, the NewtonError
         names the time steps tried; the state is that of the last computed step."""
         max_cutbacks, on_step = arguments.cutbacks(max_cutbacks), arguments.callback(on_step)
-        target = arguments.later("target time", target, self.t)
-        records, pending = [], [(target, 0)]        # (time to reach, halvings so far): a stack
-        while pending:
-            goal, halvings = pending.pop()
-            dt, first, guess = goal - self.t, guess, None
-            try:
-                record = self.step(dt, guess=first)
-            except NewtonError as err:
-                n = len(self.history)
-                self.cutbacks.append(dict(step=n, time=goal, dt=dt, iterations=err.iteration,
-                                          residuals=err.residuals))
-                if halvings == max_cutbacks or not err.recoverable:   # (not recoverable: smaller steps fail too)
-                    err.tried = [c["dt"] for c in self.cutbacks if c["step"] == n]
-                    stiff = "" if self.contact is None else stiff_contact_terms(self.body, self.contact, self.side)
-                    err.hint += stiff
-                    tried = ", ".join(f"{dt:.3g}" for dt in err.tried)
-                    err.args = (f"{err.args[0]}. Time steps tried for step {n} (t -> {goal:.6g} s): dt = {tried} s; "
-                                f"the state is that of step {n - 1}{stiff}",)
-                    raise
-                pending += [(goal, halvings + 1), (self.t + dt / 2, halvings + 1)]   # first half on top
-                continue
-            if on_step is not None:
-                on_step(record)
-            records.append(record)
-        return records
+        return stepping.advance(self, arguments.later("target time", target, self.t), max_cutbacks, on_step, guess)
 
-    def run(self, dt, T, *, max_cutbacks=6, progress=False, vtk=None, on_step=None, out=None, guess=None):
+    def run(self, dt, T, *, max_cutbacks=6, progress=False, vtk=None, on_step=None, out=None, guess=None,
+            rtol=None, dt_min=None, event_dt=None):
         """Step from the current time to T (s) with nominal steps dt (s); returns the History.
+        With ``rtol`` (a relative local error per step, for a scheme with an error estimate:
+        "bdf2") the steps are chosen by it instead, dt the first (``stepping``): rejected tries
+        in ``rejections``, events located to ``event_dt`` (default 1e-3 dt), no step below
+        ``dt_min`` (default 1e-6 dt); ``max_cutbacks`` and ``guess`` are for nominal steps.
 
         max_cutbacks : the cut-back policy of ``advance`` for each nominal step (the next
             nominal step uses dt again).
@@ -321,15 +304,17 @@ class Simulation:
         of ``vtk`` and ``out`` must be writable, at most ``checks.MAX_STEPS`` steps).
         """
         dt, T, max_cutbacks, progress = arguments.run(self, dt, T, max_cutbacks, progress, vtk, on_step, out)
+        control = arguments.controlled(self, dt, rtol, dt_min, event_dt)
         self.starts.resolve(guess)
         resumed = self._resumed
-        start = resumed["start"] if resumed and (resumed["dt"], resumed["T"]) == (dt, T) else self.t
+        start = resumed["start"] if resumed and (resumed["dt"], resumed["T"], resumed.get("rtol")) == (dt, T, rtol) \
+            else self.t
         steps = max(1, int(np.ceil((T - start) / dt - 1e-9)))        # dt > T − t: one step to T
         if self._machine_code is not None:
             self._machine_code.expect(steps * ITERATIONS_PER_STEP)
         callbacks = [on_step] if on_step else []
         if out is not None:                      # checks the directory, writes the history so far
-            callbacks.insert(0, results.Stream(self.results_source(), out, dt, T, start, resumed))
+            callbacks.insert(0, results.Stream(self.results_source(), out, dt, T, start, resumed, rtol))
         if vtk is not None:                      # distributed: one .vtu per computing rank and step, one .pvd
             writer = results.fields_writer(self.results_source(), vtk, legacy=False)
             writer.Do(time=self.t)
@@ -338,31 +323,18 @@ class Simulation:
         def after(record):
             for callback in callbacks:
                 callback(record)
-        with bar(steps, "time steps", progress) as shown:
+        with bar(T - self.t if control else steps, "time steps", progress, unit="s" if control else "step") as shown:
             if progress:                        # a long step shows its Newton iterations
                 self.newton.on_iteration = lambda it, r: shown.set_postfix_str(
                     f"t -> {self.time.Get():.4g} s, Newton {it}, residual {r:.1e}")
             try:
-                self._steps(start, T, steps, max_cutbacks, after, shown, guess)
+                if control:
+                    stepping.controlled_steps(self, T, dt, rtol, after, shown, *control)
+                else:
+                    stepping.nominal_steps(self, start, T, steps, max_cutbacks, after, shown, guess)
             finally:
                 self.newton.on_iteration = None
         return self.history
-
-    def _steps(self, start, T, steps, max_cutbacks, after, shown, guess):
-        """The nominal steps of ``run`` not reached yet, the first from ``guess``."""
-        for i in range(steps):
-            target = start + (T - start) * (i + 1) / steps
-            if target <= self.t * (1 + 1e-12):          # reached before a resume
-                shown.update(1)
-                continue
-            try:
-                records = self.advance(target, max_cutbacks, after, guess)
-                guess = guess if isinstance(guess, str) else None           # "nested", "p1": every step
-            except NewtonError as err:
-                err.history = self.history
-                raise
-            shown.set_postfix_str(f"t = {self.t:.4g} s, newton {records[-1].newton_iterations}")
-            shown.update(1)
 
     def resume(self, directory):
         """Continue a run streamed into ``directory`` (``run(..., out=directory)``) that was

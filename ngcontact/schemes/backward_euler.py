@@ -44,6 +44,10 @@ class BackwardEuler:
     """
 
     name = "backward_euler"
+    last_order = 1
+    """The order of the formula of the last step."""
+    estimate = None
+    """No local error estimate (``stepping`` needs one to choose steps: "bdf2" has it)."""
 
     def __init__(self, coefficients, system, newton, state, beta=None, predictor=False, normal=None):
         self.coefficients, self.system, self.newton, self.state, self.beta = coefficients, system, newton, state, beta
@@ -76,6 +80,9 @@ class BackwardEuler:
         if start is not None:
             start(self.state.components[0], before, self.t)
         return self.newton.solve(step=step, time=self.t, timer=timer)
+
+    def restart(self):
+        """Nothing to forget: every step is a one-step backward Euler step."""
 
     def _predict(self, dt):
         """x_n -> x_n + (dt / dt_n)(x_n − x_{n−1}), the start of Newton for step n + 1."""

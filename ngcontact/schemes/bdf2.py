@@ -25,7 +25,8 @@ update second order, and the implicit β_n keeps it stable for any step (no k γ
 The first step, and a step whose ratio exceeds ``MAX_RATIO``, are backward Euler steps
 (BDF1: c = 1/k_n, û = u_{n−1}, β by the implicit update from u_{n−1}): one first-order step
 costs O(k²) locally and keeps the global order 2. ``orders`` lists the formula's order of
-every step (1 or 2).
+every step (1 or 2). After each BDF2 step that follows two more, ``estimate`` holds its local
+error by Milne's device (``local_error``), for the error-controlled step size (``stepping``).
 """
 import math
 
@@ -40,29 +41,45 @@ beyond it the step restarts with backward Euler."""
 
 
 class BDF2(BackwardEuler):
-    """Variable-step BDF2 (module docstring); the parameters are backward Euler's."""
+    """Variable-step BDF2 (module docstring); the parameters are backward Euler's.
+
+    ``estimate``: after a step, the relative local error of the step by Milne's device, or None
+    (``local_error``); ``orders``: the formula's order of every step."""
 
     name = "bdf2"
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
-        self._memory = None             # (u_{n−2}, β_{n−2}, k_{n−1}) after step n − 1, or None
-        self.orders = []
+        self._past = []                 # [(x_{n−1}, β_{n−1}, k_n), (x_{n−2}, β_{n−2}, k_{n−1})] after step n
+        self.orders, self.estimate = [], None
+        self._scales = {"u": 0.0, "phi": 0.0}        # the largest |u|, |φ| of the run so far
         u = self.state.components[0]
+        self._n_u = u.space.ndof
         self._u_tilde = GridFunction(u.space, name="u_extrapolated")
         self._u_tilde_normal = self._u_tilde * self._normal
+
+    @property
+    def last_order(self):
+        """The order of the formula of the last step (1 or 2)."""
+        return self.orders[-1] if self.orders else 1
+
+    def restart(self):
+        """Forget the earlier states: the next step is a backward Euler one (after an event,
+        a kink in time that a second-order formula would straddle)."""
+        self._past = []
 
     def advance(self, dt, *, step=None, timer=None, start=None):
         """One BDF2 step of length dt (s) (or a backward Euler one: module docstring)."""
         u = self.state.components[0]
-        before_u = u.vec.FV().NumPy().copy()
+        before = self.state.vec.FV().NumPy().copy()
+        before_u = before[:self._n_u]
         before_beta = None if self.beta is None else self.beta.values.copy()
-        memory = self._memory
-        ratio = None if memory is None else dt / memory[2]
+        past = self._past
+        ratio = dt / past[0][2] if past else None
         second = ratio is not None and ratio <= MAX_RATIO
         if second:
             w = ratio
-            u_old2, beta_old2, _ = memory
+            u_old2, beta_old2 = past[0][0][:self._n_u], past[0][1]
             c = (1 + 2 * w) / ((1 + w) * dt)
             hat = ((1 + w) ** 2 * before_u - w ** 2 * u_old2) / (1 + 2 * w)
             if self.beta is not None:
@@ -82,31 +99,71 @@ class BDF2(BackwardEuler):
         if start is not None:
             start(u, before_t, self.t)
         result = self.newton.solve(step=step, time=self.t, timer=timer)
-        self._memory = (before_u, before_beta, dt)
+        self.estimate = self.local_error(dt, before, before_beta) if second and len(past) == 2 else None
+        x = self.state.vec.FV().NumPy()
+        for name, part in self._parts(len(x)):
+            self._scales[name] = max(self._scales[name], float(np.abs(x[part]).max(initial=0.0)))
+        self._past = [(before, before_beta, dt)] + ([past[0]] if second else [])
         self.orders.append(2 if second else 1)
         return result
 
+    def local_error(self, dt, before, before_beta):
+        """The local error of the step just made, by Milne's device: with P the quadratic
+        through the last three states extrapolated to t_n, δ = r/(1 + r) (x_n − P), r =
+        (1 + ω) k_n/((1 + 2ω)(k_n + k_{n−1} + k_{n−2})) (the ratio of BDF2's error constant to
+        the extrapolation's; 2/11 at constant steps). Returns {"u": ‖δ_u‖∞/s_u, "phi":
+        ‖δ_φ‖∞/s_φ, "beta": ‖δ_β‖∞} with s the largest ‖·‖∞ of the field over the four states
+        (a field that is 0 throughout is left out)."""
+        (x1, b1, k1), (x2, b2, k0) = self._past
+        taus = np.array([-dt, -dt - k1, -dt - k1 - k0])      # t_{n−1}, t_{n−2}, t_{n−3} − t_n
+        weights = [np.prod([-taus[j] / (taus[i] - taus[j]) for j in range(3) if j != i]) for i in range(3)]
+        w = dt / k1
+        r = (1 + w) * dt / ((1 + 2 * w) * (dt + k1 + k0))
+        x = self.state.vec.FV().NumPy()
+        delta = r / (1 + r) * (x - sum(a * v for a, v in zip(weights, (before, x1, x2))))
+        errors = {}
+        for name, part in self._parts(len(x)):
+            scale = max([np.abs(v[part]).max(initial=0.0) for v in (x, before, x1, x2)] + [self._scales[name]])
+            if scale > 0 and part.stop > part.start:
+                errors[name] = float(_rms(delta[part]) / scale)
+        if self.beta is not None:
+            P = sum(a * v for a, v in zip(weights, (before_beta, b1, b2)))
+            errors["beta"] = float(r / (1 + r) * _rms(self.beta.values - P))
+        return errors
+
+    def _parts(self, n):
+        return (("u", slice(0, self._n_u)), ("phi", slice(self._n_u, n)))
+
     def checkpoint(self):
-        return (super().checkpoint(), self._memory, len(self.orders))
+        return (super().checkpoint(), list(self._past), len(self.orders), self.estimate, dict(self._scales))
 
     def restore(self, saved):
-        base, self._memory, count = saved
+        base, past, count, self.estimate, scales = saved
+        self._scales = dict(scales)
+        self._past = list(past)
         del self.orders[count:]
         super().restore(base)
 
     def save(self):
         arrays = super().save()
-        if self._memory is not None:
-            u_old2, beta_old2, k = self._memory
-            arrays.update(bdf2_u_before=u_old2, bdf2_dt_before=np.asarray(k))
-            if beta_old2 is not None:
-                arrays["bdf2_beta_before"] = beta_old2
+        arrays.update(bdf2_scale_u=np.asarray(self._scales["u"]), bdf2_scale_phi=np.asarray(self._scales["phi"]))
+        for i, (x, beta, k) in enumerate(self._past):
+            arrays.update({f"bdf2_state_{i}": x, f"bdf2_dt_{i}": np.asarray(k)})
+            if beta is not None:
+                arrays[f"bdf2_beta_{i}"] = beta
         return arrays
 
     def load(self, arrays):
         super().load(arrays)
-        self.orders = []
-        self._memory = None
-        if "bdf2_u_before" in arrays:
-            self._memory = (np.asarray(arrays["bdf2_u_before"]).copy(), None if "bdf2_beta_before" not in arrays
-                            else np.asarray(arrays["bdf2_beta_before"]).copy(), float(arrays["bdf2_dt_before"]))
+        self.orders, self.estimate, self._past = [], None, []
+        self._scales = {"u": float(arrays.get("bdf2_scale_u", 0.0)), "phi": float(arrays.get("bdf2_scale_phi", 0.0))}
+        for i in range(2):
+            if f"bdf2_state_{i}" in arrays:
+                beta = arrays.get(f"bdf2_beta_{i}")
+                self._past.append((np.array(arrays[f"bdf2_state_{i}"]), None if beta is None else np.array(beta),
+                                   float(arrays[f"bdf2_dt_{i}"])))
+
+
+def _rms(values):
+    """The root mean square of ``values`` (0 for none)."""
+    return float(np.sqrt(np.mean(np.square(values)))) if len(values) else 0.0

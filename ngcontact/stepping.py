@@ -1,0 +1,156 @@
+"""How a simulation reaches a time: nominal steps with cut-backs, or steps chosen by an error target.
+
+``advance`` reaches a time in one step, or, where Newton fails, in halves (the cut-back
+policy). ``nominal_steps`` makes the nominal steps of ``Simulation.run(dt, T)``.
+``controlled_steps`` makes ``Simulation.run(dt, T, rtol=...)``: each step's length comes from
+the scheme's local error estimate (``schemes.bdf2``: Milne's device) and the tolerance,
+
+  err = max over u, φ, β of the estimated relative local error / rtol,
+  accepted when err <= 1; next k = k · min(MAX_GROWTH, max(MIN_SHRINK, SAFETY · err^(−1/3))),
+
+a step with err > 1 is rejected (the state put back bitwise) and retried with the smaller k,
+a Newton failure halves k, and the events of Γ3 — first contact, lift-off, β reaching 0 on a
+facet — are located: a step across which one happens is rejected and halved until it is no
+longer than ``event_dt``, then accepted with ``StepRecord.event`` naming it (the estimate
+does not hold across a kink), and the scheme restarts from that short step (a backward Euler
+step, then BDF2 steps that grow as the estimate allows). The controller's whole state is the
+scheme's restart state and the last record's ``dt_next``: a resumed run takes the same steps.
+The first step of a run is the dt given: the estimate needs three states. Decisions read the
+estimates and records only, never the clock (runs repeat bitwise).
+"""
+import numpy as np
+
+from .admissible import stiff_contact_terms
+from .newton import NewtonError
+
+SAFETY, MIN_SHRINK, MAX_GROWTH = 0.9, 0.2, 2.0
+"""The controller's safety factor and the bounds of a step's change (MAX_GROWTH < 1 + √2, where
+variable-step BDF2 stays zero-stable)."""
+RESTART_BELOW = 0.1
+"""A step rejected down to this fraction of the last accepted one restarts the scheme: the
+estimate extrapolates from the earlier states, and a kink among them (conduction or contact
+switching on at points of Γ3) keeps it large however short the new step is."""
+
+
+def advance(sim, target, max_cutbacks, on_step, guess):
+    """``Simulation.advance``: the cut-back policy (its docstring)."""
+    records, pending = [], [(target, 0)]        # (time to reach, halvings so far): a stack
+    while pending:
+        goal, halvings = pending.pop()
+        dt, first, guess = goal - sim.t, guess, None
+        try:
+            record = sim.step(dt, guess=first)
+        except NewtonError as err:
+            n = len(sim.history)
+            sim.cutbacks.append(dict(step=n, time=goal, dt=dt, iterations=err.iteration, residuals=err.residuals))
+            if halvings == max_cutbacks or not err.recoverable:   # (not recoverable: smaller steps fail too)
+                raise _named(sim, err, n, goal)
+            pending += [(goal, halvings + 1), (sim.t + dt / 2, halvings + 1)]   # first half on top
+            continue
+        if on_step is not None:
+            on_step(record)
+        records.append(record)
+    return records
+
+
+def _named(sim, err, n, goal):
+    """The NewtonError of step n with the time steps tried and the stiff Γ3 terms named."""
+    err.tried = [c["dt"] for c in sim.cutbacks if c["step"] == n]
+    stiff = "" if sim.contact is None else stiff_contact_terms(sim.body, sim.contact, sim.side)
+    err.hint += stiff
+    tried = ", ".join(f"{dt:.3g}" for dt in err.tried)
+    err.args = (f"{err.args[0]}. Time steps tried for step {n} (t -> {goal:.6g} s): dt = {tried} s; "
+                f"the state is that of step {n - 1}{stiff}",)
+    return err
+
+
+def nominal_steps(sim, start, T, steps, max_cutbacks, after, shown, guess):
+    """The nominal steps of ``run`` not reached yet, the first from ``guess``."""
+    for i in range(steps):
+        target = start + (T - start) * (i + 1) / steps
+        if target <= sim.t * (1 + 1e-12):          # reached before a resume
+            shown.update(1)
+            continue
+        try:
+            records = advance(sim, target, max_cutbacks, after, guess)
+            guess = guess if isinstance(guess, str) else None           # "nested", "p1": every step
+        except NewtonError as err:
+            err.history = sim.history
+            raise
+        shown.set_postfix_str(f"t = {sim.t:.4g} s, newton {records[-1].newton_iterations}")
+        shown.update(1)
+
+
+def events(before, after):
+    """The events of Γ3 between two StepRecords: "first contact", "lift-off", "β reaches 0"
+    (on a facet where it was positive), or None."""
+    if before.contact is None or after.contact is None:
+        return None
+    found = []
+    if before.contact.contact_area == 0 and after.contact.contact_area > 0:
+        found.append("first contact")
+    if before.contact.contact_area > 0 and after.contact.contact_area == 0:
+        found.append("lift-off")
+    if np.any((before.contact.beta > 0) & (after.contact.beta <= 0)):
+        found.append("β reaches 0")
+    return ", ".join(found) or None
+
+
+def controlled_steps(sim, T, dt, rtol, after, shown, dt_min, event_dt):
+    """Steps from sim.t to T (s) chosen by the error target ``rtol`` (module docstring), the
+    first proposed of length dt (or the last accepted step's ``dt_next`` after a resume);
+    steps shorter than ``dt_min`` fail: a NewtonError or a ValueError naming the time and
+    why, with every step computed so far kept."""
+    last = sim.history[-1]
+    k = last.dt_next if last.dt_next is not None else dt
+    rejected = []
+    while sim.t < T * (1 - 1e-12) and T - sim.t > 1e-9 * dt:
+        k = min(k, T - sim.t)
+        if T - sim.t - k < 0.01 * k:                  # no sliver of a step before T
+            k = T - sim.t
+        saved, before = sim.scheme.checkpoint(), sim.history[-1]
+        try:
+            record = sim.step(k)
+        except NewtonError as err:
+            rejected.append(dict(time=sim.t + k, dt=k, reason=f"Newton failed at iteration {err.iteration}"))
+            sim.rejections.append(rejected[-1])
+            if k / 2 < dt_min:
+                err.history = sim.history
+                raise _named(sim, err, len(sim.history), sim.t + k)
+            k /= 2
+            continue
+        estimate = sim.scheme.estimate
+        err = None if estimate is None else max(estimate.values(), default=0.0) / rtol
+        event = events(before, record)
+        if event:                       # a kink in time: the estimate does not hold across it
+            err = None
+        reason = (f"{event} inside the step" if event and k > event_dt else
+                  f"error estimate {err:.3g} × rtol" if err is not None and err > 1 else None)
+        if reason is not None and k > dt_min:
+            sim.scheme.restore(saved)                 # the state, β and the scheme's memory, bitwise
+            del sim.history[-1]
+            rejected.append(dict(time=sim.t + k, dt=k, reason=reason, estimate=estimate))
+            sim.rejections.append(rejected[-1])
+            if err is None or err <= 1:               # an event inside: halve towards it
+                k /= 2
+            else:
+                k *= max(MIN_SHRINK, SAFETY * err ** (-1 / 3))
+                if before.dt is not None and k < RESTART_BELOW * before.dt:
+                    sim.scheme.restart()              # the estimate sees a kink among the earlier states
+            continue
+        if reason is not None:
+            hint = ("; an estimate that stays near rtol on ever shorter steps measures Newton's inexactness: a "
+                    "larger rtol, or a smaller Simulation(rtol=...)" if err is not None else "")
+            raise ValueError(f"run(rtol={rtol:g}): the step from t = {sim.t - k:.6g} s reached dt_min = {dt_min:.3g} s "
+                             f"({reason}); every step so far is kept in the history{hint}")
+        growth = MAX_GROWTH if err is None or err == 0 else min(MAX_GROWTH, max(MIN_SHRINK, SAFETY * err ** (-1 / 3)))
+        record.error_estimate, record.rejected, record.event = err, len(rejected), event
+        record.dt_next = k * (growth if err is not None else 1.0)
+        if event:                                      # located: restart from the short step
+            sim.scheme.restart()
+            record.dt_next = k
+        rejected = []
+        k = record.dt_next
+        after(record)
+        shown.update(record.dt)
+        shown.set_postfix_str(f"t = {sim.t:.4g} s, dt {record.dt:.3g} s, newton {record.newton_iterations}")

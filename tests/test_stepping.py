@@ -1,0 +1,111 @@
+"""Steps chosen by an error target (issue 24, item 4): ``run(dt, T, rtol=...)`` with BDF2's
+local error estimate, rejected tries put back bitwise, events of Γ3 located, records of each
+step's k, and a resumed controlled run that continues bitwise."""
+import shutil
+
+import ngsolve as ngs
+import numpy as np
+import pytest
+import sympy as sp
+
+import ngcontact as ngc
+from ngcontact.geometries import plate
+from ngcontact.scenes import reference
+from ngcontact.scenes.manufactured import Manufactured, t
+
+from test_manufactured import CUBIC_PHI, CUBIC_U, SCALED
+
+COARSE, DT = 0.02, 2.5e-3
+
+
+def cubic(rtol, T=0.5):
+    """u, φ = e^{2t} × fields P3 holds exactly (no contact): the error is the time error alone."""
+    body = ngc.Body(plate(L1=1, L2=1, maxh=0.5), SCALED, clamped="left", grounded="left", contact_side="bottom",
+                    order=3)
+    g = sp.exp(2 * t)
+    mms = Manufactured(body.tensors, g * CUBIC_U, g * CUBIC_PHI)
+    time = ngs.Parameter(0)
+    sim = ngc.Simulation(body, mms.loads(body, time), time=time, physical_checks=False, scheme="bdf2",
+                         u0=mms.cf(CUBIC_U, time), keep_states=False)
+    sim.run(0.01, T, rtol=rtol)
+    size = np.sqrt(ngs.Integrate(ngs.InnerProduct(ngs.Sym(ngs.Grad(sim.u)), ngs.Sym(ngs.Grad(sim.u))), body.mesh))
+    return sim, mms.errors(sim)[0] / size
+
+
+def test_the_error_follows_the_tolerance():
+    """A hundredfold smaller rtol gives a global error ≈ 100^(2/3) ≈ 22× smaller (per-step control
+    of a second-order scheme: global error ∝ rtol^(2/3)), in more steps; every accepted step has
+    its estimate within the tolerance and the steps add up to T. Observed: 3.1e-3 and 1.9e-4
+    (16×), in 8 and 25 steps (a local error per step: the global error is a few rtol)."""
+    loose, e_loose = cubic(1e-3)
+    tight, e_tight = cubic(1e-5)
+    assert 10 < e_loose / e_tight < 60, (e_loose, e_tight)
+    assert e_loose < 6e-3 and e_tight < 4e-4 and len(tight.history) > 2 * len(loose.history)
+    for sim in (loose, tight):
+        h = sim.history
+        assert sum(r.dt for r in h[1:]) == pytest.approx(0.5, rel=1e-12)
+        assert all(r.error_estimate is None or r.error_estimate <= 1 for r in h[1:])
+        assert {r.scheme for r in h} == {"bdf2"} and h[1].order == 1 and h[-1].order == 2
+        assert max(r.dt for r in h[1:]) > 3 * min(r.dt for r in h[1:])      # the steps grew
+
+
+def test_events_are_located_and_the_scheme_restarts():
+    """First contact on the reference plate: the step at which the contact set appears is at most
+    event_dt long, the step before it has no contact, the step after it is backward Euler's, of
+    the same length, and the steps grow again."""
+    sim = reference.simulation(1, COARSE, scheme="bdf2")
+    sim.run(DT, 0.03, rtol=1e-3, event_dt=1e-5)
+    h = sim.history
+    (n,) = [r.step for r in h if r.event == "first contact"]
+    assert h[n].dt <= 1e-5 and h[n - 1].contact.contact_area == 0 < h[n].contact.contact_area
+    assert h[n + 1].order == 1 and h[n + 1].dt == pytest.approx(h[n].dt)      # restarted from the short step
+    assert max(r.dt for r in h[n + 1:]) > 16 * h[n].dt                         # and grown again
+    searched = [x for x in sim.rejections if x["reason"] == "first contact inside the step"]
+    assert len(searched) >= 3 and h[n].rejected >= 1             # halvings towards it
+
+
+def test_a_controlled_run_resumes_bitwise(tmp_path):
+    """Killed after some steps (the later archives deleted), a controlled run resumed from disk
+    takes the same steps to the same final state, bitwise: the scheme's memory and the next
+    step (``dt_next``) are in the restart state and the records."""
+    whole = reference.simulation(1, COARSE, scheme="bdf2", reuse_factorization=False)
+    whole.run(DT, 0.02, rtol=1e-3, out=tmp_path / "a")
+    shutil.copytree(tmp_path / "a", tmp_path / "b")
+    archives = sorted((tmp_path / "b" / "steps").glob("*.npz"))
+    for path in archives[len(archives) // 2:]:
+        path.unlink()
+    resumed = reference.simulation(1, COARSE, scheme="bdf2", reuse_factorization=False).resume(tmp_path / "b")
+    resumed.run(DT, 0.02, rtol=1e-3, out=tmp_path / "b")
+    assert [r.time for r in resumed.history] == [r.time for r in whole.history]
+    assert np.array_equal(resumed.gfu.vec.FV().NumPy(), whole.gfu.vec.FV().NumPy())
+    with pytest.raises(ValueError, match="holds another run .*rtol 0.001"):
+        reference.simulation(1, COARSE, scheme="bdf2").run(DT, 0.02, rtol=1e-4, out=tmp_path / "a")
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(rtol=0), "rtol must be"), (dict(rtol=0.5), "rtol must be"), (dict(rtol="1e-3"), "rtol must be"),
+    (dict(rtol=1e-3, dt_min=0.0), "dt_min must be"), (dict(rtol=1e-3, dt_min=1.0), "dt_min must be"),
+    (dict(rtol=1e-3, event_dt=1e-9, dt_min=1e-8), "event_dt must be"),
+    (dict(dt_min=1e-6), "dt_min = 1e-06 is for error-controlled steps: give rtol too"),
+    (dict(rtol=1e-9), r"rtol = 1e-09 is below 100 × Newton's tolerance \(1e-10\)"),
+])
+def test_bad_controls_are_named_before_any_step(kwargs, message):
+    sim = reference.simulation(1, COARSE, scheme="bdf2")
+    with pytest.raises((ValueError, TypeError), match=message):
+        sim.run(DT, 0.01, **kwargs)
+    assert len(sim.history) == 1
+
+
+def test_backward_euler_has_no_estimate_to_control_steps():
+    with pytest.raises(ValueError, match="the scheme 'backward_euler' has no local error estimate .*Simulation\\(scheme='bdf2'\\)"):
+        reference.simulation(1, COARSE).run(DT, 0.01, rtol=1e-3)
+
+
+def test_the_demo_chooses_its_steps(tmp_path):
+    """``demo --scheme bdf2 --rtol 1e-3``: the steps add up to the load history's 0.5 s, vary by
+    orders of magnitude (short at the located events), and the chart of them is written."""
+    from ngcontact import demo
+    summary = demo.run(maxh=0.02, steps=50, out=tmp_path, scheme="bdf2", rtol=1e-3)
+    dts = np.array(summary["dt"])
+    assert dts.sum() == pytest.approx(0.5, rel=1e-12) and dts.max() > 100 * dts.min()
+    assert (tmp_path / "history.png").stat().st_size > 10_000
