@@ -1,4 +1,4 @@
-"""Command line interface: ``python -m ngcontact demo | convergence | stability | hertz | bench``.
+"""Command line interface: ``python -m ngcontact demo | convergence | stability | hertz | bench | timesteps``.
 
 It parses the arguments and calls ``demo.run`` or a study's command; bad input and a failed
 Newton solve end in one line on stderr and exit status 2 (``main``).
@@ -12,7 +12,8 @@ import ngcontact
 
 KEPT = dict(demo="{out}/run (continue with --resume)", convergence="{out}/cases (--resume skips them)",
             hertz="{out}/cases.json (--resume skips them)", bench="{out}/bench.json (--resume skips them)",
-            stability="{out}/<study>.csv of the finished studies (--resume skips them)")
+            stability="{out}/<study>.csv of the finished studies (--resume skips them)",
+            timesteps="nothing (the study runs again whole)")
 """Where each command keeps what it computed before an error."""
 
 
@@ -130,6 +131,12 @@ def parser():
                        help="keep the cases already in OUT/bench.json (same dim, steps, dt) and measure the rest")
     bench.add_argument("--merge", metavar="DIR", nargs="+",
                        help="join the tables of earlier runs into --out instead of running")
+    steps = commands.add_parser("timesteps", parents=[common], help="work–precision of the time schemes on the "
+                                "reference plate (fixed-k backward Euler and BDF2, error-controlled BDF2): "
+                                "time_steps.csv and charts")
+    steps.add_argument("--out", metavar="DIR", default="timesteps", help="output directory")
+    steps.add_argument("--maxh", metavar="H", type=float, default=0.01, help="mesh size in m (default 0.01)")
+    steps.add_argument("--T", metavar="S", type=float, default=0.25, help="final time in s (default 0.25)")
     return main_parser
 
 
@@ -184,6 +191,9 @@ def _dispatch(args):
     elif args.command == "hertz":
         from .studies import hertz
         hertz.command(args.out, args.orders, args.levels, args.dim, args.resume)
+    elif args.command == "timesteps":
+        from .studies import time_steps
+        time_steps.main(args.out, maxh=args.maxh, T=args.T)
     elif args.merge:
         from .studies import bench
         bench.merge(args.merge, args.out)
