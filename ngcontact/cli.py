@@ -131,12 +131,15 @@ def parser():
                        help="keep the cases already in OUT/bench.json (same dim, steps, dt) and measure the rest")
     bench.add_argument("--merge", metavar="DIR", nargs="+",
                        help="join the tables of earlier runs into --out instead of running")
-    steps = commands.add_parser("timesteps", parents=[common], help="work–precision of the time schemes on the "
-                                "reference plate (fixed-k backward Euler and BDF2, error-controlled BDF2): "
-                                "time_steps.csv and charts")
+    steps = commands.add_parser("timesteps", parents=[common], help="work–precision of the time schemes "
+                                "(fixed-k backward Euler and BDF2, error-controlled BDF2) on the reference plate "
+                                "(Nitsche, and the nodal constraint) and the debonding column: time_steps.csv, "
+                                "summary.csv and charts")
     steps.add_argument("--out", metavar="DIR", default="timesteps", help="output directory")
-    steps.add_argument("--maxh", metavar="H", type=float, default=0.01, help="mesh size in m (default 0.01)")
-    steps.add_argument("--T", metavar="S", type=float, default=0.25, help="final time in s (default 0.25)")
+    steps.add_argument("--scene", nargs="+", choices=("plate", "plate-nodal", "column"),
+                       default=["plate", "plate-nodal", "column"], help="the scenes (default: all three)")
+    steps.add_argument("--maxh", metavar="H", type=float, default=0.01, help="the plate's mesh size in m (default 0.01)")
+    steps.add_argument("--T", metavar="S", type=float, default=0.25, help="the plate's final time in s (default 0.25)")
     return main_parser
 
 
@@ -193,7 +196,7 @@ def _dispatch(args):
         hertz.command(args.out, args.orders, args.levels, args.dim, args.resume)
     elif args.command == "timesteps":
         from .studies import time_steps
-        time_steps.main(args.out, maxh=args.maxh, T=args.T)
+        time_steps.main(args.out, maxh=args.maxh, T=args.T, which=args.scene)
     elif args.merge:
         from .studies import bench
         bench.merge(args.merge, args.out)

@@ -329,7 +329,7 @@ class Simulation:
                     f"t -> {self.time.Get():.4g} s, Newton {it}, residual {r:.1e}")
             try:
                 if control:
-                    stepping.controlled_steps(self, T, dt, rtol, after, shown, *control)
+                    stepping.controlled_steps(self, start, T, dt, rtol, after, shown, *control)
                 else:
                     stepping.nominal_steps(self, start, T, steps, max_cutbacks, after, shown, guess)
             finally:

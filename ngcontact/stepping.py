@@ -5,8 +5,15 @@ policy). ``nominal_steps`` makes the nominal steps of ``Simulation.run(dt, T)``.
 ``controlled_steps`` makes ``Simulation.run(dt, T, rtol=...)``: each step's length comes from
 the scheme's local error estimate (``schemes.bdf2``: Milne's device) and the tolerance,
 
-  err = max over u and β (``CONTROLLED``) of the estimated relative local error / rtol,
-  accepted when err <= 1; next k = k · min(MAX_GROWTH, max(MIN_SHRINK, SAFETY · err^(−1/3))),
+  err = max(e_u / rtol, e_β (T − t_0)/(k rtol))    (``error_ratio``; t_0 the run's start),
+  accepted when err <= 1; next k = k · min(MAX_GROWTH, max(MIN_SHRINK, SAFETY · err_f^(−1/q_f)))
+  of the field f that limits the next step most (q_u = 3, q_β = 2: BDF2's local error is O(k³)),
+
+u's relative local error per step, and β's local error per unit step, normalised by the run's
+span (``CONTROLLED``): u is damped by the viscosity (its local errors fade on the relaxation
+time), β is not (2.9) — its local errors add up over the run, and the final state (a plate
+hanging by its glue, say) follows β. Per unit step, the errors β can add up to over the run
+are at most rtol, and the final error falls in proportion to rtol;
 
 a step with err > 1 is rejected (the state put back bitwise) and retried with the smaller k,
 a Newton failure halves k, and the events of Γ3 — first contact, lift-off, β reaching 0 on a
@@ -26,13 +33,31 @@ from .newton import NewtonError
 SAFETY, MIN_SHRINK, MAX_GROWTH = 0.9, 0.2, 2.0
 """The controller's safety factor and the bounds of a step's change (MAX_GROWTH < 1 + √2, where
 variable-step BDF2 stays zero-stable)."""
-CONTROLLED = ("u", "beta")
-"""The fields whose estimated local error sets the steps: the ones with a time derivative. φ is
-algebraic (the electric equation has none: φ_n follows from u_n), as DAE codes leave algebraic
-variables out of the error test; its estimate is recorded in ``rejections`` and measured against
-a reference in docs/time.md. With φ in the test, the soft column (no conduction) rejected 326 of
-421 tries at rtol 1e-5, every one on φ; without, 4 of 62, and the final error fell steadily
-with rtol."""
+CONTROLLED = {"u": "per step", "beta": "per unit step"}
+"""The fields whose estimated local error sets the steps, and how (``error_ratio``): the ones
+with a time derivative. φ is algebraic (the electric equation has none: φ_n follows from u_n),
+as DAE codes leave algebraic variables out of the error test; its estimate is recorded in
+``rejections`` and measured against a reference in docs/time.md. With φ in the test, the soft
+column (no conduction) rejected 326 of 421 tries at rtol 1e-5, every one on φ; without, 4 of
+62. With β per step as well (as first built), the final error on the reference plate (nodal
+constraint) fell only 6.5× for a 1000× smaller rtol (1.2e-3 at rtol 1e-2, 1.8e-4 at 1e-5): the
+plate hangs by its glue at T, and the per-step errors of β after lift-off had added up; per unit
+step, 3.4e-4, 3.3e-4, 4.5e-5, 4.2e-6 at rtol 1e-2 … 1e-5."""
+ORDERS = {"per step": 3, "per unit step": 2}
+"""The power of k in a controlled quantity: BDF2's local error is O(k³), per unit step O(k²)."""
+
+
+def error_ratio(estimate, rtol, k, span):
+    """(err, growth) of a step of length k (s) whose scheme estimated ``estimate`` (a dict per
+    field, ``schemes.bdf2.BDF2.local_error``), in a run of ``span`` seconds: err = max over the
+    ``CONTROLLED`` fields of the estimate / rtol, per unit step scaled by span/k; growth is the
+    factor for the next step, SAFETY · err_f^(−1/q) of the field f that limits it most, within
+    [MIN_SHRINK, MAX_GROWTH]."""
+    ratios = {f: estimate[f] / rtol * (span / k if how == "per unit step" else 1.0)
+              for f, how in CONTROLLED.items() if f in estimate}
+    err = max(ratios.values(), default=0.0)
+    factors = [SAFETY * ratio ** (-1 / ORDERS[CONTROLLED[f]]) for f, ratio in ratios.items() if ratio > 0]
+    return err, min(MAX_GROWTH, max(MIN_SHRINK, min(factors, default=MAX_GROWTH)))
 RESTART_BELOW = 0.1
 """A step rejected down to this fraction of the last accepted one restarts the scheme: the
 estimate extrapolates from the earlier states, and a kink among them (conduction or contact
@@ -103,13 +128,16 @@ def events(before, after):
     return ", ".join(found) or None
 
 
-def controlled_steps(sim, T, dt, rtol, after, shown, dt_min, event_dt):
-    """Steps from sim.t to T (s) chosen by the error target ``rtol`` (module docstring), the
-    first proposed of length dt (or the last accepted step's ``dt_next`` after a resume);
-    steps shorter than ``dt_min`` fail: a NewtonError or a ValueError naming the time and
-    why, with every step computed so far kept."""
+def controlled_steps(sim, start, T, dt, rtol, after, shown, dt_min, event_dt):
+    """Steps from sim.t to T (s) chosen by the error target ``rtol`` (module docstring) in the
+    run that began at ``start`` (s), the first proposed of length dt (or the last accepted
+    step's ``dt_next`` after a resume); steps shorter than ``dt_min`` fail: a NewtonError or a
+    ValueError naming the time and why, with every step computed so far kept."""
     last = sim.history[-1]
     k = last.dt_next if last.dt_next is not None else dt
+    span = T - start
+    if hasattr(sim.scheme, "beta_tolerance"):   # β consistent with u_n to the level the error test asks
+        sim.scheme.beta_tolerance = min(sim.scheme.beta_tolerance, rtol)
     rejected = []
     while sim.t < T * (1 - 1e-12) and T - sim.t > 1e-9 * dt:
         k = min(k, T - sim.t)
@@ -127,8 +155,7 @@ def controlled_steps(sim, T, dt, rtol, after, shown, dt_min, event_dt):
             k /= 2
             continue
         estimate = sim.scheme.estimate
-        err = None if estimate is None else max((v for f, v in estimate.items() if f in CONTROLLED),
-                                                default=0.0) / rtol
+        err, growth = (None, MAX_GROWTH) if estimate is None else error_ratio(estimate, rtol, k, span)
         event = events(before, record)
         if event:                       # a kink in time: the estimate does not hold across it
             err = None
@@ -142,7 +169,7 @@ def controlled_steps(sim, T, dt, rtol, after, shown, dt_min, event_dt):
             if err is None or err <= 1:               # an event inside: halve towards it
                 k /= 2
             else:
-                k *= max(MIN_SHRINK, SAFETY * err ** (-1 / 3))
+                k *= growth
                 if before.dt is not None and k < RESTART_BELOW * before.dt:
                     sim.scheme.restart()              # the estimate sees a kink among the earlier states
             continue
@@ -151,7 +178,6 @@ def controlled_steps(sim, T, dt, rtol, after, shown, dt_min, event_dt):
                     "larger rtol, or a smaller Simulation(rtol=...)" if err is not None else "")
             raise ValueError(f"run(rtol={rtol:g}): the step from t = {sim.t - k:.6g} s reached dt_min = {dt_min:.3g} s "
                              f"({reason}); every step so far is kept in the history{hint}")
-        growth = MAX_GROWTH if err is None or err == 0 else min(MAX_GROWTH, max(MIN_SHRINK, SAFETY * err ** (-1 / 3)))
         record.error_estimate, record.rejected, record.event = err, len(rejected), event
         record.dt_next = k * (growth if err is not None else 1.0)
         if event:                                      # located: restart from the short step
