@@ -41,6 +41,16 @@ import scipy.linalg as sla
 from scipy.integrate import solve_ivp
 
 
+def check_quadrature(quadrature):
+    """``quadrature`` if it is "exact" or (n_glue, n_beta), two integers >= 1; else a ValueError."""
+    if isinstance(quadrature, str) and quadrature == "exact":
+        return quadrature
+    if not (isinstance(quadrature, tuple) and len(quadrature) == 2
+            and all(isinstance(n, int) and not isinstance(n, bool) and n >= 1 for n in quadrature)):
+        raise ValueError(f"quadrature must be 'exact' or (n_glue, n_beta), two integers >= 1, got {quadrature!r}")
+    return quadrature
+
+
 def _voigt_strain(u):
     """(ε11, ε22, 2ε12) of a 2D vector field (trial or test function)."""
     g = ngs.Grad(u)
@@ -94,10 +104,7 @@ class SemiDiscreteColumn:
                              f"got {contact.conductance!r}")
         if not isinstance(contact.beta0, (int, float)):
             raise TypeError(f"SemiDiscreteColumn takes a number beta0, got {type(contact.beta0).__name__}")
-        if quadrature != "exact" and not (isinstance(quadrature, tuple) and len(quadrature) == 2
-                                          and all(isinstance(n, int) and n >= 1 for n in quadrature)):
-            raise ValueError(f"quadrature must be 'exact' or (n_glue, n_beta) positive integers, got {quadrature!r}")
-        self.quadrature = quadrature
+        self.quadrature = check_quadrature(quadrature)
         self.gamma, self.L, self.eps_a = float(contact.adhesion), float(contact.bond_length), float(contact.eps_a)
         self.beta0 = float(contact.beta0)
         self.force = force
