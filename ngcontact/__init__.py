@@ -18,8 +18,9 @@ from .materials import EPS0, Material, academic, batio3, pzt5a
 from .newton import NewtonError
 from .records import ContactRecord, History, StepRecord
 from .simulation import Simulation
+from .stepping import AccuracyWarning
 from .webgui import save_html
 
 __all__ = ["Body", "Contact", "Loads", "Material", "Simulation", "History", "StepRecord", "ContactRecord",
-           "NewtonError", "PhysicsWarning", "METHODS", "EPS0", "academic", "pzt5a", "batio3", "save_html", "contact_laws",
+           "NewtonError", "PhysicsWarning", "AccuracyWarning", "METHODS", "EPS0", "academic", "pzt5a", "batio3", "save_html", "contact_laws",
            "parallel", "checks", "meshes", "schemes"]

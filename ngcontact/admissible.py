@@ -140,8 +140,14 @@ def flags(body, record, u, side=None):
                              f"exceeds {PENETRATION_LIMIT:g} of {what} ({limit:.3g} m): the contact law is not "
                              "met (a larger γ0 or penalty, or a finer mesh)")
                 break
-        if record.contact.beta_clipped:
+        clipped, scheme = record.contact.beta_clipped, getattr(record, "scheme", None) or "backward_euler"
+        if clipped and scheme == "backward_euler":
             found.append(f"step {record.step} (t = {record.time:.6g} s): the explicit β update (4.5) left [0, 1] on "
-                         f"{record.contact.beta_clipped} facets and was clipped: it is unstable at this time step "
+                         f"{clipped} facets and was clipped: it is unstable at this time step "
                          "(dt γ_ν L² > 1); a smaller dt, or Contact(beta_update='implicit')")
+        elif clipped:                               # a multistep scheme: its combination of past β went below 0
+            found.append(f"step {record.step} (t = {record.time:.6g} s): the {scheme} update of β left [0, 1] on "
+                         f"{clipped} facets and was clipped: β decays faster than the time step resolves (the "
+                         "combination of its past values fell below 0); a smaller dt, or an error target "
+                         "run(rtol=...)")
     return found

@@ -1,4 +1,5 @@
-"""Command line interface: ``python -m ngcontact demo | convergence | stability | hertz | bench | timesteps``.
+"""Command line interface: ``python -m ngcontact demo | convergence | stability | hertz | bench | timesteps |
+timeorder``.
 
 It parses the arguments and calls ``demo.run`` or a study's command; bad input and a failed
 Newton solve end in one line on stderr and exit status 2 (``main``).
@@ -13,7 +14,7 @@ import ngcontact
 KEPT = dict(demo="{out}/run (continue with --resume)", convergence="{out}/cases (--resume skips them)",
             hertz="{out}/cases.json (--resume skips them)", bench="{out}/bench.json (--resume skips them)",
             stability="{out}/<study>.csv of the finished studies (--resume skips them)",
-            timesteps="nothing (the study runs again whole)")
+            timesteps="nothing (the study runs again whole)", timeorder="nothing (the study runs again whole)")
 """Where each command keeps what it computed before an error."""
 
 
@@ -140,6 +141,12 @@ def parser():
                        default=["plate", "plate-nodal", "column"], help="the scenes (default: all three)")
     steps.add_argument("--maxh", metavar="H", type=float, default=0.01, help="the plate's mesh size in m (default 0.01)")
     steps.add_argument("--T", metavar="S", type=float, default=0.25, help="the plate's final time in s (default 0.25)")
+    order = commands.add_parser("timeorder", parents=[common], help="the order in time of backward Euler and "
+                                "BDF2 on the glued column, against Radau on its semi-discrete system (lift-off, "
+                                "and debonding to β ≈ 4e-4): column_order.csv and chart")
+    order.add_argument("--out", metavar="DIR", default="timeorder", help="output directory")
+    order.add_argument("--history", nargs="+", choices=("lift", "debond"), default=["lift", "debond"],
+                       help="the load histories (default: both)")
     return main_parser
 
 
@@ -194,6 +201,9 @@ def _dispatch(args):
     elif args.command == "hertz":
         from .studies import hertz
         hertz.command(args.out, args.orders, args.levels, args.dim, args.resume)
+    elif args.command == "timeorder":
+        from .studies import column_order
+        column_order.main(args.out, histories=tuple(args.history))
     elif args.command == "timesteps":
         from .studies import time_steps
         time_steps.main(args.out, maxh=args.maxh, T=args.T, which=args.scene)

@@ -147,3 +147,21 @@ def test_the_glue_s_final_error_falls_with_rtol():
     errors = [np.abs(_glued_column(rtol).beta.values - ref.beta.values).max() for rtol in (1e-4, 1e-5)]
     assert errors[0] < 3e-4 and errors[1] < 3e-5, errors
     assert 6 < errors[0] / errors[1] < 14, errors
+
+
+def test_an_estimate_that_the_step_does_not_reduce_is_accepted_and_flagged(monkeypatch):
+    """A floor of the estimate (here: a stand-in estimate of 3 × rtol whatever the step; on the
+    reference plate, Nitsche's γ following c holds u's at ~1e-6) would shrink the steps to dt_min
+    and stop the run; instead, a try 4× shorter than the first rejected one whose estimate fell less
+    than 2× is accepted, its record keeps the estimate (> 1), and the run says so once."""
+    sim = reference.simulation(1, COARSE, scheme="bdf2")
+    monkeypatch.setattr(sim.scheme, "local_error", lambda dt, before, before_beta: dict(u=3e-3, phi=0.0))
+    with pytest.warns(ngc.AccuracyWarning, match=r"stayed at 3 × rtol on tries from .* it measures what the step "
+                                                  r"does not reduce"):
+        sim.run(DT, 0.03, rtol=1e-3)
+    h = sim.history
+    assert h[-1].time == pytest.approx(0.03, rel=1e-12)
+    floored = [r for r in h[1:] if r.error_estimate is not None and r.error_estimate > 1]
+    assert floored and all(r.error_estimate == pytest.approx(3.0) for r in floored)
+    assert all(r.rejected <= 4 for r in h[1:])                       # 0.9 · 3^(−1/3) = 0.62 a rejection
+    assert sum("stayed at" in f for f in sim.flags) == 1

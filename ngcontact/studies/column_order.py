@@ -79,13 +79,16 @@ def semidiscrete(F0, quadrature="exact"):
     return SemiDiscreteColumn(column.body(), contact(), pull(F0), quadrature)
 
 
-def run(F0, T, scheme, steps):
+def run(F0, T, scheme, steps, beta_tolerance=None):
     """The column's Simulation of ``scheme`` run to T (s) in ``steps`` equal steps; returns it
     and {newton, max_contact_area (m), max_multiplier (λ_h, Pa), max_penetration (max u_ν − g, m),
     beta_clipped_steps (steps whose β update left [0, 1] and was clipped: BDF2's β̂ < 0)} over
-    all its steps (without the physical checks' warnings: the clipping is counted here)."""
+    all its steps (without the physical checks' warnings: the clipping is counted here).
+    ``beta_tolerance``: BDF2's ``beta_tolerance`` (β_n consistent with u_n to it), if given."""
     sim = column.simulation(pull(F0), contact(), scheme=scheme, rtol=1e-12, keep_states=False,
                             physical_checks=False)
+    if beta_tolerance is not None and hasattr(sim.scheme, "beta_tolerance"):
+        sim.scheme.beta_tolerance = beta_tolerance
     h = sim.run(T / steps, T)
     records = [r.contact for r in h[1:]]
     return sim, dict(newton=int(sum(h.newton_iterations)),
@@ -188,7 +191,7 @@ def study(histories=tuple(HISTORIES), steps=STEPS, long_steps=LONG_STEPS, rtol=1
             shown.update()
             replica = semidiscrete(F0, NGCONTACT_QUADRATURE)
             for scheme in SCHEMES:
-                sim, info = run(F0, T, scheme, REPLICA_STEPS)
+                sim, info = run(F0, T, scheme, REPLICA_STEPS, beta_tolerance=1e-10)
                 u4, beta4 = getattr(replica, scheme)(REPLICA_STEPS, T)
                 U4, P4 = replica.full(u4)
                 fields = _fields(sim, sd)

@@ -72,8 +72,8 @@ def _column(scheme, newton_rtol):
 def scenes(maxh=0.01, T=0.25):
     """The study's scenes by name (``Scene``); ``maxh`` (m) and T (s) are the plate's."""
     rtols = (1e-2, 1e-3, 1e-4, 1e-5, 1e-6)
-    return {"plate": Scene("plate", T, range(4, 14), range(4, 11), rtols, 8192, _plate("nitsche", maxh)),
-            "plate-nodal": Scene("plate-nodal", T, range(4, 14), range(4, 11), rtols, 8192,
+    return {"plate": Scene("plate", T, range(4, 15), range(4, 11), rtols, 8192, _plate("nitsche", maxh)),
+            "plate-nodal": Scene("plate-nodal", T, range(4, 15), range(4, 11), rtols, 8192,
                                  _plate("active_set", maxh)),
             "column": Scene("column", 0.05, range(4, 13), range(4, 10), rtols, 4096, _column)}
 
