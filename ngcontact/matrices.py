@@ -1,4 +1,4 @@
-"""NGSolve sparse matrices seen from numpy and scipy: CSR copies, where one pattern's entries
+"""NGSolve sparse matrices seen from numpy and scipy: CSR views and copies, where one pattern's entries
 sit in another's, and the step Jacobian on the free DOFs (``Simulation.jacobian``)."""
 import numpy as np
 import scipy.sparse as sp
@@ -25,10 +25,12 @@ def free_jacobian(system, x, space, scaled=True):
     return J[free][:, free].tocsr()
 
 
-def csr(matrix):
-    """An NGSolve sparse matrix (the rank's part of a ParallelMatrix) as a scipy CSR matrix."""
+def csr(matrix, copy=False):
+    """An NGSolve sparse matrix (the rank's part of a ParallelMatrix) as a scipy CSR matrix: a
+    view of NGSolve's arrays, valid while the NGSolve matrix lives (a form's matrix freed with
+    its form leaves the view reading reused memory), or with ``copy`` a copy of them."""
     matrix = parallel.local_matrix(matrix)
-    return sp.csr_matrix(matrix.CSR(), shape=(matrix.height, matrix.width))
+    return sp.csr_matrix(matrix.CSR(), shape=(matrix.height, matrix.width), copy=copy)
 
 
 def matching_positions(source, target, within=None):

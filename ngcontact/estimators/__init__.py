@@ -1,0 +1,2 @@
+"""A posteriori error estimators (issue 25): ``equilibration`` builds equilibrated fluxes on
+vertex patches; ``equilibrated`` turns them into element indicators of the step problem."""

@@ -1,0 +1,335 @@
+"""The error of a step by equilibrated stress and flux reconstructions (Prager–Synge).
+
+A converged step of a ``Simulation`` gives u_h, φ_h with the step's stress and electric
+displacement (``forms``; the step's elasticity C_c = F + c A, c the scheme's rate coefficient):
+
+  σ_h = C_c ε(u_h) − c A ε(û) + Eᵀ∇φ_h,    D_h = E ε(u_h) − C ∇φ_h.
+
+The exact solution (u, φ) of the same step (same t_n, c, û, β_n) satisfies −div σ = f0,
+−div D = q0, the tractions and charges of Γ2, Γb, and the Γ3 laws. ``equilibration`` builds σ*
+(rows in RT_p) and D* (RT_p) with div σ* = −Π_p f0, div D* = −Π_p q0, the data of Γ2 and Γb on
+their normals, and on Γ3 (and every boundary with residual terms) the traction and charge flux
+that represent the discrete solution's own Γ3 functional: t_h ∈ P1(Γ3)^d with
+∫ t_h·ψ_a e_i = −R_Γ3(u_h, φ_h; ψ_a e_i) for every hat function ψ_a (``representative``; the
+same for the charge flux of (2.7)). With the piezoelectric coupling written as in the step
+(σ = … + Eᵀ∇φ, D = E ε − C∇φ) the cross terms cancel, and for e = (u − u_h, φ − φ_h)
+
+  |||e|||² = (C_c ε(e_u), ε(e_u)) + (C ∇e_φ, ∇e_φ)
+           = (σ* − σ_h, ε(e_u)) − (D* − D_h, ∇e_φ) + (skew σ*, ∇e_u)
+             + ∫_Γ3 (t − t_h)·e_u − ∫_Γ3 (j − j_h) e_φ + (f0 − Π f0, e_u) − (q0 − Π q0, e_φ),
+
+so that  |||e||| ≤ η = (η_σ² + η_D²)^½ + C_K η_skew + η_osc + η_Γ3, with
+
+* η_σ = ‖C_c^{−½}(sym σ* − σ_h)‖, η_D = ‖C^{−½}(D* − D_h)‖ (the energy of the reconstruction),
+* η_skew = λ_min(C_c)^{−½} ‖skew σ*‖: σ* is equilibrated row by row in RT_p and symmetric
+  only in the least-squares sense of its local problems (weight λ_min(C_c)^{−1} on its skew
+  part); C_K is the constant of ‖skew ∇v‖ ≤ C_K ‖ε(v)‖ on the body (Korn's), taken as 1,
+* η_osc = Σ_K (h_K/π) λ_min^{−½} ‖f0 − Π_p f0‖_K and its electric twin (Poincaré on a convex
+  element; the data that no flux of degree p can balance),
+* η_Γ3 = (∫_Γ3 λ_h |u_hν − g|)^½ (the complementarity of the discrete contact pressure λ_h =
+  −[P_h]_- and the gap: the Signorini part of ∫(t − t_h)·e_u, with the exact pressure replaced
+  by λ_h); the glue and the compliant layer are monotone and only lower the error, the
+  conduction's ψ(u_ν − g) cross term is of higher order and left out.
+
+So η is an upper bound of the energy error when Korn's constant is 1 and the contact term is
+exact; ``report`` gives every part. Element indicators η_K² = η_σ,K² + η_D,K² + η_skew,K² +
+η_osc,K² mark elements for refinement (``adapt``). Measured effectivities (η / the true error on
+manufactured solutions): docs/adaptivity.md.
+"""
+from dataclasses import dataclass, field
+
+import ngsolve as ngs
+import numpy as np
+
+from .. import forms
+from ..loads import as_cf
+from .equilibration import Equilibration, Patches
+
+
+RAISE = 0
+"""σ* and D* are sought in RT_{p+RAISE}. One order more (RT_{p+1}) made the data oscillation of
+one order higher and the estimate sharper (static glued manufactured case, scaled PZT-5A without
+viscosity, three levels: effectivities 1.65–1.80 for P1, P2 and 2.6–2.8 for P3 against
+1.78–2.07 and 3.1–3.9 in RT_p), but its local problems are twice as large: ten times the
+factorisation work (P1 on 1 761 vertices: 1.05 s against about 0.1 s). Scenes without a body
+force have no oscillation at all."""
+SKEW_WEIGHT = 10.0
+"""The weight of σ*'s skew part in its local problems, in units of λ_min(C_c)^{−1}: the
+least-squares weak symmetry. Measured on a manufactured elastic square (P1–P3, three levels):
+weight 1 gives η_skew 12–24 % of the error and effectivities 1.12–1.28; weight 10, 3–12 % and
+1.04–1.15; weight 100, the same skew part and a larger symmetric one."""
+
+
+@dataclass
+class Estimate:
+    """An error estimate of one step in the energy norm |||·||| (J^½; in 2D per metre of depth).
+
+    total : η, the bound (module docstring).
+    parts : {"stress": η_σ, "flux": η_D, "skew": η_skew, "oscillation": η_osc, "contact": η_Γ3}.
+    indicators : η_K per volume element (numpy), for marking.
+    """
+    total: float
+    parts: dict
+    indicators: np.ndarray
+    fields: dict = field(default_factory=dict, repr=False)
+
+
+def _matrix(M):
+    return ngs.CF(tuple(float(v) for v in np.asarray(M).flat), dims=np.shape(M))
+
+
+def _voigt(S, dim):
+    """The symmetric part of a dim × dim matrix CF as a Voigt vector (stress convention: no
+    factor 2 on the shear)."""
+    if dim == 2:
+        return ngs.CF((S[0, 0], S[1, 1], 0.5 * (S[0, 1] + S[1, 0])))
+    return ngs.CF((S[0, 0], S[1, 1], S[2, 2], 0.5 * (S[1, 2] + S[2, 1]), 0.5 * (S[0, 2] + S[2, 0]),
+                   0.5 * (S[0, 1] + S[1, 0])))
+
+
+def _skew_square(S, dim):
+    """|skew S|² (Frobenius) of a dim × dim matrix CF."""
+    pairs = [(0, 1)] if dim == 2 else [(0, 1), (0, 2), (1, 2)]
+    return sum(0.5 * (S[i, j] - S[j, i]) ** 2 for i, j in pairs)
+
+
+def _stress_matrix(voigt, dim):
+    s = voigt
+    if dim == 2:
+        return ngs.CF((s[0], s[2], s[2], s[1]), dims=(2, 2))
+    return ngs.CF((s[0], s[5], s[4], s[5], s[1], s[3], s[4], s[3], s[2]), dims=(3, 3))
+
+
+class EquilibratedEstimator:
+    """The estimator of the module docstring for the simulations on one mesh (its patch
+    problems are set up once, ``__call__`` estimates the current step of a simulation).
+
+    Parameters
+    ----------
+    sim : a Simulation (2D or 3D, any order); its mesh, body, loads and contact are read.
+    """
+
+    def __init__(self, sim):
+        body = sim.body
+        for support in body.supports:
+            if support.normal:
+                raise ValueError(f"the equilibrated estimator does not take weak 'normal' supports yet "
+                                 f"(support {support.key!r}: its normal is not an axis)")
+        self.sim, self.body, self.dim = sim, body, body.dim
+        T, dim = body.tensors, body.dim
+        self.patches = Patches(body.mesh)
+        self._rate = None
+        held = {i: set(body.boundaries["clamped"]) for i in range(dim)}
+        for support in body.supports:
+            for axis in support.axes:
+                held[axis] |= set(support.names)
+        self._held = held
+        grounded = set(body.boundaries["grounded"])
+        self._flux = Equilibration(body.mesh, 1, body.order_phi + RAISE, self._electric_weight(T),
+                                   lambda name, i: name not in grounded, self.patches) if sim.electric else None
+        self._stress = None                        # built for the rate c of the step (its weight)
+
+    # ------------------------------------------------------------------ weights of the local problems
+    def _compliance(self, rate):
+        T = self.body.tensors
+        C = T.F + (rate * T.A if T.viscous else 0.0)
+        S = np.linalg.inv(C)
+        return C, S, float(np.linalg.eigvalsh(S).max())
+
+    def _stress_weight(self, S, skew):
+        dim, Scf = self.dim, _matrix(S)
+
+        def weight(sigma, tau):
+            return ngs.InnerProduct(Scf * _voigt(sigma, dim), _voigt(tau, dim)) + skew * (
+                sum((sigma[i, j] - sigma[j, i]) * (tau[i, j] - tau[j, i]) * 0.5
+                    for i, j in ([(0, 1)] if dim == 2 else [(0, 1), (0, 2), (1, 2)])))
+        return weight
+
+    @staticmethod
+    def _electric_weight(T):
+        Cinv = _matrix(np.linalg.inv(T.C))
+        return lambda sigma, tau: ngs.InnerProduct(Cinv * sigma[0, :], tau[0, :])
+
+    # ------------------------------------------------------------------ one step
+    def __call__(self):
+        """The ``Estimate`` of the simulation's current step."""
+        sim, body, dim = self.sim, self.body, self.dim
+        T = body.tensors
+        coefficients = sim.system.coefficients
+        rate = coefficients.rate.Get() if T.viscous else 0.0
+        C, S, s_max = self._compliance(rate)
+        if self._stress is None or rate != self._rate:
+            self._stress = Equilibration(body.mesh, dim, body.order + RAISE, self._stress_weight(S, SKEW_WEIGHT * s_max),
+                                         lambda name, i: name not in self._held[i], self.patches)
+            self._rate = rate
+        u, phi = sim.u, sim.phi
+        strain_rate = rate * (forms.strain(u) - forms.strain(coefficients.anchor)) if T.viscous else None
+        sigma_h = _stress_matrix(forms.stress(T, u, phi, strain_rate), dim)
+        loads, n = sim.loads, ngs.specialcf.normal(dim)
+        f0 = as_cf(loads.f0, dim) if loads.f0 is not None else ngs.CF((0.0,) * dim)
+        t_mech, t_elec = self._boundary_data()
+        values = self._stress(sigma_h, f0, t_mech)
+        rows = self._stress.gridfunctions(values)
+        sigma_star = ngs.CF(tuple(rows), dims=(dim, dim))
+        mesh, order = body.mesh, 2 * max(body.order, body.order_phi) + 2
+        diff = _voigt(sigma_star, dim) - _voigt(sigma_h, dim)
+        parts_K = {"stress": ngs.InnerProduct(_matrix(S) * diff, diff),
+                   "skew": s_max * _skew_square(sigma_star, dim)}
+        fields = dict(sigma_star=sigma_star, sigma_h=sigma_h)
+        q0 = as_cf(loads.q0, 1) if loads.q0 is not None else ngs.CF(0.0)
+        if self._flux is not None:
+            D_h = forms.electric_displacement(T, u, phi)
+            (D_star,) = self._flux.gridfunctions(self._flux(ngs.CF(D_h, dims=(1, dim)), q0, t_elec))
+            dD = D_star - D_h
+            parts_K["flux"] = ngs.InnerProduct(_matrix(np.linalg.inv(T.C)) * dD, dD)
+            fields.update(D_star=D_star, D_h=D_h)
+        osc = self._oscillation(f0, q0, s_max, T)
+        indicators = {}
+        for name, cf in parts_K.items():
+            indicators[name] = np.maximum(ngs.Integrate(cf, mesh, ngs.VOL, order=order, element_wise=True)
+                                          .NumPy(), 0.0)
+        indicators["oscillation"] = osc ** 2
+        total_sq = sum(indicators.values())
+        contact = self._contact_term()
+        parts = {name: float(np.sqrt(v.sum())) for name, v in indicators.items()}
+        parts["contact"] = contact
+        energy = np.sqrt(parts["stress"] ** 2 + parts.get("flux", 0.0) ** 2)
+        total = energy + parts["skew"] + parts["oscillation"] + contact
+        return Estimate(total=float(total), parts=parts, indicators=np.sqrt(total_sq), fields=fields)
+
+    def _boundary_data(self):
+        """The Neumann data of σ* and D* on the boundary (CFs of dim and 1 components): the
+        tractions f2 and charges qb where given (0 elsewhere on Γ2, Γb), and on Γ3 the
+        representatives of the discrete Γ3 functional."""
+        sim, body, dim = self.sim, self.body, self.dim
+        mesh = body.mesh
+        loads = sim.loads
+        t = {name: ngs.CF((0.0,) * dim) for name in mesh.GetBoundaries()}
+        q = {name: ngs.CF(0.0) for name in mesh.GetBoundaries()}
+        for key, value in loads.f2.items():
+            for name in key.split("|"):
+                t[name] = as_cf(value, dim)
+        for key, value in loads.qb.items():
+            for name in key.split("|"):
+                q[name] = as_cf(value, 1)
+        self._corrections = None
+        if sim.contact is not None:
+            t_rep, q_rep, self._corrections = representative(sim)
+            for name in body.boundaries["contact_side"]:
+                t[name], q[name] = t_rep, q_rep
+        return mesh.BoundaryCF(t, default=ngs.CF((0.0,) * dim)), mesh.BoundaryCF(q, default=ngs.CF(0.0))
+
+    def _oscillation(self, f0, q0, s_max, T):
+        """η_osc,K = (h_K/π)(λ_min(C_c)^{−½}‖f0 − Π_p f0‖_K + λ_min(C)^{−½}‖q0 − Π_p q0‖_K) per
+        element, h_K its diameter (Poincaré on a convex element)."""
+        body, mesh = self.body, self.body.mesh
+        h = element_diameters(mesh)
+        out = np.zeros(mesh.ne)
+        for data, order, weight in ((f0, body.order + RAISE, s_max), (q0, body.order_phi + RAISE,
+                                                                float(np.linalg.eigvalsh(np.linalg.inv(T.C)).max()))):
+            space = ngs.L2(mesh, order=order) ** data.dim if data.dim > 1 else ngs.L2(mesh, order=order)
+            projected = ngs.GridFunction(space)
+            projected.Set(data)
+            rest = data - projected
+            norm = np.sqrt(np.maximum(ngs.Integrate(ngs.InnerProduct(rest, rest), mesh, ngs.VOL,
+                                                    order=2 * order + 6, element_wise=True).NumPy(), 0.0))
+            out += h / np.pi * np.sqrt(weight) * norm
+        return out
+
+    def _contact_term(self):
+        """η_Γ3 = (∫_Γ3 λ_h |u_hν − g|)^½ (J^½)."""
+        sim = self.sim
+        if sim.contact is None:
+            return 0.0
+        g = sim.gamma3
+        lam = g.enforcement.multiplier(sim.u, sim.phi, forms.adhesion_traction(sim.contact, g.beta.gf, sim.u * g.normal))
+        opening = sim.u * g.normal - g.gap
+        value = g.side.integrate(lam * ngs.IfPos(opening, opening, -opening))
+        return float(np.sqrt(max(value, 0.0)))
+
+
+def element_diameters(mesh):
+    """The diameter of every volume element (its longest edge; m)."""
+    points = np.array([v.point for v in mesh.vertices])
+    out = np.zeros(mesh.ne)
+    for el in mesh.Elements(ngs.VOL):
+        p = points[[v.nr for v in el.vertices]]
+        out[el.nr] = max(np.linalg.norm(p[i] - p[j]) for i in range(len(p)) for j in range(i))
+    return out
+
+
+def pointwise_data(sim):
+    """(T_h, j_h): the traction on the body and the charge flux out of it that the Γ3 terms of
+    the step residual give at each point of Γ3 at the current state — the coefficients of v and
+    ξ in the integrand of R_Γ3 (``forms.contact_terms``) with ∇v = ∇ξ = 0: −λ_h ν and the
+    glue's and the layer's pull and push, and the conduction flux ψ φ_L (CFs of dim and 1
+    components). Nitsche's θ-term tests ∇v and is not among them."""
+    body, dim = sim.body, sim.body.dim
+    g = sim.gamma3
+    V1 = ngs.VectorH1(body.mesh, order=1)
+    W1 = ngs.H1(body.mesh, order=1)
+    zero_v, zero_s = ngs.GridFunction(V1), ngs.GridFunction(W1)
+    state = (sim.u, sim.phi)
+    traction = []
+    for i in range(dim):
+        e_i = ngs.GridFunction(V1)
+        e_i.Set(ngs.CF(tuple(1.0 if k == i else 0.0 for k in range(dim))))
+        traction.append(-forms.contact_terms(sim.contact, g.enforcement, g.beta.gf, g.gap, g.foundation_potential,
+                                             state, (e_i, zero_s), g.normal))
+    one = ngs.GridFunction(W1)
+    one.Set(1.0)
+    flux = -forms.contact_terms(sim.contact, g.enforcement, g.beta.gf, g.gap, g.foundation_potential, state,
+                                (zero_v, one), g.normal)
+    return ngs.CF(tuple(traction)), flux
+
+
+def representative(sim, pointwise=None):
+    """(t_h, j_h): Neumann data of σ* and D* on Γ3 that make every patch problem compatible,
+    whatever the enforcement method: t_h = T_h + c_h with T_h the pointwise traction
+    (``pointwise_data``) and c_h ∈ P1(Γ3)^d such that ∫_Γ3 t_h·ψ_a e_i = −R_Γ3[ψ_a e_i] for the
+    hat functions ψ_a of the vertices of Γ3, R_Γ3 the Γ3 part of the step residual at the
+    current state (``StepSystem.boundary_residual``, with an enforcement method's own forces);
+    the same for the charge flux. c_h is what of the discrete Γ3 functional no pointwise
+    traction gives (Nitsche's θ-term, quadrature); returns also (c_h, c_j) for the estimate."""
+    body, system = sim.body, sim.system
+    mesh, dim = body.mesh, body.dim
+    region = body.region("contact_side")
+    residual = system.boundary_residual.FV().NumPy().copy()
+    hook = sim.gamma3.enforcement.newton_hook
+    if hook is not None:
+        residual += hook.forces.FV().NumPy()
+    T_h, j_h = pointwise_data(sim) if pointwise is None else pointwise
+    P1 = ngs.H1(mesh, order=1, definedon=region)
+    w = P1.TestFunction()
+    mass = ngs.BilinearForm(P1)
+    mass += P1.TrialFunction() * w * ngs.ds(region)
+    mass.Assemble()
+    inverse = mass.mat.Inverse(P1.FreeDofs(), inverse="sparsecholesky")
+    X = sim.X
+    V, W = X.components
+    vertices = [v for v in range(mesh.nv) if P1.GetDofNrs(ngs.NodeId(ngs.VERTEX, v))[0] >= 0]
+    u_offset, phi_offset = X.Range(0).start, X.Range(1).start
+    corrections = []
+    for i in range(dim + 1):
+        pointwise_part = ngs.LinearForm(P1)
+        pointwise_part += (T_h[i] if i < dim else j_h) * w * ngs.ds(region, bonus_intorder=2 * body.order + 2)
+        pointwise_part.Assemble()
+        rhs = ngs.GridFunction(P1)
+        values = rhs.vec.FV().NumPy()
+        given = pointwise_part.vec.FV().NumPy()
+        for v in vertices:
+            node = ngs.NodeId(ngs.VERTEX, v)
+            global_dof = u_offset + V.GetDofNrs(node)[i] if i < dim else phi_offset + W.GetDofNrs(node)[0]
+            local = P1.GetDofNrs(node)[0]
+            values[local] = -residual[global_dof] - given[local]
+        gf = ngs.GridFunction(P1)
+        gf.vec.data = inverse * rhs.vec
+        corrections.append(gf)
+    c_t, c_j = ngs.CF(tuple(corrections[:dim])), corrections[dim]
+    return T_h + c_t, j_h + c_j, (c_t, c_j)
+
+
+def _vector_dof(V, node, component):
+    """The DOF of ``node`` in component ``component`` of a VectorH1 space."""
+    dofs = V.GetDofNrs(node)
+    return dofs[component]
