@@ -1,4 +1,5 @@
-"""Nested meshes: a Netgen mesh refined uniformly, with its coarse mesh kept.
+"""Nested meshes: a Netgen mesh refined uniformly, with its coarse mesh kept; and adapted meshes:
+a copy refined where marked (``refined``, for ``adapt``).
 
 The ground floor of everything that needs the levels below a mesh: the geometries and the
 scenes make their meshes here, the multigrid preconditioner (``multigrid``) and nested
@@ -7,7 +8,10 @@ bisects every element (h halves); the coarse mesh is a copy of the Netgen mesh b
 first refinement, stored on the ``ngsolve.Mesh`` with the number of refinements. NGSolve
 6.2.2608 cannot refine a distributed mesh: a mesh distributed over MPI ranks keeps none.
 """
+import pickle
+
 import ngsolve as ngs
+import numpy as np
 
 COARSE = "ngcontact_coarse"
 """The attribute of an ngsolve.Mesh that holds (coarse netgen mesh, refinements)."""
@@ -38,3 +42,33 @@ def coarse(mesh):
     none."""
     kept = getattr(mesh, COARSE, None)
     return None if kept is None else (kept[0].Copy(), kept[1])
+
+
+def refined(mesh, marked, polygonal=False):
+    """A new mesh: a copy of ``mesh`` with the volume elements where ``marked`` (a boolean
+    array, one entry per element) is True bisected, and their neighbours as far as a conforming
+    mesh needs (Netgen's refinement; new boundary points on the geometry), curved again to the
+    order of ``mesh``. ``mesh`` itself is left as it was. A mesh without a geometry (made point
+    by point, or read from another mesher) would put its new boundary points on its straight
+    facets: refused (a ValueError) unless ``polygonal`` says its boundary is polygonal. Serial
+    meshes only (NGSolve cannot refine a distributed mesh)."""
+    marked = np.asarray(marked)
+    if marked.dtype != bool or marked.shape != (mesh.ne,):
+        raise ValueError(f"marked must be a boolean array with one entry per volume element ({mesh.ne}), got "
+                         f"{marked.dtype} of shape {marked.shape}")
+    if mesh.comm.size > 1:
+        raise ValueError("refined: a distributed mesh cannot be refined (NGSolve refines serial meshes only)")
+    curve = mesh.GetCurveOrder()
+    bare = type(mesh.ngmesh.GetGeometry()).__name__ == "NetgenGeometry"
+    if bare and not polygonal:
+        raise ValueError("refined: the mesh has no geometry to place new boundary points on (made point by point or "
+                         "read from another mesher): they would lie on its straight facets; mesh a geometry "
+                         "(netgen.occ, geom2d, csg), or pass polygonal=True if the boundary is polygonal")
+    # Netgen's Copy of a mesh without a geometry crashes in Refine (6.2.2608): a pickled copy does not
+    copy = ngs.Mesh(pickle.loads(pickle.dumps(mesh.ngmesh)) if bare else mesh.ngmesh.Copy())
+    for element in copy.Elements(ngs.VOL):
+        copy.SetRefinementFlag(element, bool(marked[element.nr]))
+    copy.Refine()
+    if curve > 1:
+        copy.Curve(curve)
+    return copy

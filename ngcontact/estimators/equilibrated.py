@@ -128,6 +128,7 @@ class EquilibratedEstimator:
         self._flux = Equilibration(body.mesh, 1, body.order_phi + RAISE, self._electric_weight(T),
                                    lambda name, i: name not in grounded, self.patches) if sim.electric else None
         self._stress = None                        # built for the rate c of the step (its weight)
+        self._diameters, self._gamma3 = None, None
 
     # ------------------------------------------------------------------ weights of the local problems
     def _compliance(self, rate):
@@ -183,12 +184,9 @@ class EquilibratedEstimator:
             dD = D_star - D_h
             parts_K["flux"] = ngs.InnerProduct(_matrix(np.linalg.inv(T.C)) * dD, dD)
             fields.update(D_star=D_star, D_h=D_h)
-        osc = self._oscillation(f0, q0, s_max, T)
-        indicators = {}
-        for name, cf in parts_K.items():
-            indicators[name] = np.maximum(ngs.Integrate(cf, mesh, ngs.VOL, order=order, element_wise=True)
-                                          .NumPy(), 0.0)
-        indicators["oscillation"] = osc ** 2
+        indicators = dict(zip(parts_K, _element_integrals(list(parts_K.values()), mesh, order)))
+        indicators["oscillation"] = self._oscillation(f0 if loads.f0 is not None else None,
+                                                      q0 if loads.q0 is not None else None, s_max, T) ** 2
         total_sq = sum(indicators.values())
         contact = self._contact_term()
         parts = {name: float(np.sqrt(v.sum())) for name, v in indicators.items()}
@@ -214,19 +212,28 @@ class EquilibratedEstimator:
                 q[name] = as_cf(value, 1)
         self._corrections = None
         if sim.contact is not None:
-            t_rep, q_rep, self._corrections = representative(sim)
+            if self._gamma3 is None:
+                self._gamma3 = Representative(sim)
+            t_rep, q_rep, self._corrections = self._gamma3()
             for name in body.boundaries["contact_side"]:
                 t[name], q[name] = t_rep, q_rep
         return mesh.BoundaryCF(t, default=ngs.CF((0.0,) * dim)), mesh.BoundaryCF(q, default=ngs.CF(0.0))
 
     def _oscillation(self, f0, q0, s_max, T):
         """η_osc,K = (h_K/π)(λ_min(C_c)^{−½}‖f0 − Π_p f0‖_K + λ_min(C)^{−½}‖q0 − Π_p q0‖_K) per
-        element, h_K its diameter (Poincaré on a convex element)."""
+        element, h_K its diameter (Poincaré on a convex element); 0 without a body force or
+        charge density (None)."""
         body, mesh = self.body, self.body.mesh
-        h = element_diameters(mesh)
         out = np.zeros(mesh.ne)
+        if f0 is None and q0 is None:
+            return out
+        if self._diameters is None:
+            self._diameters = element_diameters(mesh)
+        h = self._diameters
         for data, order, weight in ((f0, body.order + RAISE, s_max), (q0, body.order_phi + RAISE,
                                                                 float(np.linalg.eigvalsh(np.linalg.inv(T.C)).max()))):
+            if data is None:
+                continue
             space = ngs.L2(mesh, order=order) ** data.dim if data.dim > 1 else ngs.L2(mesh, order=order)
             projected = ngs.GridFunction(space)
             projected.Set(data)
@@ -246,6 +253,19 @@ class EquilibratedEstimator:
         opening = sim.u * g.normal - g.gap
         value = g.side.integrate(lam * ngs.IfPos(opening, opening, -opening))
         return float(np.sqrt(max(value, 0.0)))
+
+
+def _element_integrals(cfs, mesh, order):
+    """[∫_K cf for every volume element K] for each scalar CF of ``cfs``, in one assembly (a
+    LinearForm of piecewise constants: every CF's tree is evaluated once per point), each
+    clipped at 0 (they are squares)."""
+    space = ngs.L2(mesh, order=0)
+    product = space ** len(cfs) if len(cfs) > 1 else space
+    tests = product.TestFunction() if len(cfs) > 1 else (product.TestFunction(),)
+    form = ngs.LinearForm(product)
+    form += sum(cf * v for cf, v in zip(cfs, tests)) * ngs.dx(bonus_intorder=order)
+    values = form.Assemble().vec.FV().NumPy().reshape(len(cfs), -1)
+    return [np.maximum(v, 0.0) for v in values]
 
 
 def element_diameters(mesh):
@@ -283,50 +303,63 @@ def pointwise_data(sim):
     return ngs.CF(tuple(traction)), flux
 
 
-def representative(sim, pointwise=None):
-    """(t_h, j_h): Neumann data of σ* and D* on Γ3 that make every patch problem compatible,
-    whatever the enforcement method: t_h = T_h + c_h with T_h the pointwise traction
-    (``pointwise_data``) and c_h ∈ P1(Γ3)^d such that ∫_Γ3 t_h·ψ_a e_i = −R_Γ3[ψ_a e_i] for the
-    hat functions ψ_a of the vertices of Γ3, R_Γ3 the Γ3 part of the step residual at the
-    current state (``StepSystem.boundary_residual``, with an enforcement method's own forces);
-    the same for the charge flux. c_h is what of the discrete Γ3 functional no pointwise
-    traction gives (Nitsche's θ-term, quadrature); returns also (c_h, c_j) for the estimate."""
-    body, system = sim.body, sim.system
-    mesh, dim = body.mesh, body.dim
-    region = body.region("contact_side")
-    residual = system.boundary_residual.FV().NumPy().copy()
-    hook = sim.gamma3.enforcement.newton_hook
-    if hook is not None:
-        residual += hook.forces.FV().NumPy()
-    T_h, j_h = pointwise_data(sim) if pointwise is None else pointwise
-    P1 = ngs.H1(mesh, order=1, definedon=region)
-    w = P1.TestFunction()
-    mass = ngs.BilinearForm(P1)
-    mass += P1.TrialFunction() * w * ngs.ds(region)
-    mass.Assemble()
-    inverse = mass.mat.Inverse(P1.FreeDofs(), inverse="sparsecholesky")
-    X = sim.X
-    V, W = X.components
-    vertices = [v for v in range(mesh.nv) if P1.GetDofNrs(ngs.NodeId(ngs.VERTEX, v))[0] >= 0]
-    u_offset, phi_offset = X.Range(0).start, X.Range(1).start
-    corrections = []
-    for i in range(dim + 1):
-        pointwise_part = ngs.LinearForm(P1)
-        pointwise_part += (T_h[i] if i < dim else j_h) * w * ngs.ds(region, bonus_intorder=2 * body.order + 2)
-        pointwise_part.Assemble()
-        rhs = ngs.GridFunction(P1)
-        values = rhs.vec.FV().NumPy()
-        given = pointwise_part.vec.FV().NumPy()
-        for v in vertices:
+class Representative:
+    """The Neumann data of σ* and D* on Γ3 that make every patch problem compatible, whatever
+    the enforcement method: t_h = T_h + c_h with T_h the pointwise traction (``pointwise_data``)
+    and c_h ∈ P1(Γ3)^d such that ∫_Γ3 t_h·ψ_a e_i = −R_Γ3[ψ_a e_i] for the hat functions ψ_a of
+    the vertices of Γ3, R_Γ3 the Γ3 part of the step residual at the current state
+    (``StepSystem.boundary_residual``, with an enforcement method's own forces); the same for the
+    charge flux. c_h is what of the discrete Γ3 functional no pointwise traction gives (Nitsche's
+    θ-term, quadrature). The P1 space of Γ3, its mass matrix and the DOF maps are set up once."""
+
+    def __init__(self, sim):
+        body = sim.body
+        mesh, dim = body.mesh, body.dim
+        self.sim, self.dim = sim, dim
+        self.region = body.region("contact_side")
+        self.P1 = ngs.H1(mesh, order=1, definedon=self.region)
+        self.w = self.P1.TestFunction()
+        mass = ngs.BilinearForm(self.P1)
+        mass += self.P1.TrialFunction() * self.w * ngs.ds(self.region)
+        self.inverse = mass.Assemble().mat.Inverse(self.P1.FreeDofs(), inverse="sparsecholesky")
+        X = sim.X
+        V, W = X.components
+        local, targets = [], [[] for _ in range(dim + 1)]
+        for v in range(mesh.nv):
             node = ngs.NodeId(ngs.VERTEX, v)
-            global_dof = u_offset + V.GetDofNrs(node)[i] if i < dim else phi_offset + W.GetDofNrs(node)[0]
-            local = P1.GetDofNrs(node)[0]
-            values[local] = -residual[global_dof] - given[local]
-        gf = ngs.GridFunction(P1)
-        gf.vec.data = inverse * rhs.vec
-        corrections.append(gf)
-    c_t, c_j = ngs.CF(tuple(corrections[:dim])), corrections[dim]
-    return T_h + c_t, j_h + c_j, (c_t, c_j)
+            dof = self.P1.GetDofNrs(node)[0]
+            if dof < 0:
+                continue
+            local.append(dof)
+            for i in range(dim):
+                targets[i].append(X.Range(0).start + V.GetDofNrs(node)[i])
+            targets[dim].append(X.Range(1).start + W.GetDofNrs(node)[0])
+        self.local = np.array(local, dtype=np.int64)
+        self.targets = [np.array(t, dtype=np.int64) for t in targets]
+        self.quadrature = ngs.ds(self.region, bonus_intorder=2 * body.order + 2)
+        self._pointwise = pointwise_data(sim)
+
+    def __call__(self):
+        """(t_h, j_h, (c_t, c_j)) at the simulation's current state."""
+        sim, dim = self.sim, self.dim
+        residual = sim.system.boundary_residual.FV().NumPy().copy()
+        hook = sim.gamma3.enforcement.newton_hook
+        if hook is not None:
+            residual += hook.forces.FV().NumPy()
+        T_h, j_h = self._pointwise
+        corrections = []
+        for i in range(dim + 1):
+            given = ngs.LinearForm(self.P1)
+            given += (T_h[i] if i < dim else j_h) * self.w * self.quadrature
+            given = given.Assemble().vec.FV().NumPy()
+            rhs = ngs.GridFunction(self.P1)
+            values = rhs.vec.FV().NumPy()
+            values[self.local] = -residual[self.targets[i]] - given[self.local]
+            gf = ngs.GridFunction(self.P1)
+            gf.vec.data = self.inverse * rhs.vec
+            corrections.append(gf)
+        c_t, c_j = ngs.CF(tuple(corrections[:dim])), corrections[dim]
+        return T_h + c_t, j_h + c_j, (c_t, c_j)
 
 
 def _vector_dof(V, node, component):

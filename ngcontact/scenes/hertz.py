@@ -73,19 +73,21 @@ def mesh(dim=2, h_contact=None, refine=0, curve=1):
 
 
 def simulation(order=1, h_contact=None, refine=0, dim=2, depth=None, normal="obstacle", gamma0=10.0,
-               control="displacement", force=None, **options):
+               control="displacement", force=None, mesh=None, **options):
     """The Hertz scene as a Simulation of one step t: 0 -> 1 (mesh size ``h_contact`` as in
     ``mesh``). ``control="displacement"``: the top moved down by ``depth`` (m, default 0.02 R
     in 2D, 0.01 R in 3D); ``control="force"``: a traction on the top of resultant ``force``
     (N/m in 2D, N in 3D; default 0.01 in 2D, the peer's, 0.003 in 3D), the top held
     tangentially only. ``normal``: "obstacle" (n_o of the plane) or "body" (the paper's form:
-    ν and the gap y/(−ν_y) along it)."""
+    ν and the gap y/(−ν_y) along it). ``mesh``: a mesh of the half-disk (half-ball) with its
+    boundaries "top" and "contact" to use instead (an adapted one, ``ngcontact.adapt``), curved to
+    ``order``."""
     if control not in ("displacement", "force"):
         raise ValueError(f"control must be 'displacement' or 'force', got {control!r}")
     if control == "force" and depth is not None or control == "displacement" and force is not None:
         raise ValueError(f"control={control!r} takes {'force' if control == 'force' else 'depth'}, not "
                          f"{'depth' if control == 'force' else 'force'}")
-    m = mesh(dim, h_contact, refine, curve=order)
+    m = globals()["mesh"](dim, h_contact, refine, curve=order) if mesh is None else mesh
     t = ngs.Parameter(0.0)
     if control == "displacement":
         depth = (0.02 if dim == 2 else 0.01) * R if depth is None else depth

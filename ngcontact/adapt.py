@@ -1,0 +1,206 @@
+"""Adaptive meshes: refine where the error estimate says, for one load step or a whole history.
+
+A scene is given as a function ``scene(mesh) -> Simulation`` (the body, loads and contact on
+that mesh, a time Parameter of its own); each level builds its simulation anew on the refined
+mesh, so that every object that holds mesh data — the body's spaces, Γ3 and β, the step system,
+the solvers, the records — is made for that mesh: nothing is carried from one mesh to the next
+but the Newton start of a step (the last level's displacement, interpolated).
+
+* ``mark``: Dörfler's bulk criterion, the fewest elements whose indicators hold ``fraction`` of
+  the estimate².
+* ``step``: solve one step, estimate, mark, refine (``meshes.refined``: bisection, curved
+  boundaries kept), again, until the relative estimate is at most ``tol`` or a limit of DOFs or
+  levels is reached.
+* ``history``: run the whole load history on each mesh, mark by each element's largest
+  indicator over the estimated steps, refine, and run it again. Why not refine and coarsen as the
+  contact zone moves: Netgen bisects but cannot coarsen, so a mesh that followed the contact
+  zone would only grow, and the state and β carried from mesh to mesh at every change would add
+  an error of their own; the mesh of the swept contact zone's ends, found by the history itself,
+  is what a run needs.
+
+The estimate is the equilibrated bound of the step (``estimators.equilibrated``); the relative
+estimate divides it by the energy |||x_h||| of the discrete state (the largest over a history).
+Bad input (a fraction outside (0, 1], a tolerance that is not positive, limits that are not
+positive integers) is refused before any work; a target not reached within the limits stops
+with every level kept and the reason.
+"""
+import time as wallclock
+from dataclasses import dataclass, field
+
+import ngsolve as ngs
+import numpy as np
+
+from . import checks, forms, parallel
+from .estimators.equilibrated import EquilibratedEstimator
+from .meshes import refined
+
+
+def mark(indicators, fraction=0.5):
+    """Dörfler marking: a boolean array, True on the fewest elements whose η_K² add up to at
+    least ``fraction`` of Σ η_K² (fraction in (0, 1]; 1 marks every element with η_K > 0)."""
+    fraction = checks.number("fraction", fraction, 0, 1, low_open=True)
+    eta2 = np.asarray(indicators, dtype=float) ** 2
+    if not np.all(np.isfinite(eta2)):
+        raise ValueError("mark: the indicators must be finite")
+    order = np.argsort(-eta2, kind="stable")
+    total = eta2.sum()
+    marked = np.zeros(len(eta2), dtype=bool)
+    if total == 0:
+        return marked
+    count = int(np.searchsorted(np.cumsum(eta2[order]), fraction * total * (1 - 1e-12)) + 1)
+    marked[order[:min(count, len(eta2))]] = True
+    return marked
+
+
+def energy(sim):
+    """|||x_h||| = ((C_c ε(u_h), ε(u_h)) + (C ∇φ_h, ∇φ_h))^½ of the current state, C_c = F + c A
+    with the step's rate coefficient c (J^½; per metre of depth in 2D)."""
+    T = sim.body.tensors
+    rate = sim.system.coefficients.rate.Get() if T.viscous else 0.0
+    e = forms.strain(sim.u)
+    C_c = forms.matrix_cf(T.F + rate * T.A if T.viscous else T.F)
+    value = ngs.InnerProduct(C_c * e, e)
+    if sim.electric:
+        g = ngs.grad(sim.phi)
+        value = value + ngs.InnerProduct(forms.matrix_cf(T.C) * g, g)
+    return float(np.sqrt(max(ngs.Integrate(value, sim.body.mesh, order=2 * sim.body.order), 0.0)))
+
+
+@dataclass
+class Level:
+    """One mesh of an adaptation: its ``mesh``, ``ndof``, the ``estimate`` (total, J^½) and
+    ``relative`` estimate, its ``parts`` and element ``indicators``, the wall times of the
+    solves (``solve_s``) and of the estimates (``estimate_s``), the Newton iterations, the
+    simulation (``sim``, solved) and ``marked`` (the elements refined next, None at the last)."""
+    mesh: object
+    ndof: int
+    estimate: float
+    relative: float
+    parts: dict
+    indicators: np.ndarray
+    solve_s: float
+    estimate_s: float
+    newton: int
+    sim: object = field(repr=False, default=None)
+    marked: np.ndarray = field(repr=False, default=None)
+
+
+@dataclass
+class Adaptation:
+    """The levels of an adaptation and why it stopped (``reason``: "target reached", "DOF
+    limit", "level limit"); ``reached``: whether the target was met."""
+    levels: list
+    reason: str
+    reached: bool
+
+    @property
+    def last(self):
+        return self.levels[-1]
+
+
+def _limits(tol, fraction, max_levels, max_ndof):
+    tol = None if tol is None else checks.number("tol", tol, 0, low_open=True)
+    fraction = checks.number("fraction", fraction, 0, 1, low_open=True)
+    max_levels = checks.integer("max_levels", max_levels, 1, 50)
+    max_ndof = checks.number("max_ndof", max_ndof, 1)
+    return tol, fraction, max_levels, max_ndof
+
+
+def _build(scene, mesh):
+    sim = scene(mesh)
+    from .simulation import Simulation
+    if not isinstance(sim, Simulation):
+        raise TypeError(f"scene(mesh) must return an ngcontact.Simulation, got {type(sim).__name__}")
+    if sim.body.mesh is not mesh:
+        raise ValueError("scene(mesh) must build its Simulation on the mesh it is given")
+    return sim
+
+
+def _next(scene, level, tol, levels, max_levels, max_ndof, fraction):
+    """(the reason to stop after ``level`` or None, the next simulation): the mesh marked by
+    ``mark``, refined, and the scene built on it; one whose DOFs pass ``max_ndof`` is not used."""
+    if tol is not None and level.relative <= tol:
+        return "target reached", None
+    if levels >= max_levels:
+        return "level limit", None
+    level.marked = mark(level.indicators, fraction)
+    sim = _build(scene, refined(level.mesh, level.marked))
+    if sim.X.ndof > max_ndof:
+        return "DOF limit", None
+    return None, sim
+
+
+def step(scene, mesh, dt, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5, guess=None, on_level=None):
+    """Adapt the mesh to one step of length dt (s) from the initial state (``Simulation.step``):
+    solve, estimate, mark (``mark``), refine (``meshes.refined``), until the relative estimate is
+    at most ``tol`` (None: until a limit) or ``max_levels`` meshes or ``max_ndof`` DOFs;
+    returns the ``Adaptation``. Level ℓ + 1 starts Newton from level ℓ's displacement
+    (``guess`` at the first); ``on_level(level)`` is called after each level."""
+    tol, fraction, max_levels, max_ndof = _limits(tol, fraction, max_levels, max_ndof)
+    parallel.serial_only(mesh, "adapt.step: adaptive refinement")
+    levels, start = [], guess
+    sim = _build(scene, mesh)
+    while True:
+        mesh = sim.body.mesh
+        t0 = wallclock.perf_counter()
+        record = sim.step(dt, guess=start)
+        solved = wallclock.perf_counter()
+        estimate = EquilibratedEstimator(sim)()
+        norm = energy(sim)
+        level = Level(mesh, sim.X.ndof, estimate.total, estimate.total / norm if norm > 0 else np.inf,
+                      estimate.parts, estimate.indicators, solved - t0, wallclock.perf_counter() - solved,
+                      record.newton_iterations, sim)
+        levels.append(level)
+        reason, following = _next(scene, level, tol, len(levels), max_levels, max_ndof, fraction)
+        if on_level is not None:
+            on_level(level)
+        if reason is not None:
+            return Adaptation(levels, reason, reason == "target reached")
+        start, sim = sim.u, following                # the start interpolated onto the next mesh (``starts``)
+
+
+def history(scene, mesh, dt, T, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5, every=1, on_level=None,
+            **run_options):
+    """Adapt the mesh to a whole load history: run ``Simulation.run(dt, T, **run_options)`` on
+    each mesh, estimate every ``every``-th step (and the last), mark each element by its largest
+    indicator over them, refine, and run again, until the largest relative estimate over the
+    steps is at most ``tol`` or a limit; returns the ``Adaptation`` (``Level.estimate`` the
+    largest over the steps, ``relative`` that over the largest |||x_h|||)."""
+    tol, fraction, max_levels, max_ndof = _limits(tol, fraction, max_levels, max_ndof)
+    every = checks.integer("every", every, 1, 10 ** 6)
+    parallel.serial_only(mesh, "adapt.history: adaptive refinement")
+    levels = []
+    sim = _build(scene, mesh)
+    while True:
+        mesh = sim.body.mesh
+        estimator, spent = None, [0.0]
+        state = dict(estimate=0.0, norm=0.0, parts={}, indicators=np.zeros(mesh.ne))
+
+        def on_step(record, sim=sim):
+            nonlocal estimator
+            if record.step % every and record.time < T * (1 - 1e-12):
+                return
+            t0 = wallclock.perf_counter()
+            estimator = estimator or EquilibratedEstimator(sim)
+            estimate = estimator()
+            state["indicators"] = np.maximum(state["indicators"], estimate.indicators)
+            if estimate.total > state["estimate"]:
+                state["estimate"], state["parts"] = estimate.total, estimate.parts
+            state["norm"] = max(state["norm"], energy(sim))
+            spent[0] += wallclock.perf_counter() - t0
+        t0 = wallclock.perf_counter()
+        user = run_options.pop("on_step", None)
+        sim.run(dt, T, on_step=(lambda r: (on_step(r), user(r))) if user else on_step, **run_options)
+        wall = wallclock.perf_counter() - t0
+        norm = state["norm"]
+        level = Level(mesh, sim.X.ndof, state["estimate"], state["estimate"] / norm if norm > 0 else np.inf,
+                      state["parts"], state["indicators"], wall - spent[0], spent[0],
+                      int(sum(sim.history.newton_iterations)), sim)
+        levels.append(level)
+        if user:
+            run_options["on_step"] = user
+        reason, sim = _next(scene, level, tol, len(levels), max_levels, max_ndof, fraction)
+        if on_level is not None:
+            on_level(level)
+        if reason is not None:
+            return Adaptation(levels, reason, reason == "target reached")

@@ -1,0 +1,143 @@
+"""Adaptive meshes (issue 25, item 2): Dörfler marking, refinement of a copy of the mesh with
+curved boundaries kept, the loops for one step and for a load history, and their refusals."""
+import math
+
+import ngsolve as ngs
+import numpy as np
+import pytest
+
+import ngcontact as ngc
+from ngcontact import adapt, meshes
+from ngcontact.scenes import hertz, reference
+
+
+def test_doerfler_marks_the_fewest_elements_that_hold_the_fraction():
+    eta = np.array([1.0, 3.0, 2.0, 0.5, 0.0])               # squares 1, 9, 4, 0.25, 0 of 14.25
+    assert adapt.mark(eta, 0.5).tolist() == [False, True, False, False, False]       # 9 >= 7.125
+    assert adapt.mark(eta, 0.9).tolist() == [False, True, True, False, False]        # 13 >= 12.8
+    assert adapt.mark(eta, 0.95).tolist() == [True, True, True, False, False]        # 14 >= 13.54
+    assert adapt.mark(eta, 1.0).tolist() == [True, True, True, True, False]          # never the zero ones
+    assert not adapt.mark(np.zeros(3), 0.5).any()
+
+
+@pytest.mark.parametrize("fraction", [0, -0.1, 1.5, float("nan")])
+def test_a_marking_fraction_outside_zero_one_is_refused(fraction):
+    with pytest.raises(ValueError, match="fraction must be a finite number in \\(0, 1\\]"):
+        adapt.mark(np.ones(3), fraction)
+
+
+def test_refined_bisects_a_copy_and_keeps_the_curved_boundary():
+    """A marked refinement of the Hertz half-disk (curved to order 2): the original mesh is
+    untouched, the copy has more elements, the same boundary names, its new boundary points lie
+    on the circle and its area is at least as close to the half-disk's π/2."""
+    mesh = hertz.mesh(2, h_contact=0.2, curve=2)
+    ne, area = mesh.ne, ngs.Integrate(1.0, mesh)
+    marked = np.zeros(mesh.ne, dtype=bool)
+    marked[:5] = True
+    finer = meshes.refined(mesh, marked)
+    assert mesh.ne == ne and finer.ne > ne and set(finer.GetBoundaries()) == set(mesh.GetBoundaries())
+    assert finer.GetCurveOrder() == 2
+    assert abs(ngs.Integrate(1.0, finer) - math.pi / 2) <= abs(area - math.pi / 2)
+    on_arc = {v.nr for el in finer.Elements(ngs.BND) if el.mat == "contact" for v in el.vertices}
+    radii = [math.hypot(finer.vertices[v].point[0], finer.vertices[v].point[1] - hertz.R) for v in on_arc]
+    assert len(on_arc) > len({v.nr for el in mesh.Elements(ngs.BND) if el.mat == "contact" for v in el.vertices})
+    assert max(abs(r - hertz.R) for r in radii) < 1e-12
+    assert meshes.refinements(finer) is None               # not a uniform hierarchy: no multigrid
+    with pytest.raises(ValueError, match="marked must be a boolean array with one entry per volume element"):
+        meshes.refined(mesh, np.ones(3, dtype=bool))
+
+
+def test_a_mesh_without_geometry_is_refused_unless_its_boundary_is_polygonal():
+    from netgen.meshing import Element1D, Element2D, FaceDescriptor, Mesh, MeshPoint
+    from netgen.csg import Pnt
+    m = Mesh(dim=2)
+    points = [m.Add(MeshPoint(Pnt(x, y, 0))) for x, y in [(0, 0), (1, 0), (1, 1), (0, 1)]]
+    m.Add(FaceDescriptor(surfnr=1, domin=1, bc=1))
+    m.Add(Element2D(1, [points[0], points[1], points[2]]))
+    m.Add(Element2D(1, [points[0], points[2], points[3]]))
+    for a, b in [(0, 1), (1, 2), (2, 3), (3, 0)]:
+        m.Add(Element1D([points[a], points[b]], index=1))
+    mesh = ngs.Mesh(m)
+    with pytest.raises(ValueError, match="no geometry to place new boundary points on .*polygonal=True"):
+        meshes.refined(mesh, np.ones(mesh.ne, dtype=bool))
+    assert meshes.refined(mesh, np.ones(mesh.ne, dtype=bool), polygonal=True).ne == 8
+
+
+def _hertz(mesh, order=1):
+    return hertz.simulation(order, mesh=mesh, keep_states=False)
+
+
+def test_one_step_adapts_towards_the_contact_zone():
+    """Hertz P1 from a coarse half-disk: the estimate falls level by level, the refinement
+    concentrates at the contact zone (the smallest elements lie within 0.1 R of the contact
+    point), each level's simulation is built on its own mesh (every object of it made for that
+    mesh), and the loop stops at its level limit, saying so."""
+    mesh = hertz.mesh(2, h_contact=0.1, curve=1)
+    result = adapt.step(_hertz, mesh, 1.0, max_levels=5, fraction=0.5)
+    assert result.reason == "level limit" and not result.reached and len(result.levels) == 5
+    estimates = [level.estimate for level in result.levels]
+    assert estimates[-1] < 0.5 * estimates[0], estimates
+    ndofs = [level.ndof for level in result.levels]
+    assert all(b > a for a, b in zip(ndofs, ndofs[1:]))
+    last = result.last
+    assert last.sim.body.mesh is last.mesh and last.sim.side.mesh is last.mesh
+    assert last.sim.X.ndof == last.ndof and len(last.indicators) == last.mesh.ne
+    sizes = [ngs.Integrate(1.0, last.mesh, ngs.VOL, element_wise=True)[k] for k in range(last.mesh.ne)]
+    smallest = int(np.argmin(sizes))
+    centre = np.mean([last.mesh.vertices[v.nr].point for v in last.mesh[ngs.ElementId(ngs.VOL, smallest)].vertices],
+                     axis=0)
+    assert np.hypot(*centre) < 0.1 * hertz.R, centre
+
+
+def test_a_target_reached_stops_and_a_dof_limit_stops_with_the_best_mesh():
+    mesh = hertz.mesh(2, h_contact=0.1, curve=1)
+    first = adapt.step(_hertz, mesh, 1.0, max_levels=2)
+    target = 0.999 * first.levels[-1].relative
+    reached = adapt.step(_hertz, mesh, 1.0, tol=first.levels[0].relative * 1.01)
+    assert reached.reached and reached.reason == "target reached" and len(reached.levels) == 1
+    limit = first.levels[1].ndof * 1.2
+    limited = adapt.step(_hertz, mesh, 1.0, tol=1e-9, max_ndof=limit)
+    assert not limited.reached and limited.reason == "DOF limit" and len(limited.levels) == 2
+    assert limited.last.ndof <= limit
+    assert target > 0
+
+
+@pytest.mark.parametrize("kwargs, error, words", [
+    (dict(tol=-1.0), ValueError, "tol must be a finite number > 0"),
+    (dict(tol="small"), TypeError, "tol must be a number"),
+    (dict(fraction=0.0), ValueError, "fraction must be"),
+    (dict(max_levels=0), ValueError, "max_levels must be an integer >= 1"),
+    (dict(max_levels=2.5), TypeError, "max_levels must be an integer"),
+])
+def test_bad_adaptation_input_is_refused_before_any_work(kwargs, error, words):
+    calls = []
+
+    def scene(mesh):
+        calls.append(mesh)
+        return _hertz(mesh)
+    with pytest.raises(error, match=words):
+        adapt.step(scene, hertz.mesh(2, h_contact=0.2), 1.0, **kwargs)
+    assert calls == []
+
+
+def test_a_scene_must_build_on_the_mesh_it_is_given():
+    other = hertz.mesh(2, h_contact=0.2)
+    with pytest.raises(ValueError, match="scene\\(mesh\\) must build its Simulation on the mesh it is given"):
+        adapt.step(lambda mesh: _hertz(other), hertz.mesh(2, h_contact=0.2), 1.0)
+    with pytest.raises(TypeError, match="scene\\(mesh\\) must return an ngcontact.Simulation"):
+        adapt.step(lambda mesh: None, hertz.mesh(2, h_contact=0.2), 1.0)
+
+
+def test_a_history_is_adapted_by_its_largest_indicators_and_run_again():
+    """The reference plate's push and hold (P1, coarse): two meshes; the second is refined where
+    the indicators over the history were largest and its largest estimate is lower."""
+    def scene(mesh):
+        t = ngs.Parameter(0.0)
+        body = ngc.Body(mesh, ngc.pzt5a(relaxation_time=reference.RELAXATION_TIME), clamped="left",
+                        grounded="top", contact_side="bottom")
+        return ngc.Simulation(body, reference.loads(t), contact=reference.contact(), time=t, keep_states=False)
+    mesh = reference.body(1, 0.01).mesh
+    result = adapt.history(scene, mesh, 0.02, 0.12, max_levels=2, every=2)
+    first, second = result.levels
+    assert second.ndof > first.ndof and second.estimate < first.estimate
+    assert len(second.sim.history) == len(first.sim.history) == 7
