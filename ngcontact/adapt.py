@@ -71,7 +71,8 @@ class Level:
     """One mesh of an adaptation: its ``mesh``, ``ndof``, the ``estimate`` (total, J^½) and
     ``relative`` estimate, its ``parts`` and element ``indicators``, the wall times of the
     solves (``solve_s``) and of the estimates (``estimate_s``), the Newton iterations, the
-    simulation (``sim``, solved) and ``marked`` (the elements refined next, None at the last)."""
+    simulation (``sim``, solved), ``marked`` (the elements refined next, None at the last) and
+    the GMRES iterations (``krylov``)."""
     mesh: object
     ndof: int
     estimate: float
@@ -83,6 +84,7 @@ class Level:
     newton: int
     sim: object = field(repr=False, default=None)
     marked: np.ndarray = field(repr=False, default=None)
+    krylov: int = 0
 
 
 @dataclass
@@ -130,18 +132,27 @@ def _next(scene, level, tol, levels, max_levels, max_ndof, fraction):
     return None, sim
 
 
-def step(scene, mesh, dt, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5, guess=None, on_level=None):
+def step(scene, mesh, dt, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5, guess=None, on_level=None,
+         stop_newton=None):
     """Adapt the mesh to one step of length dt (s) from the initial state (``Simulation.step``):
     solve, estimate, mark (``mark``), refine (``meshes.refined``), until the relative estimate is
     at most ``tol`` (None: until a limit) or ``max_levels`` meshes or ``max_ndof`` DOFs;
     returns the ``Adaptation``. Level ℓ + 1 starts Newton from level ℓ's displacement
-    (``guess`` at the first); ``on_level(level)`` is called after each level."""
+    (``guess`` at the first); ``on_level(level)`` is called after each level. ``stop_newton``
+    (a fraction, e.g. 0.1; None: Newton's fixed tolerances): from the second level on, Newton
+    stops once its last correction's energy is below that fraction of the estimate expected
+    on the new mesh (the last one scaled by the DOFs, η (N_ℓ−1/N_ℓ)^(p/d))."""
     tol, fraction, max_levels, max_ndof = _limits(tol, fraction, max_levels, max_ndof)
+    stop_newton = None if stop_newton is None else checks.number("stop_newton", stop_newton, 0, 1, low_open=True)
     parallel.serial_only(mesh, "adapt.step: adaptive refinement")
     levels, start = [], guess
     sim = _build(scene, mesh)
     while True:
         mesh = sim.body.mesh
+        if stop_newton is not None and levels:
+            last = levels[-1]
+            expected = last.estimate * (last.ndof / sim.X.ndof) ** (sim.body.order / sim.body.dim)
+            sim.newton.energy_target = stop_newton * expected
         t0 = wallclock.perf_counter()
         record = sim.step(dt, guess=start)
         solved = wallclock.perf_counter()
@@ -149,7 +160,7 @@ def step(scene, mesh, dt, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5
         norm = energy(sim)
         level = Level(mesh, sim.X.ndof, estimate.total, estimate.total / norm if norm > 0 else np.inf,
                       estimate.parts, estimate.indicators, solved - t0, wallclock.perf_counter() - solved,
-                      record.newton_iterations, sim)
+                      record.newton_iterations, sim, krylov=record.krylov_iterations)
         levels.append(level)
         reason, following = _next(scene, level, tol, len(levels), max_levels, max_ndof, fraction)
         if on_level is not None:
@@ -160,13 +171,16 @@ def step(scene, mesh, dt, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5
 
 
 def history(scene, mesh, dt, T, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5, every=1, on_level=None,
-            **run_options):
+            stop_newton=None, **run_options):
     """Adapt the mesh to a whole load history: run ``Simulation.run(dt, T, **run_options)`` on
     each mesh, estimate every ``every``-th step (and the last), mark each element by its largest
     indicator over them, refine, and run again, until the largest relative estimate over the
     steps is at most ``tol`` or a limit; returns the ``Adaptation`` (``Level.estimate`` the
-    largest over the steps, ``relative`` that over the largest |||x_h|||)."""
+    largest over the steps, ``relative`` that over the largest |||x_h|||). ``stop_newton`` (a
+    fraction; None: Newton's fixed tolerances): after a step's estimate, Newton stops once its
+    last correction's energy is below that fraction of it."""
     tol, fraction, max_levels, max_ndof = _limits(tol, fraction, max_levels, max_ndof)
+    stop_newton = None if stop_newton is None else checks.number("stop_newton", stop_newton, 0, 1, low_open=True)
     every = checks.integer("every", every, 1, 10 ** 6)
     parallel.serial_only(mesh, "adapt.history: adaptive refinement")
     levels = []
@@ -187,6 +201,8 @@ def history(scene, mesh, dt, T, *, tol=None, fraction=0.5, max_levels=10, max_nd
             if estimate.total > state["estimate"]:
                 state["estimate"], state["parts"] = estimate.total, estimate.parts
             state["norm"] = max(state["norm"], energy(sim))
+            if stop_newton is not None:
+                sim.newton.energy_target = stop_newton * estimate.total
             spent[0] += wallclock.perf_counter() - t0
         t0 = wallclock.perf_counter()
         user = run_options.pop("on_step", None)
@@ -195,7 +211,8 @@ def history(scene, mesh, dt, T, *, tol=None, fraction=0.5, max_levels=10, max_nd
         norm = state["norm"]
         level = Level(mesh, sim.X.ndof, state["estimate"], state["estimate"] / norm if norm > 0 else np.inf,
                       state["parts"], state["indicators"], wall - spent[0], spent[0],
-                      int(sum(sim.history.newton_iterations)), sim)
+                      int(sum(sim.history.newton_iterations)), sim,
+                      krylov=int(sum(r.krylov_iterations for r in sim.history[1:])))
         levels.append(level)
         if user:
             run_options["on_step"] = user

@@ -36,6 +36,10 @@ from .stopping import ConvergenceTest
 
 LINEAR_COUNTS = ("factorizations", "krylov_iterations", "krylov_failures")
 """The linear solver's counters that a solve reports."""
+ALGEBRAIC = 0.5
+"""With an energy target, the linear solver is asked for the correction to the share
+ALGEBRAIC × target / (the last correction's energy) (the algebraic error a fraction of the
+linearisation error allowed)."""
 SINGULAR_RATIO = 1e-12
 """A correction w with ‖r‖/‖w‖ below this (scaled dual over primal norm: the smallest singular
 value of the scaled Jacobian it reveals, 5e-5 to 6e-2 on the meshes of the test suite) comes
@@ -77,7 +81,9 @@ class NewtonResult:
     per residual evaluation, J^1/2), ``residual``, the final residual vector R(x), and the
     linear solver's ``factorizations``, ``krylov_iterations`` and ``krylov_failures`` (GMRES
     solves that did not converge and were followed by a fresh factorisation) during the solve (both tries
-    of a repeated solve), ``discarded``: the linear solves of a first try that was repeated."""
+    of a repeated solve), ``discarded``: the linear solves of a first try that was repeated;
+    ``stopped``: "tolerance" (the convergence test of ``stopping``) or "estimate" (the last
+    correction's energy below ``Newton.energy_target``: adaptive stopping)."""
     iterations: int
     residuals: list = field(default_factory=list)
     residual: object = None
@@ -85,6 +91,7 @@ class NewtonResult:
     krylov_iterations: int = 0
     krylov_failures: int = 0
     discarded: int = 0
+    stopped: str = "tolerance"
 
 
 class Timings(dict):
@@ -208,6 +215,15 @@ class Newton:
     step_length : None, or a callable w ↦ α ∈ (0, 1]: the correction is x − α w (with
         optional ``start()``, called when a solve begins, and ``cut``, whether the solve
         shortened a step).
+
+    ``energy_target`` (J^½, None by default): adaptive stopping. A solve also stops, with
+    ``NewtonResult.stopped = "estimate"``, at the first residual after a full (not shortened)
+    correction whose energy ``|||w|||`` (``_energy``) was at most the target, if that residual
+    fell: the linearisation
+    error is then below a share of the discretisation error the target stands for (``adapt``
+    sets it from the estimate). The linear solver is then asked for no more than ``ALGEBRAIC``
+    of the target. The convergence test of ``stopping`` still stops a solve first where it
+    holds.
     """
 
     def __init__(self, system, gfu, *, solver=None, freedofs=None, rtol=1e-10, maxit=50, hook=None,
@@ -218,6 +234,7 @@ class Newton:
             raise ValueError(f"maxit must be an integer >= 1, got {maxit}")
         self.system, self.gfu, self.hook, self.step_length = system, gfu, hook, step_length
         self.on_iteration = None       # called with (iteration, scaled residual): progress output
+        self.energy_target = None      # J^½: stop once the last correction's energy is below it (``adapt``)
         self.solver = solver or DirectSolver("umfpack")
         self.rtol, self.maxit = rtol, int(maxit)
         space = gfu.space
@@ -283,6 +300,7 @@ class Newton:
             error.linear_history = linear
             return error
 
+        correction = None                # the energy of the last correction (J^½), for the adaptive stop
         for it in range(self.maxit + 1):
             with timer("residual"):
                 self.system.Apply(x, r)
@@ -295,10 +313,13 @@ class Newton:
             if not np.isfinite(value):
                 raise fail("diverged (non-finite residual)", it, "a smaller time step")
             verdict = self.test(x, residuals, self.rtol)
-            if settled and verdict.converged:
+            adaptive = (self.energy_target is not None and correction is not None and correction <= self.energy_target
+                        and value < residuals[-2])
+            if settled and (verdict.converged or adaptive):
                 if hook is not None:
                     hook.finish()
-                return NewtonResult(it, residuals, r, **self._linear_counts(since=counts))
+                return NewtonResult(it, residuals, r, **self._linear_counts(since=counts),
+                                    stopped="tolerance" if verdict.converged else "estimate")
             if verdict.uncertifiable:
                 reason, hint = verdict.explain()
                 raise fail(reason, it, hint, recoverable=False)
@@ -311,16 +332,34 @@ class Newton:
                 if not np.all(np.isfinite(x.FV().NumPy())):
                     raise fail(SINGULAR + " (the correction is not finite)", it + 1, SINGULAR_HINT, False)
             else:
-                # inexact Newton: the accuracy that brings ‖r‖ to the target, with the solver's margin
+                # inexact Newton: the accuracy that brings ‖r‖ to the target, with the solver's margin;
+                # with an energy target, no more than a share of it is asked of the linear solver
                 before = self._linear_counts()
                 margin = getattr(self.solver, "margin", 0.1)
-                self.linear_solve(x, timer, tol=min(1e-3, max(1e-12, margin * verdict.target / value)))
+                tol = margin * verdict.target / value
+                if self.energy_target is not None and correction:
+                    tol = max(tol, ALGEBRAIC * self.energy_target / correction)
+                self.linear_solve(x, timer, tol=min(1e-3, max(1e-12, tol)))
                 linear.append(self._linear_counts(since=before))
                 self._check_correction(fail, it)
                 alpha = self.step_length(self.w) if limit else 1.0
+                # a shortened correction says nothing of the error left: no adaptive stop after it
+                correction = self._energy(self.w, r) if alpha == 1.0 else None
                 x.data -= alpha * self.w
         raise fail(f"did not converge in {self.maxit} iterations", self.maxit,
                    "a smaller time step, a larger Nitsche parameter gamma0, theta = -1, or a larger maxit")
+
+    def _energy(self, w, r):
+        """|||w||| = |w_u·r_u − w_φ·r_φ|^½ (J^½) of the correction w that answers the residual r
+        (r = R'(x) w: the energy of the linearised step, the electric equation negated in R so
+        that the piezoelectric cross terms cancel): the linearisation error Newton leaves when it
+        stops before applying w."""
+        a, b = self._values(w), self._values(r)
+        u, phi = self.norm.blocks
+        return float(np.sqrt(abs(parallel.sum(self.norm.mesh, np.dot(a[u], b[u]) - np.dot(a[phi], b[phi])))))
+
+    def _values(self, v):
+        return parallel.cumulated(v) if self.norm.distributed else v.FV().NumPy()
 
     def _check_correction(self, fail, it):
         """Raise (through ``fail``) if the correction w is not finite or far larger than the
