@@ -71,8 +71,9 @@ class Level:
     """One mesh of an adaptation: its ``mesh``, ``ndof``, the ``estimate`` (total, J^½) and
     ``relative`` estimate, its ``parts`` and element ``indicators``, the wall times of the
     solves (``solve_s``) and of the estimates (``estimate_s``), the Newton iterations, the
-    simulation (``sim``, solved), ``marked`` (the elements refined next, None at the last) and
-    the GMRES iterations (``krylov``)."""
+    simulation (``sim``, solved), ``marked`` (the elements refined next, None at the last), the
+    GMRES iterations (``krylov``) and ``elapsed_s``, the wall time since the adaptation began
+    (building, solving and estimating every level so far, refining the meshes)."""
     mesh: object
     ndof: int
     estimate: float
@@ -85,6 +86,7 @@ class Level:
     sim: object = field(repr=False, default=None)
     marked: np.ndarray = field(repr=False, default=None)
     krylov: int = 0
+    elapsed_s: float = 0.0
 
 
 @dataclass
@@ -145,7 +147,7 @@ def step(scene, mesh, dt, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5
     tol, fraction, max_levels, max_ndof = _limits(tol, fraction, max_levels, max_ndof)
     stop_newton = None if stop_newton is None else checks.number("stop_newton", stop_newton, 0, 1, low_open=True)
     parallel.serial_only(mesh, "adapt.step: adaptive refinement")
-    levels, start = [], guess
+    levels, start, began = [], guess, wallclock.perf_counter()
     sim = _build(scene, mesh)
     while True:
         mesh = sim.body.mesh
@@ -160,7 +162,8 @@ def step(scene, mesh, dt, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5
         norm = energy(sim)
         level = Level(mesh, sim.X.ndof, estimate.total, estimate.total / norm if norm > 0 else np.inf,
                       estimate.parts, estimate.indicators, solved - t0, wallclock.perf_counter() - solved,
-                      record.newton_iterations, sim, krylov=record.krylov_iterations)
+                      record.newton_iterations, sim, krylov=record.krylov_iterations,
+                      elapsed_s=wallclock.perf_counter() - began)
         levels.append(level)
         reason, following = _next(scene, level, tol, len(levels), max_levels, max_ndof, fraction)
         if on_level is not None:
@@ -183,7 +186,7 @@ def history(scene, mesh, dt, T, *, tol=None, fraction=0.5, max_levels=10, max_nd
     stop_newton = None if stop_newton is None else checks.number("stop_newton", stop_newton, 0, 1, low_open=True)
     every = checks.integer("every", every, 1, 10 ** 6)
     parallel.serial_only(mesh, "adapt.history: adaptive refinement")
-    levels = []
+    levels, began = [], wallclock.perf_counter()
     sim = _build(scene, mesh)
     while True:
         mesh = sim.body.mesh
@@ -212,7 +215,8 @@ def history(scene, mesh, dt, T, *, tol=None, fraction=0.5, max_levels=10, max_nd
         level = Level(mesh, sim.X.ndof, state["estimate"], state["estimate"] / norm if norm > 0 else np.inf,
                       state["parts"], state["indicators"], wall - spent[0], spent[0],
                       int(sum(sim.history.newton_iterations)), sim,
-                      krylov=int(sum(r.krylov_iterations for r in sim.history[1:])))
+                      krylov=int(sum(r.krylov_iterations for r in sim.history[1:])),
+                      elapsed_s=wallclock.perf_counter() - began)
         levels.append(level)
         if user:
             run_options["on_step"] = user

@@ -29,6 +29,14 @@ A solve has converged at x when
    error of x is then bounded through the bulk's smallest eigenvalue: a stiff contact term
    adds large eigenvalues only.)
 
+A step on which nothing acts beyond round-off — no loads, and the body moved rigidly by its
+prescribed displacements (K x = 0), as when an obstacle is not reached — has S at the
+round-off of the bulk's own terms (|K||x| + |b|, the Γ3 terms left out: a floor raised by absurdly
+stiff contact terms does not count): a residual at its floor is then certified as well (the
+coarse 3D Hertz half-ball, whose
+flat lowest facet the prescribed 0.01 R did not bring onto the plane, failed as
+"uncertifiable" before).
+
 A zero-iteration convergence is the same test at the start, with the step's own data (its
 loads, its prescribed values, its time step). A residual above ``FLOOR_LIMIT · S`` that stalls
 at its round-off floor cannot be certified: ``Verdict.uncertifiable`` is then set and the
@@ -114,10 +122,14 @@ class ConvergenceTest:
         if verdict.converged or not (small or stalling):
             return verdict                                   # the floor cannot decide
         contact = self.system.contact_magnitude(x) if hasattr(self.system, "contact_magnitude") else None
-        verdict.floor = ROUNDOFF * self.norm.dual(self.system.magnitude(x) if contact is None
-                                                  else self.system.magnitude(x, contact))
+        magnitude = self.system.magnitude(x) if contact is None else self.system.magnitude(x, contact)
+        verdict.floor = ROUNDOFF * self.norm.dual(magnitude)
         if contact is not None and verdict.floor > 0:
             verdict.contact_share = min(1.0, ROUNDOFF * self.norm.dual(contact) / verdict.floor)
         if value <= verdict.floor:                           # round-off: no iteration can do better
-            verdict.converged, verdict.uncertifiable = small, not small
+            # nothing acts beyond the round-off of the bulk's own terms (no loads, a prescribed rigid
+            # motion: K x = 0): certified too; a floor raised by stiff Γ3 terms does not count here
+            bulk = magnitude if contact is None else magnitude - contact
+            quiet = scale <= ROUNDOFF * self.norm.dual(bulk)
+            verdict.converged, verdict.uncertifiable = small or quiet, not (small or quiet)
         return verdict

@@ -159,3 +159,16 @@ def test_a_clipped_explicit_beta_update_is_flagged():
             warnings.simplefilter("always")
             sim.run(dt, 10 * dt)
         assert any("β update (4.5) left [0, 1]" in m for m in sim.flags) == flagged, update
+
+
+def test_a_step_on_which_nothing_acts_converges():
+    """The top of the coarse 3D Hertz half-ball pushed down by 0.01 R does not bring its flat
+    lowest facet onto the plane: the body moves rigidly, no force acts (the force scale is
+    round-off itself) and the residual at its round-off floor is certified; the state is the
+    rigid motion (u_z = −0.01 R everywhere)."""
+    from ngcontact.scenes import hertz
+    sim = hertz.simulation(1, dim=3, mesh=hertz.mesh(3, h_contact=0.25), keep_states=False)
+    record = sim.step(1.0)
+    assert record.contact.contact_area == 0
+    uz = np.array([sim.u(sim.body.mesh(*v.point))[2] for v in sim.body.mesh.vertices][:20])
+    assert np.allclose(uz, -0.01 * hertz.R, rtol=1e-9)

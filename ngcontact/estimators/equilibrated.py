@@ -337,7 +337,16 @@ class Representative:
         self.local = np.array(local, dtype=np.int64)
         self.targets = [np.array(t, dtype=np.int64) for t in targets]
         self.quadrature = ngs.ds(self.region, bonus_intorder=2 * body.order + 2)
-        self._pointwise = pointwise_data(sim)
+        # the pointwise data need the volume element's stress at Γ3 (on a plain ds NGSolve would
+        # take the surface gradient): evaluated from the volume, then projected facet by facet
+        # onto SurfaceL2 of order p, so that every later form reads them cheaply; the projection
+        # keeps their moments against the hat functions, which is all the patch problems see
+        T_h, j_h = pointwise_data(sim)
+        surface = ngs.SurfaceL2(mesh, order=body.order, definedon=self.region)
+        self._traction = ngs.GridFunction(surface ** dim if dim > 1 else surface)
+        self._flux = ngs.GridFunction(surface)
+        self._pointwise_cf = (ngs.BoundaryFromVolumeCF(T_h), ngs.BoundaryFromVolumeCF(j_h))
+        self._pointwise = (self._traction, self._flux)
 
     def __call__(self):
         """(t_h, j_h, (c_t, c_j)) at the simulation's current state."""
@@ -346,6 +355,9 @@ class Representative:
         hook = sim.gamma3.enforcement.newton_hook
         if hook is not None:
             residual += hook.forces.FV().NumPy()
+        T_cf, j_cf = self._pointwise_cf
+        self._traction.Set(T_cf, ngs.BND, definedon=self.region)
+        self._flux.Set(j_cf, ngs.BND, definedon=self.region)
         T_h, j_h = self._pointwise
         corrections = []
         for i in range(dim + 1):

