@@ -52,28 +52,38 @@ def mark(indicators, fraction=0.5):
     return marked
 
 
-def energy(sim):
+def energy(sim, reference=None):
     """|||x_h||| = ((C_c ε(u_h), ε(u_h)) + (C ∇φ_h, ∇φ_h))^½ of the current state, C_c = F + c A
-    with the step's rate coefficient c (J^½; per metre of depth in 2D)."""
+    with the step's rate coefficient c (J^½; (J/m)^½ in 2D); with ``reference`` (u_ref, φ_ref:
+    GridFunctions, possibly of another mesh, found point by point; φ_ref None without φ) the
+    norm of the difference x_h − x_ref, integrated on the simulation's mesh."""
     T = sim.body.tensors
     rate = sim.system.coefficients.rate.Get() if T.viscous else 0.0
-    e = forms.strain(sim.u)
+    e, order = forms.strain(sim.u), 2 * sim.body.order
+    g = ngs.grad(sim.phi) if sim.electric else None
+    if reference is not None:
+        u_ref, phi_ref = reference
+        e = e - forms.strain(u_ref)
+        g = g - ngs.grad(phi_ref) if sim.electric else None
+        order += 4
     C_c = forms.matrix_cf(T.F + rate * T.A if T.viscous else T.F)
     value = ngs.InnerProduct(C_c * e, e)
     if sim.electric:
-        g = ngs.grad(sim.phi)
         value = value + ngs.InnerProduct(forms.matrix_cf(T.C) * g, g)
-    return float(np.sqrt(max(ngs.Integrate(value, sim.body.mesh, order=2 * sim.body.order), 0.0)))
+    return float(np.sqrt(max(ngs.Integrate(value, sim.body.mesh, order=order), 0.0)))
 
 
 @dataclass
 class Level:
-    """One mesh of an adaptation: its ``mesh``, ``ndof``, the ``estimate`` (total, J^½) and
+    """One mesh of an adaptation: its ``mesh``, ``ndof``, the ``estimate`` (total, J^½; (J/m)^½ in 2D) and
     ``relative`` estimate, its ``parts`` and element ``indicators``, the wall times of the
     solves (``solve_s``) and of the estimates (``estimate_s``), the Newton iterations, the
     simulation (``sim``, solved), ``marked`` (the elements refined next, None at the last), the
     GMRES iterations (``krylov``) and ``elapsed_s``, the wall time since the adaptation began
-    (building, solving and estimating every level so far, refining the meshes)."""
+    (building, solving and estimating every level so far, refining the meshes; not the time of
+    ``on_level``); ``estimate_stops``: the Newton solves that adaptive stopping ended
+    (``stop_newton``; the others met the fixed tolerance); ``build_s``: the wall time of
+    building the level's simulation (``scene(mesh)``)."""
     mesh: object
     ndof: int
     estimate: float
@@ -87,6 +97,8 @@ class Level:
     marked: np.ndarray = field(repr=False, default=None)
     krylov: int = 0
     elapsed_s: float = 0.0
+    estimate_stops: int = 0
+    build_s: float = 0.0
 
 
 @dataclass
@@ -111,27 +123,40 @@ def _limits(tol, fraction, max_levels, max_ndof):
 
 
 def _build(scene, mesh):
+    """(scene(mesh), checked; the seconds it took)."""
+    t0 = wallclock.perf_counter()
     sim = scene(mesh)
     from .simulation import Simulation
     if not isinstance(sim, Simulation):
         raise TypeError(f"scene(mesh) must return an ngcontact.Simulation, got {type(sim).__name__}")
     if sim.body.mesh is not mesh:
         raise ValueError("scene(mesh) must build its Simulation on the mesh it is given")
-    return sim
+    return sim, wallclock.perf_counter() - t0
 
 
 def _next(scene, level, tol, levels, max_levels, max_ndof, fraction):
-    """(the reason to stop after ``level`` or None, the next simulation): the mesh marked by
-    ``mark``, refined, and the scene built on it; one whose DOFs pass ``max_ndof`` is not used."""
+    """(the reason to stop after ``level`` or None, the next simulation, the seconds its build
+    took): the mesh marked by ``mark``, refined, and the scene built on it; one whose DOFs pass
+    ``max_ndof`` is not used (it is built to count them: the scene decides its spaces)."""
     if tol is not None and level.relative <= tol:
-        return "target reached", None
+        return "target reached", None, 0.0
     if levels >= max_levels:
-        return "level limit", None
+        return "level limit", None, 0.0
     level.marked = mark(level.indicators, fraction)
-    sim = _build(scene, refined(level.mesh, level.marked))
+    sim, seconds = _build(scene, refined(level.mesh, level.marked))
     if sim.X.ndof > max_ndof:
-        return "DOF limit", None
-    return None, sim
+        return "DOF limit", None, seconds
+    return None, sim, seconds
+
+
+def _timed(on_level, level):
+    """Call ``on_level(level)`` (if given); the seconds it took, which the levels' ``elapsed_s``
+    leave out (a study's own error measurement is not the adaptive loop's work)."""
+    if on_level is None:
+        return 0.0
+    t0 = wallclock.perf_counter()
+    on_level(level)
+    return wallclock.perf_counter() - t0
 
 
 def step(scene, mesh, dt, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5, guess=None, on_level=None,
@@ -148,7 +173,7 @@ def step(scene, mesh, dt, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5
     stop_newton = None if stop_newton is None else checks.number("stop_newton", stop_newton, 0, 1, low_open=True)
     parallel.serial_only(mesh, "adapt.step: adaptive refinement")
     levels, start, began = [], guess, wallclock.perf_counter()
-    sim = _build(scene, mesh)
+    sim, build_s = _build(scene, mesh)
     while True:
         mesh = sim.body.mesh
         if stop_newton is not None and levels:
@@ -163,11 +188,11 @@ def step(scene, mesh, dt, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5
         level = Level(mesh, sim.X.ndof, estimate.total, estimate.total / norm if norm > 0 else np.inf,
                       estimate.parts, estimate.indicators, solved - t0, wallclock.perf_counter() - solved,
                       record.newton_iterations, sim, krylov=record.krylov_iterations,
-                      elapsed_s=wallclock.perf_counter() - began)
+                      elapsed_s=wallclock.perf_counter() - began, estimate_stops=sim.newton.estimate_stops,
+                      build_s=build_s)
         levels.append(level)
-        reason, following = _next(scene, level, tol, len(levels), max_levels, max_ndof, fraction)
-        if on_level is not None:
-            on_level(level)
+        reason, following, build_s = _next(scene, level, tol, len(levels), max_levels, max_ndof, fraction)
+        began += _timed(on_level, level)
         if reason is not None:
             return Adaptation(levels, reason, reason == "target reached")
         start, sim = sim.u, following                # the start interpolated onto the next mesh (``starts``)
@@ -187,7 +212,7 @@ def history(scene, mesh, dt, T, *, tol=None, fraction=0.5, max_levels=10, max_nd
     every = checks.integer("every", every, 1, 10 ** 6)
     parallel.serial_only(mesh, "adapt.history: adaptive refinement")
     levels, began = [], wallclock.perf_counter()
-    sim = _build(scene, mesh)
+    sim, build_s = _build(scene, mesh)
     while True:
         mesh = sim.body.mesh
         estimator, spent = None, [0.0]
@@ -216,12 +241,12 @@ def history(scene, mesh, dt, T, *, tol=None, fraction=0.5, max_levels=10, max_nd
                       state["parts"], state["indicators"], wall - spent[0], spent[0],
                       int(sum(sim.history.newton_iterations)), sim,
                       krylov=int(sum(r.krylov_iterations for r in sim.history[1:])),
-                      elapsed_s=wallclock.perf_counter() - began)
+                      elapsed_s=wallclock.perf_counter() - began, estimate_stops=sim.newton.estimate_stops,
+                      build_s=build_s)
         levels.append(level)
         if user:
             run_options["on_step"] = user
-        reason, sim = _next(scene, level, tol, len(levels), max_levels, max_ndof, fraction)
-        if on_level is not None:
-            on_level(level)
+        reason, sim, build_s = _next(scene, level, tol, len(levels), max_levels, max_ndof, fraction)
+        began += _timed(on_level, level)
         if reason is not None:
             return Adaptation(levels, reason, reason == "target reached")

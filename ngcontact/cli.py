@@ -1,5 +1,5 @@
 """Command line interface: ``python -m ngcontact demo | convergence | stability | hertz | bench | timesteps |
-timeorder``.
+timeorder | adapt``.
 
 It parses the arguments and calls ``demo.run`` or a study's command; bad input and a failed
 Newton solve end in one line on stderr and exit status 2 (``main``).
@@ -14,7 +14,8 @@ import ngcontact
 KEPT = dict(demo="{out}/run (continue with --resume)", convergence="{out}/cases (--resume skips them)",
             hertz="{out}/cases.json (--resume skips them)", bench="{out}/bench.json (--resume skips them)",
             stability="{out}/<study>.csv of the finished studies (--resume skips them)",
-            timesteps="nothing (the study runs again whole)", timeorder="nothing (the study runs again whole)")
+            timesteps="nothing (the study runs again whole)", timeorder="nothing (the study runs again whole)",
+            adapt="nothing (the study runs again whole)")
 """Where each command keeps what it computed before an error."""
 
 
@@ -147,6 +148,17 @@ def parser():
     order.add_argument("--out", metavar="DIR", default="timeorder", help="output directory")
     order.add_argument("--history", nargs="+", choices=("lift", "debond"), default=["lift", "debond"],
                        help="the load histories (default: both)")
+    adapt = commands.add_parser("adapt", parents=[common], help="adaptive against uniform refinement "
+                                "(equilibrated estimate, Dörfler marking) on the manufactured contact case, the "
+                                "Hertz scenes and the reference plate: errors.csv, summary.csv and charts")
+    adapt.add_argument("--out", metavar="DIR", default="adapt", help="output directory")
+    adapt.add_argument("--scene", nargs="+", choices=("manufactured", "hertz", "hertz3d", "reference"),
+                       default=["manufactured", "hertz"], help="the scenes (default: manufactured hertz)")
+    adapt.add_argument("--orders", metavar="P", type=int, nargs="+", default=[1, 2],
+                       help="polynomial orders (default 1 2; hertz3d runs P1 only)")
+    adapt.add_argument("--stop-newton", metavar="F", type=float, default=None,
+                       help="adaptive stopping: Newton stops once its correction is below F times the "
+                            "estimate (0 < F <= 1; default: the fixed tolerances)")
     return main_parser
 
 
@@ -207,6 +219,9 @@ def _dispatch(args):
     elif args.command == "timesteps":
         from .studies import time_steps
         time_steps.main(args.out, maxh=args.maxh, T=args.T, which=args.scene)
+    elif args.command == "adapt":
+        from .studies import adaptivity
+        adaptivity.main(args.out, scenes=tuple(args.scene), orders=tuple(args.orders), stop_newton=args.stop_newton)
     elif args.merge:
         from .studies import bench
         bench.merge(args.merge, args.out)

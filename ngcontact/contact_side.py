@@ -86,19 +86,26 @@ class ContactSide:
         n = ngs.specialcf.normal(self.dim)
         self.normals = np.array([self.project(n[i]) for i in range(self.dim)]).T
         # sample points: 2p + 1 equidistant points per edge in 2D; vertices, centroid and
-        # edge midpoints per triangle in 3D
+        # edge midpoints per triangle in 3D (weights of the facet's vertices), mapped from the
+        # reference facet onto each facet of Γ3, so that they lie on a curved facet (not on its
+        # chord, where a point search fails) and belong to their own facet (there
+        # ``specialcf.normal`` is the facet's normal, as in a gap written with it)
         if self.dim == 2:
             s = np.linspace(0, 1, 2 * body.order + 1)
             weights = np.stack([1 - s, s], axis=1)
         else:
             weights = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [1 / 3] * 3,
                                 [.5, .5, 0], [0, .5, .5], [.5, 0, .5]])
-        self.sample_points = np.einsum("sk,fkd->fsd", weights, self.facet_vertices)
-        # located once, on the boundary elements of Γ3 (there ``specialcf.normal`` is the
-        # facet's normal, as in a gap written with it), 1e-9 inside each facet so that a
-        # vertex is found on its own facet
-        inside = self.sample_points + 1e-9 * (self.midpoints[:, None, :] - self.sample_points)
-        self._mesh_points = mesh(*inside.reshape(-1, self.dim).T, VOL_or_BND=ngs.BND)
+        # the reference segment has vertex 0 at x = 1, the reference triangle its vertices at
+        # (1, 0), (0, 1), (0, 0)
+        sample_rule = ngs.IntegrationRule([tuple(w[:self.dim - 1]) for w in weights], [1.0] * len(weights))
+        ns = len(weights)
+        index = np.zeros((self.B.ndof, ns), dtype=int)
+        for el in elements:
+            index[order[facets.GetDofNrs(el)[0]]] = el.nr * ns + np.arange(ns)
+        self._mesh_points = mesh.MapToAllElements(sample_rule, ngs.BND)[index.ravel()]
+        self.sample_points = np.stack([c(self._mesh_points).ravel() for c in (ngs.x, ngs.y, ngs.z)[:self.dim]],
+                                      axis=-1).reshape(self.B.ndof, ns, self.dim)
 
     def facet_integrals(self, cf, quadrature="exact"):
         """A function returning (∫_facet cf da for each facet of Γ3) when called: the

@@ -223,7 +223,7 @@ class Newton:
     error is then below a share of the discretisation error the target stands for (``adapt``
     sets it from the estimate). The linear solver is then asked for no more than ``ALGEBRAIC``
     of the target. The convergence test of ``stopping`` still stops a solve first where it
-    holds.
+    holds. ``estimate_stops`` counts the solves the target stopped.
     """
 
     def __init__(self, system, gfu, *, solver=None, freedofs=None, rtol=1e-10, maxit=50, hook=None,
@@ -235,6 +235,7 @@ class Newton:
         self.system, self.gfu, self.hook, self.step_length = system, gfu, hook, step_length
         self.on_iteration = None       # called with (iteration, scaled residual): progress output
         self.energy_target = None      # J^½: stop once the last correction's energy is below it (``adapt``)
+        self.estimate_stops = 0        # solves stopped by ``energy_target`` (NewtonResult.stopped = "estimate")
         self.solver = solver or DirectSolver("umfpack")
         self.rtol, self.maxit = rtol, int(maxit)
         space = gfu.space
@@ -318,6 +319,7 @@ class Newton:
             if settled and (verdict.converged or adaptive):
                 if hook is not None:
                     hook.finish()
+                self.estimate_stops += not verdict.converged
                 return NewtonResult(it, residuals, r, **self._linear_counts(since=counts),
                                     stopped="tolerance" if verdict.converged else "estimate")
             if verdict.uncertifiable:

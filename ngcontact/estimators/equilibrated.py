@@ -18,13 +18,16 @@ same for the charge flux of (2.7)). With the piezoelectric coupling written as i
            = (σ* − σ_h, ε(e_u)) − (D* − D_h, ∇e_φ) + (skew σ*, ∇e_u)
              + ∫_Γ3 (t − t_h)·e_u − ∫_Γ3 (j − j_h) e_φ + (f0 − Π f0, e_u) − (q0 − Π q0, e_φ),
 
-so that  |||e||| ≤ η = (η_σ² + η_D²)^½ + C_K η_skew + η_osc + η_Γ3, with
+so that, bounding each term element by element and summing (Cauchy–Schwarz over the elements),
+
+  |||e||| ≤ η = (Σ_K ((η_σ,K² + η_D,K²)^½ + C_K η_skew,K + η_osc,K)²)^½ + η_Γ3
+          ≤ (η_σ² + η_D²)^½ + C_K η_skew + η_osc + η_Γ3,  with
 
 * η_σ = ‖C_c^{−½}(sym σ* − σ_h)‖, η_D = ‖C^{−½}(D* − D_h)‖ (the energy of the reconstruction),
 * η_skew = λ_min(C_c)^{−½} ‖skew σ*‖: σ* is equilibrated row by row in RT_p and symmetric
   only in the least-squares sense of its local problems (weight λ_min(C_c)^{−1} on its skew
   part); C_K is the constant of ‖skew ∇v‖ ≤ C_K ‖ε(v)‖ on the body (Korn's), taken as 1,
-* η_osc = Σ_K (h_K/π) λ_min^{−½} ‖f0 − Π_p f0‖_K and its electric twin (Poincaré on a convex
+* η_osc = (Σ_K η_osc,K²)^½, η_osc,K = (h_K/π) λ_min^{−½} ‖f0 − Π_p f0‖_K and its electric twin (Poincaré on a convex
   element; the data that no flux of degree p can balance),
 * η_Γ3 = (∫_Γ3 λ_h |u_hν − g|)^½ (the complementarity of the discrete contact pressure λ_h =
   −[P_h]_- and the gap: the Signorini part of ∫(t − t_h)·e_u, with the exact pressure replaced
@@ -62,9 +65,9 @@ weight 1 gives η_skew 12–24 % of the error and effectivities 1.12–1.28; wei
 
 @dataclass
 class Estimate:
-    """An error estimate of one step in the energy norm |||·||| (J^½; in 2D per metre of depth).
+    """An error estimate of one step in the energy norm |||·||| (J^½ in 3D, (J/m)^½ in 2D).
 
-    total : η, the bound (module docstring).
+    total : η, the bound (module docstring: the element-wise sum).
     parts : {"stress": η_σ, "flux": η_D, "skew": η_skew, "oscillation": η_osc, "contact": η_Γ3}.
     indicators : η_K per volume element (numpy), for marking.
     """
@@ -190,9 +193,11 @@ class EquilibratedEstimator:
         total_sq = sum(indicators.values())
         contact = self._contact_term()
         parts = {name: float(np.sqrt(v.sum())) for name, v in indicators.items()}
+        parts.setdefault("flux", 0.0)                        # no electric unknown
         parts["contact"] = contact
-        energy = np.sqrt(parts["stress"] ** 2 + parts.get("flux", 0.0) ** 2)
-        total = energy + parts["skew"] + parts["oscillation"] + contact
+        per_element = (np.sqrt(indicators["stress"] + indicators.get("flux", 0.0)) + np.sqrt(indicators["skew"])
+                       + np.sqrt(indicators["oscillation"]))
+        total = np.sqrt(np.sum(per_element ** 2)) + contact
         return Estimate(total=float(total), parts=parts, indicators=np.sqrt(total_sq), fields=fields)
 
     def _boundary_data(self):
@@ -244,7 +249,7 @@ class EquilibratedEstimator:
         return out
 
     def _contact_term(self):
-        """η_Γ3 = (∫_Γ3 λ_h |u_hν − g|)^½ (J^½)."""
+        """η_Γ3 = (∫_Γ3 λ_h |u_hν − g|)^½ (J^½; (J/m)^½ in 2D)."""
         sim = self.sim
         if sim.contact is None:
             return 0.0

@@ -88,6 +88,24 @@ class Manufactured:
         return (math.sqrt(ngs.Integrate(ngs.InnerProduct(de, de), mesh, order=order)),
                 math.sqrt(ngs.Integrate(ngs.InnerProduct(dp, dp), mesh, order=order)))
 
+    def energy_error(self, sim, rate=0.0):
+        """|||e||| = ((C_c ε(e_u), ε(e_u)) + (C ∇e_φ, ∇e_φ))^½ at the simulation's current time,
+        e = (u − u_h, φ − φ_h), C_c = F + ``rate`` A (the energy norm the estimators bound; 0 for
+        a static step): J^½, (J/m)^½ in 2D."""
+        mesh, dim, T = sim.body.mesh, self.dim, sim.body.tensors
+        X = (x, y, z)[:dim]
+        grad_u = ngs.CF(tuple(self.cf(sp.diff(self.u[i], c), sim.time) for i in range(dim) for c in X), dims=(dim, dim))
+        grad_phi = ngs.CF(tuple(self.cf(sp.diff(self.phi, c), sim.time) for c in X))
+        e = ngs.Grad(sim.u) - grad_u
+        pairs = [(i, j) for (i, j) in VOIGT if i < dim and j < dim]
+        strain = ngs.CF(tuple(e[i, j] if i == j else e[i, j] + e[j, i] for (i, j) in pairs))
+        dp = ngs.grad(sim.phi) - grad_phi
+        Cc = np.asarray(T.F) + rate * np.asarray(T.A)
+        Cc, C = (ngs.CF(tuple(np.asarray(M, dtype=float).flat), dims=np.shape(M)) for M in (Cc, T.C))
+        order = 2 * max(sim.body.order, sim.body.order_phi) + 6
+        value = ngs.Integrate(ngs.InnerProduct(Cc * strain, strain) + ngs.InnerProduct(C * dp, dp), mesh, order=order)
+        return math.sqrt(max(value, 0.0))
+
 
 class ContactManufactured(Manufactured):
     """An exact solution of the full problem on the plate [0, L1] × [0, L2] with Γ1 = left
