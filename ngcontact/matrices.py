@@ -4,7 +4,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from . import parallel
-from .newton import ResidualNorm
+from .residual_norm import ResidualNorm
 
 
 def free_jacobian(system, x, space, scaled=True):

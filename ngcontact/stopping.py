@@ -1,7 +1,7 @@
 """When a Newton solve may stop: a convergence test that a wrong state cannot pass at any scale.
 
 The residual R(x) of a step sums forces (N; N/m in 2D) and charges (C); Newton measures it in
-the scaled norm ‖·‖ of ``newton.ResidualNorm`` (J^½). The test compares it with the step's
+the scaled norm ‖·‖ of ``residual_norm.ResidualNorm`` (J^½). The test compares it with the step's
 **force scale**
 
     S(x) = max(‖f_n‖, ‖K x − (1/k) K_A x_{n−1}‖),
@@ -101,7 +101,7 @@ class ConvergenceTest:
         ``magnitude(x)`` (the size of the terms of R, numpy), with the optional
         ``contact_magnitude(x)`` (their Γ3 part); without ``force_scale`` the classical relative
         test is used.
-    norm : ``newton.ResidualNorm`` of the solve.
+    norm : ``residual_norm.ResidualNorm`` of the solve.
     """
 
     def __init__(self, system, norm):

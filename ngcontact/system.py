@@ -319,7 +319,7 @@ class StepSystem:
     # ----------------------------------------------------------------------- for Newton's norms
     def force_scale(self, norm):
         """S = max(‖f_n‖, ‖K x − c K_A x̂‖) at the x of the last ``Apply``, in the
-        scaled norm ``norm`` (a ``newton.ResidualNorm``) over every DOF, held ones included:
+        scaled norm ``norm`` (a ``residual_norm.ResidualNorm``) over every DOF, held ones included:
         the step's loads and the bulk's internal forces (at held DOFs: the reactions of the
         supports and the charges of the electrodes), without the Γ3 terms (``stopping``)."""
         return max(norm.dual_everywhere(self.f.vec), norm.dual_everywhere(self._internal))
@@ -337,7 +337,7 @@ class StepSystem:
 
     def bulk_diagonal(self):
         """The diagonal of the bulk's K = K_el + c K_A (numpy, cumulated on a distributed
-        mesh): the scales of Newton's norms come from it (``newton.ResidualNorm``), not from the
+        mesh): the scales of Newton's norms come from it (``residual_norm.ResidualNorm``), not from the
         Γ3 terms, so that a stiff contact term cannot set the units it is measured in."""
         diagonal = csr(self.K).diagonal()
         if parallel.is_distributed(self.body.mesh):          # the ranks' parts of the diagonal

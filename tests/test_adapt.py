@@ -143,3 +143,52 @@ def test_a_history_is_adapted_by_its_largest_indicators_and_run_again():
     first, second = result.levels
     assert second.ndof > first.ndof and second.estimate < first.estimate
     assert len(second.sim.history) == len(first.sim.history) == 7
+
+
+def test_the_sample_points_of_a_curved_contact_side_lie_on_its_facets():
+    """Γ3's sample points (``ContactSide``) are mapped onto each facet: on the Hertz arc curved to
+    order 3 and refined where marked, every one lies on the circle to the curving's accuracy (a
+    point on a facet's chord lies up to h²/8R inside it, and a point search from there failed:
+    'Meshpoint not in mesh'), and on straight facets they are the equidistant chord points."""
+    mesh = hertz.mesh(2, h_contact=0.1, curve=3)
+    marked = np.zeros(mesh.ne, dtype=bool)
+    marked[::3] = True
+    finer = meshes.refined(mesh, marked)
+    side = _hertz(finer, order=3).side
+    points = side.sample_points
+    off = np.abs(np.hypot(points[..., 0], points[..., 1] - hertz.R) - hertz.R)          # (facets, points)
+    chords = np.linalg.norm(side.facet_vertices[:, 1] - side.facet_vertices[:, 0], axis=1)
+    sagitta = chords ** 2 / (8 * hertz.R)                  # how far a chord's midpoint lies inside the arc
+    assert np.max(off / sagitta[:, None]) < 0.02, np.max(off / sagitta[:, None])        # P3 curving: 0.009
+    assert np.allclose(side.sample_points[:, 0], side.facet_vertices[:, 0], atol=1e-12)
+    assert np.allclose(side.sample_points[:, -1], side.facet_vertices[:, 1], atol=1e-12)
+    flat = reference.body(2, 0.05).mesh
+    body = ngc.Body(flat, ngc.pzt5a(), clamped="left", grounded="top", contact_side="bottom", order=2)
+    plate_side = ngc.Simulation(body, contact=reference.contact(), keep_states=False).side
+    s = np.linspace(0, 1, 5)
+    chord = (1 - s)[None, :, None] * plate_side.facet_vertices[:, :1] + s[None, :, None] * plate_side.facet_vertices[:, 1:]
+    assert np.allclose(plate_side.sample_points, chord, atol=1e-14)
+
+
+def test_the_energy_norm_of_a_difference_with_a_solution_on_another_mesh():
+    """adapt.energy(sim, reference): 0 against the simulation's own state, |||x_h||| against a
+    zero state on another mesh, and the triangle inequality against a state on a finer mesh."""
+    mesh = hertz.mesh(2, h_contact=0.1, curve=1)
+    coarse = adapt.step(_hertz, mesh, 1.0, max_levels=2)
+    a, b = coarse.levels[0].sim, coarse.levels[1].sim
+    assert adapt.energy(a, (a.u, None)) == 0.0
+    zero = ngs.GridFunction(b.u.space)
+    assert abs(adapt.energy(a, (zero, None)) - adapt.energy(a)) <= 1e-12 * adapt.energy(a)
+    difference = adapt.energy(a, (b.u, None))
+    assert 0 < difference and abs(adapt.energy(a) - adapt.energy(b)) <= difference * 1.01 + 1e-12
+
+
+def test_a_level_keeps_its_build_time_and_the_solves_adaptive_stopping_ended():
+    mesh = hertz.mesh(2, h_contact=0.1, curve=1)
+    plain = adapt.step(_hertz, mesh, 1.0, max_levels=3)
+    stopped = adapt.step(_hertz, mesh, 1.0, max_levels=3, stop_newton=1.0)
+    assert all(level.build_s > 0 for level in plain.levels)
+    assert [level.estimate_stops for level in plain.levels] == [0, 0, 0]
+    assert stopped.levels[0].estimate_stops == 0                     # no estimate yet on the first mesh
+    assert sum(level.estimate_stops for level in stopped.levels) >= 1
+    assert all(level.elapsed_s > sum(l.solve_s for l in plain.levels[:i + 1]) for i, level in enumerate(plain.levels))

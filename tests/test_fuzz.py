@@ -208,6 +208,9 @@ def test_invalid_values_are_named(what, parameter, valid, build, value):
     (["bench", "--max-ndof", "1e12"], "max_ndof = 1e+12: about 1e+12 DOFs (estimated), needing at least"),
     (["bench", "--orders", "1", "--max-ndof", "100"], "max_ndof = 100 is below the coarsest mesh's DOFs (P1: "),
     (["bench", "--steps", "0"], "steps must be an integer >= 1 and <= 1000000, got 0"),
+    (["adapt", "--stop-newton", "0"], "--stop-newton must be a finite number in (0, 1], got 0.0"),
+    (["adapt", "--stop-newton", "nan"], "--stop-newton must be a finite number in (0, 1], got nan"),
+    (["adapt", "--orders", "1", "11"], "--orders must be an integer >= 1 and <= 10, got 11"),
 ])
 def test_the_cli_prints_one_line_and_exits_2(arguments, words, tmp_path):
     """Each before any mesh of the run is made (the bench's coarsest meshes are counted):
