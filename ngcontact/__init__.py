@@ -7,10 +7,10 @@ boundaries), ``ngcontact.scenes`` (ready scenes and manufactured solutions) and
 mpiexec on a distributed mesh) and ``ngcontact.checks`` (checks of user input: ranges,
 booleans, sizes against the machine's memory), ``ngcontact.meshes`` (nested meshes: a mesh refined
 with its coarse mesh kept; a copy refined where marked), ``ngcontact.schemes`` (the time schemes),
-``ngcontact.estimators`` (a posteriori error estimates of a step) and ``ngcontact.adapt``
-(adaptive meshes) are public modules too.
+``ngcontact.estimators`` (a posteriori error estimates of a step), ``ngcontact.adapt``
+(adaptive meshes) and ``ngcontact.laws`` (nonlinear F and A) are public modules too.
 """
-from . import adapt, checks, contact_laws, estimators, meshes, parallel, schemes
+from . import adapt, checks, contact_laws, estimators, laws, meshes, parallel, schemes
 from .admissible import PhysicsWarning
 from .body import Body
 from .contact import Contact
@@ -25,4 +25,4 @@ from .webgui import save_html
 
 __all__ = ["Body", "Contact", "Loads", "Material", "Simulation", "History", "StepRecord", "ContactRecord",
            "NewtonError", "PhysicsWarning", "AccuracyWarning", "METHODS", "EPS0", "academic", "pzt5a", "batio3", "save_html", "contact_laws",
-           "parallel", "checks", "meshes", "schemes", "adapt", "estimators"]
+           "parallel", "checks", "meshes", "schemes", "adapt", "estimators", "laws"]

@@ -8,7 +8,8 @@ never continued with another scene. Its fields (one key each, e.g. ``contact.gam
   of the vertex coordinates (to 1e-9 of the body's size) and of the vertex numbers and
   region indices of every element; ``space.ndof``;
 * ``body.*``: the orders of u and φ, the boundary parts Γ1, Γa, Γ3 and the supports;
-* ``material.*``: c, e, eps, eta and poling (the data as given, SI units);
+* ``material.*``: c, e, eps, eta and poling (the data as given, SI units), a law's name,
+  sampled constants and tangent at 0;
 * ``contact.*``: every field of ``Contact`` (``contact`` is None without a contact law) and
   ``contact.obstacle.*``, the obstacle's own data;
 * ``loads.*``: every entry of ``Loads``, keyed by its boundary;
@@ -60,6 +61,9 @@ def fingerprint(sim, T):
     found["body.supports"] = [repr(s) for s in body.supports]
     found.update({f"material.{f.name}": _plain(getattr(body.material, f.name))
                   for f in dataclasses.fields(Material) if f.name != "name"})
+    for key, law in (("elasticity_law", body.tensors.F_law), ("viscosity_law", body.tensors.A_law)):
+        if law is not None:      # its name (a built-in's parameters) and its sampled constants and tangent
+            found[f"material.{key}"] = [law.name, law.lipschitz, law.monotonicity, law.linear.tolist()]
     found.update(_contact(sim.contact, body, sample))
     for f in dataclasses.fields(Loads):
         value = getattr(sim.loads, f.name)

@@ -16,6 +16,9 @@ Step n of the scheme (4.3)-(4.5) finds x = (u, φ) = (u_n, φ_n) such that for a
   R(x; v, ξ) = a((u − u_{n−1})/dt, v) + b(u, v) + e(v, φ) + j_a(β_n, u, v) + S(x; v, ξ)
              + e(u, ξ) − c(φ, ξ) − j_e(u, φ, ξ) − f(v, ξ) = 0,
 
+where, for nonlinear laws (``laws``, (2.16)-(2.17)), a and b read (A((u − u_{n−1})/dt), ε(v))
+and (F(ε(u)), ε(v)) (``nonlinear_bulk``).
+
 with the electric equation negated (its Jacobian is then symmetric quasi-definite) and S
 the Signorini term of the enforcement method (``ngcontact.enforcement``). ``StepSystem``
 assembles R in the parts ``bulk`` (b + e + e − c), ``a``, ``f`` and ``contact_terms``.
@@ -46,11 +49,11 @@ def stress(T, u, phi, strain_rate=None):
     ``strain_rate`` is ε(u̇) (Voigt), None for the elastic part only. Without piezoelectric
     coupling (E = 0) the term Eᵀ∇φ is left out of the expression (the Γ3 terms' Jacobian is
     then differentiated in u's components only)."""
-    s = matrix_cf(T.F) * strain(u)
+    s = T.elastic_stress(strain(u))
     if T.E.any():
         s = s + matrix_cf(T.E).trans * ngs.grad(phi)
     if T.viscous and strain_rate is not None:
-        s = s + matrix_cf(T.A) * strain_rate
+        s = s + T.viscous_stress(strain_rate)
     return s
 
 
@@ -79,6 +82,16 @@ def step_normal_stress(T, u, phi, rate, anchor=None, direction=None):
     return normal_stress(stress(T, u, phi, rate), ngs.specialcf.normal(u.dim), direction)
 
 
+def step_normal_stress_variation(T, v, xi, rate, direction=None):
+    """Nitsche's σ_ν(v, ξ) in the test functions: ν·(F ε(v) + c A ε(v) + Eᵀ∇ξ)ν with the
+    linear tensors, with a law its tangent at ε = 0 (``MaterialTensors.tangent``). Any linear
+    map of (v, ξ) keeps Nitsche's method consistent (the exact solution makes the terms it
+    multiplies cancel); with a law, the Jacobian is then not symmetric even for θ = 1. (The
+    law's tangent at the state, by ``CoefficientFunction.Diff``, was measured: its second
+    derivative in the Γ3 Jacobian took 5.7 s per assembly on 576 DOFs.)"""
+    return step_normal_stress(T.tangent(), v, xi, rate, direction=direction)
+
+
 def boundary_stiffness(body, rate):
     """p² (λ_max(F + Eᵀ C⁻¹ E) + c λ_max(A))/h (N/m³): the stiffness of σ_ν per unit normal
     displacement at a facet of height h = ``specialcf.mesh_size``, p the order of u, c the
@@ -91,13 +104,36 @@ def boundary_stiffness(body, rate):
 # ------------------------------------------------------------------------ the bulk forms on Ω
 
 def a(T, u, v):
-    """a(u, v) = (A ε(u), ε(v)): the Kelvin-Voigt viscosity (2.30), integrand on Ω."""
+    """a(u, v) = (A ε(u), ε(v)): the Kelvin-Voigt viscosity (2.30), integrand on Ω (the
+    linear tensor A: for a law, its tangent at 0)."""
     return ngs.InnerProduct(matrix_cf(T.A) * strain(u), strain(v))
 
 
 def b(T, u, v):
-    """b(u, v) = (F ε(u), ε(v)): elasticity (2.30), integrand on Ω."""
+    """b(u, v) = (F ε(u), ε(v)): elasticity (2.30), integrand on Ω (the linear tensor F: for a
+    law, its tangent at 0)."""
     return ngs.InnerProduct(matrix_cf(T.F) * strain(u), strain(v))
+
+
+def nonlinear_bulk(T, u, v, rate, anchor):
+    """(F(ε(u)), ε(v)) + (A(c ε(u − û)), ε(v)): the parts of R on Ω given by laws (2.16)-(2.17),
+    integrand on Ω, nonlinear in u (the law's part only: F with a law ``T.F_law``, A with
+    ``T.A_law``; c = ``rate``, û = ``anchor``, the time scheme's); None without laws."""
+    terms = None
+    if T.F_law is not None:
+        terms = ngs.InnerProduct(T.elastic_stress(strain(u)), strain(v))
+    if T.A_law is not None:
+        viscous = ngs.InnerProduct(T.viscous_stress(rate * (strain(u) - strain(anchor))), strain(v))
+        terms = viscous if terms is None else terms + viscous
+    return terms
+
+
+def linear_bulk(T, trial, test):
+    """The part of ``bulk`` with constant coefficients when laws give F or A: e + e − c, and
+    b where F is linear."""
+    (u, phi), (v, xi) = trial, test
+    terms = e(T, v, phi) + e(T, u, xi) - c(T, phi, xi)
+    return terms if T.F_law is not None else terms + b(T, u, v)
 
 
 def c(T, phi, xi):

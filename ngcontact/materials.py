@@ -18,11 +18,12 @@ With ``σ = A ε(u̇) + F ε(u) + Eᵀ∇φ`` and ``D = E ε(u) − C∇φ`` (do
 loaded along its poling axis is stiffer open-circuit than short-circuit:
 c33 + e33²/ε33 against c33.
 """
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from .checks import number
+from .laws import StrainLaw
 
 EPS0 = 8.8541878128e-12
 """Vacuum permittivity ε0 in F/m."""
@@ -79,18 +80,53 @@ class MaterialTensors:
     A: np.ndarray
     E: np.ndarray
     C: np.ndarray
+    F_law: object = None
+    """A nonlinear elasticity (``laws.BoundLaw``) or None; F is then its tangent at ε = 0."""
+    A_law: object = None
+    """A nonlinear viscosity (``laws.BoundLaw``) or None; A is then its tangent at ε̇ = 0."""
 
     @property
     def viscous(self):
-        return bool(np.any(self.A))
+        return bool(np.any(self.A)) or self.A_law is not None
+
+    @property
+    def linear(self):
+        """True for the fast path: constant tensors, no law."""
+        return self.F_law is None and self.A_law is None
+
+    def tangent(self):
+        """These tensors without their laws: F and A their tangents at 0."""
+        return self if self.linear else replace(self, F_law=None, A_law=None)
+
+    def elastic_stress(self, strain):
+        """F ε (Voigt CF) for a Voigt strain CF: the law's, or the tensor's."""
+        if self.F_law is not None:
+            return self.F_law.voigt_stress(strain)
+        from .forms import matrix_cf
+        return matrix_cf(self.F) * strain
+
+    def viscous_stress(self, strain_rate):
+        """A ε̇ (Voigt CF) for a Voigt strain rate CF: the law's, or the tensor's."""
+        if self.A_law is not None:
+            return self.A_law.voigt_stress(strain_rate)
+        from .forms import matrix_cf
+        return matrix_cf(self.A) * strain_rate
 
     def stiffness(self, rate=0.0):
         """λ_max(F + Eᵀ C⁻¹ E) + c λ_max(A), in Pa: the scale of σ_ν per unit strain in a
         time step whose rate coefficient is c = ``rate`` (1/s, a number or a Parameter; 1/dt
         for a backward Euler step of length dt). The open-circuit tensor F + Eᵀ C⁻¹ E bounds
-        the coupled stiffness; c A is the viscous stiffness of the step."""
+        the coupled stiffness; c A is the viscous stiffness of the step. With a law, each part
+        is scaled by L / |F'(0)| where the law's Lipschitz constant L exceeds the norm of its
+        tangent at 0 (both as maps of the strain matrix, Frobenius norms): the contact stiffness
+        scale follows the law, and a law that is linear gives the linear scale exactly."""
         elastic = np.linalg.eigvalsh(self.F + self.E.T @ np.linalg.solve(self.C, self.E)).max()
-        return elastic + rate * (np.linalg.eigvalsh(self.A).max() if self.viscous else 0.0)
+        if self.F_law is not None:
+            elastic *= max(1.0, self.F_law.lipschitz / frobenius_norm(self.F))
+        viscous = np.linalg.eigvalsh(self.A).max() if np.any(self.A) else 0.0
+        if self.A_law is not None:
+            viscous *= max(1.0, self.A_law.lipschitz / frobenius_norm(self.A))
+        return elastic + rate * viscous
 
 
 @dataclass(frozen=True)
@@ -115,6 +151,10 @@ class Material:
     eta: np.ndarray = None
     poling: str = None
     name: str = ""
+    elasticity_law: StrainLaw = None
+    """A nonlinear elasticity F(ε) (``laws``), or None: the linear c."""
+    viscosity_law: StrainLaw = None
+    """A nonlinear viscosity A(ε̇) (``laws``), or None: the linear eta."""
 
     def __post_init__(self):
         def arr(name, shape):
@@ -145,6 +185,10 @@ class Material:
             raise TypeError(f"Material: name must be a str, got {type(self.name).__name__}")
         if self.poling not in (None, "x", "y", "z"):
             raise ValueError(f"Material: poling must be 'x', 'y', 'z' or None, got {self.poling!r}")
+        for key in ("elasticity_law", "viscosity_law"):
+            value = getattr(self, key)
+            if value is not None and not isinstance(value, StrainLaw):
+                object.__setattr__(self, key, _law(value))
 
     @classmethod
     def isotropic(cls, E, nu, permittivity, e31=0.0, e33=0.0, e15=0.0,
@@ -164,9 +208,20 @@ class Material:
                    poling=poling, name=name)
 
     def with_viscosity(self, relaxation_time):
-        """The same material with proportional (Kelvin-Voigt) viscosity A = τ F, τ in s."""
+        """The same material with Kelvin-Voigt viscosity: a number τ (s) gives the
+        proportional A = τ F (c as data); a law (``laws.StrainLaw``, or a Python function of
+        the strain-rate matrix CF returning the stress, Pa) the nonlinear A(ε̇) of (2.16),
+        whose linear part, for the built-in laws, is this material's eta."""
+        if callable(relaxation_time) or isinstance(relaxation_time, StrainLaw):
+            return replace(self, viscosity_law=_law(relaxation_time))
         relaxation_time = number("relaxation_time", relaxation_time, 0, unit="s")
-        return Material(self.c, self.e, self.eps, relaxation_time * self.c, self.poling, self.name)
+        return replace(self, eta=relaxation_time * self.c, viscosity_law=None)
+
+    def with_elasticity(self, law):
+        """The same material with the nonlinear elasticity F(ε) of (2.17): a ``laws.StrainLaw``
+        or a Python function of the strain matrix CF returning the stress (Pa); the built-in
+        laws add to this material's c. ``None``: back to the linear c."""
+        return replace(self, elasticity_law=None if law is None else _law(law))
 
     def tensors(self, dim):
         """F, A, E, C for a ``dim``-dimensional model (plane strain for dim 2)."""
@@ -186,8 +241,30 @@ class Material:
         e = np.array([[e[i, k, l] for (k, l) in VOIGT] for i in range(3)])
         eps = Q @ self.eps @ Q.T
         # 2D Voigt order is (11, 22, 12): the kept indices come as (11, 22, 12) already
-        return MaterialTensors(F=four(self.c), A=four(self.eta),
-                               E=e[:dim][:, idx], C=eps[:dim, :dim])
+        F, A = four(self.c), four(self.eta)
+        F_law = A_law = None
+        if self.elasticity_law is not None:
+            F_law = self.elasticity_law.bind(F, dim, "elasticity")
+            F = F_law.linear
+        if self.viscosity_law is not None:
+            A_law = self.viscosity_law.bind(A, dim, "viscosity")
+            A = A_law.linear
+        return MaterialTensors(F=F, A=A, E=e[:dim][:, idx], C=eps[:dim, :dim], F_law=F_law, A_law=A_law)
+
+
+def frobenius_norm(M):
+    """The norm of a Voigt matrix (engineering strain -> stress) as a map of strain matrices in
+    the Frobenius norm (|ε|² = Σ ε_ij², σ likewise)."""
+    n = M.shape[0]
+    shear = n - (2 if n == 3 else 3)
+    strain = np.concatenate([np.ones(n - shear), np.full(shear, 2.0)])       # γ = 2 ε_ij
+    stress = np.concatenate([np.ones(n - shear), np.full(shear, np.sqrt(2.0))])
+    return float(np.linalg.norm(stress[:, None] * M * strain[None, :] / np.sqrt(2.0) ** (strain > 1), 2))
+
+
+def _law(law):
+    """A StrainLaw from a law or a Python function (a string or other object: TypeError)."""
+    return law if isinstance(law, StrainLaw) else StrainLaw(law)
 
 
 def lame_stiffness(lam, mu, lam_name="lam", mu_name="mu"):

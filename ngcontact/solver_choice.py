@@ -53,7 +53,7 @@ def choose(body, contact, system, space, *, inverse, reuse_factorization, iterat
         newton = MultigridSolver(body, system, layer, electric=electric, realcompile=realcompile)
         potential = MultigridSolver(body, system, layer, electric=True, realcompile=realcompile, displacement=False)
         return newton, potential
-    symmetric = contact is None or contact.symmetric
+    symmetric = (contact is None or contact.symmetric) and body.tensors.linear   # a law's Nitsche term: not
     name = inverse or ("sparsecholesky" if symmetric else "umfpack")
     skew = contact is not None and contact.method == "nitsche" and contact.theta == -1
     if not reuse_factorization or (inverse is None and skew):

@@ -14,6 +14,10 @@ where the time scheme sets t_n, the rate coefficient c (1/s) and the anchor û o
 (``forms.contact_terms``) is nonlinear. Its Jacobian is K = K_el + c K_A plus R_Γ3'(x):
 each Newton iteration assembles the Γ3 terms only and adds matrices of one sparsity pattern.
 
+Laws (``laws``, (2.16)-(2.17)) move their parts out of K_el, K_A into N(x) (``law_terms``),
+added to R and, as N'(x), to the Jacobian; the kept factorisation then refreshes when GMRES
+needs it (``changing_entries`` still names the Γ3 positions only).
+
 ``StepSystem`` offers what ``Newton`` uses of a nonlinear NGSolve ``BilinearForm``:
 ``Apply``, ``AssembleLinearization``, ``mat`` and, for static condensation, ``condense``,
 ``harmonic_extension``, ``harmonic_extension_trans`` and ``inner_solve``. With
@@ -30,6 +34,7 @@ from . import forms, parallel
 from .contact_side import element_boundary_layer
 from .loads import as_cf
 from .matrices import csr, matching_positions
+from .law_terms import LawTerms
 from .machine_code import compiled
 from .supports import SLIP_GAMMA0
 
@@ -80,12 +85,17 @@ class StepSystem:
             keep_interior_dofs(X, kept)
         trial, test = X.TnT()
         T = body.tensors
+        if not T.linear:
+            parallel.serial_only(body.mesh, "a nonlinear law", "N(x) is not written for distributed vectors")
+            if self.condense:
+                raise ValueError("condense=True needs linear tensors: a nonlinear law makes the interiors nonlinear")
         self.K_el = ngs.BilinearForm(X, symmetric=False)
-        self.K_el += forms.bulk(T, trial, test) * ngs.dx
+        self.K_el += (forms.bulk(T, trial, test) if T.linear else forms.linear_bulk(T, trial, test)) * ngs.dx
         self.K_A = None
-        if T.viscous:
+        if T.viscous and T.A_law is None:
             self.K_A = ngs.BilinearForm(X, symmetric=False)
             self.K_A += forms.a(T, trial[0], test[0]) * ngs.dx
+        self.laws = LawTerms(T, X, coefficients) if not T.linear else None   # N(x): (2.16)-(2.17)
         weak_supports = self._weak_supports(trial, test)
         for elastic, viscous, dx in weak_supports:
             self.K_el += elastic * dx
@@ -130,6 +140,9 @@ class StepSystem:
         (``forms.weak_normal_support``), on the element boundaries at the support."""
         terms = []
         for support in self.body.supports:
+            if support.normal and not self.body.tensors.linear:
+                raise ValueError(f"weak 'normal' supports ({', '.join(map(repr, support.names))}) need linear "
+                                 "tensors (their Nitsche terms are symmetric in σ_ν); hold an axis-aligned side")
             if support.normal:
                 dx, indicator = element_boundary_layer(self.body.mesh, self.body.mesh.Boundaries(
                     "|".join(support.names)))
@@ -197,6 +210,8 @@ class StepSystem:
                 K.data += rate * parallel.local_matrix(self.K_A.mat).AsVector()
             if self.condense:
                 self._K_condensed.Assemble()
+            if self.laws is not None:
+                self.laws.assemble_scales()
             self._absK = None
             self._rate = rate
             self.generation += 1
@@ -249,6 +264,8 @@ class StepSystem:
         """r = R(x)."""
         r.data = self.K * x
         r.data -= self._constant
+        if self.laws is not None:
+            r.data += self.laws.apply(x)
         self._internal.data = r + self.f.vec
         if self.boundary is not None:
             self.state.vec.data = x
@@ -275,6 +292,8 @@ class StepSystem:
         its entries in K's pattern)."""
         self._linearize_boundary(x)
         parallel.local_matrix(self._full).AsVector().data = parallel.local_matrix(self.K).AsVector()
+        if self.laws is not None:
+            self.laws.add_tangent(x, parallel.local_matrix(self._full))
         if self.boundary is not None:
             self._add_boundary(self._full)
 
@@ -340,6 +359,8 @@ class StepSystem:
         mesh): the scales of Newton's norms come from it (``residual_norm.ResidualNorm``), not from the
         Γ3 terms, so that a stiff contact term cannot set the units it is measured in."""
         diagonal = csr(self.K).diagonal()
+        if self.laws is not None:                             # the laws' tangents at 0
+            diagonal = diagonal + self.laws.diagonal()
         if parallel.is_distributed(self.body.mesh):          # the ranks' parts of the diagonal
             diagonal = parallel.distributed_values(self._constant, diagonal)
         return diagonal
@@ -353,6 +374,8 @@ class StepSystem:
         if self._absK is None:
             self._absK = abs(csr(self.K))
         bulk = self._absK @ np.abs(parallel.cumulated(x))
+        if self.laws is not None:
+            bulk = bulk + self.laws.magnitude(parallel.cumulated(x))
         if parallel.is_distributed(self.body.mesh):
             bulk = parallel.distributed_values(self._constant, bulk)
         return bulk + np.abs(parallel.cumulated(self._constant)) + \

@@ -7,7 +7,8 @@ the Signorini term of the step residual, for test functions (v, ξ):
 
   S = −(θ/γ) ∫_Γ3 σ̃_ν σ_ν(v, ξ) + (1/γ) ∫_Γ3 [P]_- (θ σ_ν(v, ξ) − γ v_ν),
 
-where σ_ν(v, ξ) is the variation of σ_ν: ν·(F ε(v) + c A ε(v) + Eᵀ∇ξ)ν (c the time scheme's rate coefficient, 1/dt for backward Euler). It is consistent
+where σ_ν(v, ξ) is the variation of σ_ν: ν·(F ε(v) + c A ε(v) + Eᵀ∇ξ)ν (c the time scheme's rate coefficient, 1/dt for backward Euler;
+with nonlinear laws their tangents at 0, ``forms.step_normal_stress_variation``). It is consistent
 (the exact solution makes the two terms −∫σ̃_ν v_ν), and with p = 0, γ_ν = 0, A = 0 and
 E = 0 it is exactly Chouly & Hild's method. On the set P ≤ 0 (P = 0 counts as contact, so a
 body starting exactly at the gap gets contact stiffness at once) the constraint is active.
@@ -15,7 +16,7 @@ body starting exactly at the gap gets contact stiffness at once) the constraint 
 """
 import ngsolve as ngs
 
-from ..forms import boundary_stiffness, step_normal_stress
+from ..forms import boundary_stiffness, step_normal_stress, step_normal_stress_variation
 
 
 class Nitsche:
@@ -32,7 +33,7 @@ class Nitsche:
 
     @classmethod
     def keeps_symmetry(cls, contact):
-        """θ = 1 is the symmetric variant."""
+        """θ = 1 is the symmetric variant (with linear tensors: ``solver_choice``)."""
         return contact.theta == 1
 
     def sigma_n(self, u, phi):
@@ -50,7 +51,7 @@ class Nitsche:
         negative_part = ngs.IfPos(P, 0, P)
         terms = -negative_part * (v * self.n)
         if theta != 0:
-            variation = step_normal_stress(self.tensors, v, xi, self.coefficients.rate, direction=self.n)
+            variation = step_normal_stress_variation(self.tensors, v, xi, self.coefficients.rate, self.n)
             terms = terms + theta / gamma * (negative_part - effective) * variation
         return terms
 

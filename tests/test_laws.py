@@ -1,0 +1,202 @@
+"""Nonlinear elasticity F and viscosity A (issue 26, the paper's (2.16)-(2.17)): closed forms of
+a uniaxial column, the linear limit, Newton's quadratic convergence, and bad laws refused."""
+import math
+
+import ngsolve as ngs
+import numpy as np
+import pytest
+
+import ngcontact as ngc
+from conftest import C33
+from ngcontact import laws
+from ngcontact.geometries import plate
+from ngcontact.scenes import reference
+
+W, H, P = 0.01, 0.03, 2e6          # m, m, Pa
+TAU, T = 0.1, 0.2                  # s
+
+
+def _column(material, nsteps):
+    """The short-circuited uniaxial column of test_column under −P on top (P1 exact in
+    space: the state is uniaxial), its top strain s_n at every step."""
+    body = ngc.Body(plate(L1=W, L2=H, maxh=0.01), material, clamped="bottom", grounded="bottom|top")
+    sim = ngc.Simulation(body, ngc.Loads(f2={"top": (0, -P)}))
+    k = T / nsteps
+    sim.run(dt=k, T=T)
+    return np.array([sim.state(n).components[0](sim.body.mesh(W / 2, H))[1] / H for n in range(nsteps + 1)]), k
+
+
+def _rates(errors):
+    return np.log2(np.array(errors[:-1]) / errors[1:])
+
+
+def test_creep_with_a_nonlinear_elasticity_follows_its_closed_form(uniaxial):
+    """F(ε) = ℰε + ζ(ε − P_K ε), K = {ε_yy ≥ −r}: τ c33 ṡ + c33 s + ζ (s + r)_- = −P. Backward
+    Euler's recursion (each step a piecewise linear equation) to 1e-9, and the exact creep
+    (exponential to s = −r, then towards −(P + ζ r)/(c33 + ζ) at the rate (c33 + ζ)/(τ c33))
+    at O(k)."""
+    zeta, r = 2 * C33, 0.5 * P / C33
+    material = uniaxial(TAU).with_elasticity(laws.ProjectionLaw(zeta, laws.Slab(1, lower=-r)))
+    t1 = -TAU * math.log(1 - r * C33 / P)
+    s_inf = -(P + zeta * r) / (C33 + zeta)
+    exact = s_inf + (-r - s_inf) * math.exp(-(C33 + zeta) * (T - t1) / (TAU * C33))
+    errors = []
+    for nsteps in (10, 20, 40):
+        strains, k = _column(material, nsteps)
+        expected = [0.0]
+        for _ in range(nsteps):
+            a = TAU * C33 / k
+            s = (a * expected[-1] - P) / (a + C33)
+            if s < -r:
+                s = (a * expected[-1] - P - zeta * r) / (a + C33 + zeta)
+            expected.append(s)
+        assert np.allclose(strains, expected, rtol=1e-9, atol=1e-9 * P / C33)
+        errors.append(abs(strains[-1] - exact))
+    assert np.all(np.abs(_rates(errors) - 1) < 0.15), errors
+    assert strains[-1] > -P / C33 * 0.8        # the law stiffened the column (linear: −P/c33 (1 − e^−2))
+
+
+def test_creep_with_a_nonlinear_viscosity_follows_its_closed_form(uniaxial):
+    """A(ε̇) = τℰε̇ + ζ(ε̇ − P_K ε̇), K = {ε̇_yy ≥ −q}: c33 s + τ c33 ṡ + ζ (ṡ + q)_- = −P. The
+    column creeps at first with the viscosity τ c33 + ζ, and from s* = qτ − P/c33 on (where
+    ṡ = −q) as the linear Kelvin-Voigt body; backward Euler's recursion to 1e-9, the closed
+    form at O(k)."""
+    s_lin = -P / C33
+    q = -0.5 * s_lin / TAU
+    zeta = TAU * C33
+    material = uniaxial(TAU).with_viscosity(laws.ProjectionLaw(zeta, laws.Slab(1, lower=-q), strain_scale=q))
+    s_inf2 = -(P + zeta * q) / C33
+    s_star = q * TAU - P / C33
+    slow = (TAU * C33 + zeta) / C33
+    t1 = -slow * math.log((s_star - s_inf2) / (-s_inf2))
+    assert 0 < t1 < T
+    exact = s_lin + (s_star - s_lin) * math.exp(-(T - t1) / TAU)
+    errors = []
+    for nsteps in (20, 40, 80):
+        strains, k = _column(material, nsteps)
+        expected = [0.0]
+        for _ in range(nsteps):
+            prev, a = expected[-1], TAU * C33 / k
+            s = (a * prev - P) / (C33 + a)
+            if (s - prev) / k < -q:
+                b = zeta / k
+                s = (a * prev + b * prev - P - zeta * q) / (C33 + a + b)
+            expected.append(s)
+        assert np.allclose(strains, expected, rtol=1e-9, atol=1e-9 * P / C33)
+        errors.append(abs(strains[-1] - exact))
+    assert np.all(np.abs(_rates(errors) - 1) < 0.2), errors
+
+
+def _isotropic_law(lam, mu):
+    def hooke(eps):
+        return 2 * mu * eps + lam * ngs.Trace(eps) * ngs.Id(eps.dims[0])
+    return hooke
+
+
+@pytest.mark.parametrize("which", ["projection", "power", "function"])
+def test_a_law_without_its_nonlinearity_gives_the_linear_result(which):
+    """The reference scene (Nitsche θ = 1, glue, compliant layer, conduction, PZT-5A with
+    Kelvin-Voigt viscosity), 10 steps: ζ = 0 in the built-in laws, or Hooke's law as a
+    Python function for an isotropic material, equal the linear tensors to 1e-11."""
+    base = ngc.pzt5a(relaxation_time=reference.RELAXATION_TIME)
+    if which == "projection":
+        material = base.with_elasticity(laws.ProjectionLaw(0.0, laws.VonMisesBall(1e-5)))
+    elif which == "power":
+        material = base.with_viscosity(laws.PowerViscosity(0.0, 1.5, 1.0))
+    else:
+        E, nu = 60e9, 0.3
+        lam, mu = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
+        base = ngc.Material.isotropic(E, nu, 8e-9, e31=-5.0, e33=15.0, e15=12.0, viscosity=mu * 2e-3,
+                                      bulk_viscosity=lam * 2e-3)
+        material = base.with_elasticity(_isotropic_law(lam, mu))
+    states = []
+    for m in (base, material):
+        sim = reference.simulation(1, 0.005, material=m, keep_states=False)
+        sim.run(0.01, 0.1)
+        states.append(sim.gfu.vec.FV().NumPy().copy())
+    scale = np.abs(states[0]).max()
+    assert np.abs(states[0] - states[1]).max() <= 1e-11 * scale
+
+
+def test_newton_converges_quadratically_on_a_smooth_nonlinear_law():
+    """A saturating elasticity F(ε) = ℰε + ζ s dev ε/(s² + |dev ε|²)^½ (smooth, monotone,
+    Lipschitz) on a plate clamped left and pulled on the right: the residuals fall
+    quadratically (r_{k+1} ≤ 10 r_k² once below 1e-2; scaled norms)."""
+    zeta, s = 5e10, 2e-4
+
+    def saturating(eps, linear):
+        dev, norm2 = laws.deviator(eps, eps.dims[0])
+        return linear(eps) + zeta * s * dev / ngs.sqrt(s ** 2 + norm2)
+    material = ngc.pzt5a().with_elasticity(laws.StrainLaw(saturating, "saturating"))
+    body = ngc.Body(plate(0.1, 0.02, maxh=0.005), material, clamped="left", grounded="left")
+    sim = ngc.Simulation(body, ngc.Loads(f2={"right": (2e7, 5e6)}), keep_states=False)
+    record = sim.step(1.0)
+    residuals = record.residuals
+    pairs = [(a, b) for a, b in zip(residuals, residuals[1:]) if a < 1e-2 and b > 0]
+    assert len(residuals) >= 4 and pairs, residuals
+    assert all(b <= 10 * a ** 2 for a, b in pairs), residuals
+
+
+def test_the_contact_stiffness_scale_follows_the_law():
+    """γ's scale (MaterialTensors.stiffness) grows with the law's Lipschitz constant; a law
+    that is linear keeps the linear scale exactly."""
+    base = ngc.pzt5a()
+    linear = base.tensors(2).stiffness(0.0)
+    assert base.with_elasticity(laws.ProjectionLaw(0.0, laws.VonMisesBall(1e-4))).tensors(2).stiffness(0.0) == linear
+    tensors = base.with_elasticity(laws.ProjectionLaw(2e11, laws.VonMisesBall(1e-4))).tensors(2)
+    ratio = tensors.F_law.lipschitz / ngc.materials.frobenius_norm(tensors.F)
+    assert ratio > 1.3 and tensors.stiffness(0.0) == pytest.approx(ratio * linear, rel=1e-12)
+
+
+@pytest.mark.parametrize("law, error, words", [
+    ("2*eps", TypeError, "law must be a Python function"),
+    (lambda eps: ngs.CF((eps[0, 0], eps[1, 1])), ValueError, "must return a 2x2 stress"),
+    (lambda eps: 1.0, TypeError, "must return a CoefficientFunction"),
+    (lambda eps: ngs.CF((eps[0, 0], eps[0, 1], 0, eps[1, 1]), dims=(2, 2)) * 1e9 + 1e11 * eps, ValueError, "non-symmetric"),
+    (lambda eps: 1e11 * eps * ngs.sqrt(-1 - eps[0, 0] ** 2), ValueError, "non-finite stress"),
+    (lambda eps: -1e11 * eps, ValueError, "not strongly monotone"),
+    (lambda eps: 1e11 * eps - 2e11 * ngs.IfPos(ngs.InnerProduct(eps, eps) - 1e-8, eps, 0 * eps), ValueError,
+     "not strongly monotone"),
+])
+def test_bad_laws_are_refused_with_the_law_and_the_value(law, error, words):
+    with pytest.raises(error, match=words):
+        ngc.pzt5a().with_elasticity(law).tensors(2)
+
+
+@pytest.mark.parametrize("make, words", [
+    (lambda: laws.ProjectionLaw(-1.0, laws.VonMisesBall(1e-4)), "zeta must be >= 0, got -1.0"),
+    (lambda: laws.VonMisesBall(0.0), "radius must be > 0, got 0.0"),
+    (lambda: laws.PowerViscosity(1.0, exponent=3.0), r"exponent must be in \[1, 2\]"),
+    (lambda: laws.StrainLaw(lambda e: e, lipschitz=-2.0), "lipschitz must be > 0, got -2.0"),
+    (lambda: laws.Slab(1, 1e-3, -1e-3), "lower < upper"),
+    (lambda: ngc.pzt5a().with_elasticity(laws.StrainLaw(lambda e, linear: linear(e), lipschitz=1e9)).tensors(2),
+     "Lipschitz constant 1e\\+09 is below the sampled"),
+])
+def test_bad_law_parameters_are_refused_by_name(make, words):
+    with pytest.raises((ValueError, TypeError), match=words):
+        make()
+
+
+def test_condensation_and_weak_normal_supports_refuse_a_law():
+    material = ngc.pzt5a().with_elasticity(laws.ProjectionLaw(1e10, laws.VonMisesBall(1e-4)))
+    body = ngc.Body(plate(0.1, 0.02, maxh=0.01), material, clamped="left", grounded="left", order=2)
+    with pytest.raises(ValueError, match="condense=True needs linear tensors"):
+        ngc.Simulation(body, condense=True)
+
+
+def test_a_law_in_3d_contact_with_an_obstacle(monkeypatch):
+    """The 3D Hertz half-ball pressed onto a plane (Nitsche, supports): ζ = 0 gives the linear
+    state to 1e-11; ζ = max|F| stiffens it, so the same indentation takes more force."""
+    from ngcontact.scenes import hertz
+    base = hertz.material()
+    scale = float(np.abs(base.tensors(3).F).max())
+    forces, states = [], []
+    for zeta in (None, 0.0, scale):
+        material = base if zeta is None else base.with_elasticity(laws.ProjectionLaw(zeta, laws.VonMisesBall(2e-3)))
+        monkeypatch.setattr(hertz, "material", lambda: material)
+        sim = hertz.simulation(1, dim=3, mesh=hertz.mesh(3, h_contact=0.15), keep_states=False)
+        forces.append(sim.step(1.0).contact.force[2])
+        states.append(sim.gfu.vec.FV().NumPy().copy())
+    assert forces[0] > 0
+    assert np.abs(states[1] - states[0]).max() <= 1e-11 * np.abs(states[0]).max()
+    assert forces[2] > 1.2 * forces[0]
