@@ -182,6 +182,12 @@ def test_condensation_and_weak_normal_supports_refuse_a_law():
     body = ngc.Body(plate(0.1, 0.02, maxh=0.01), material, clamped="left", grounded="left", order=2)
     with pytest.raises(ValueError, match="condense=True needs linear tensors"):
         ngc.Simulation(body, condense=True)
+    from netgen.occ import Circle, OCCGeometry
+    mesh = ngs.Mesh(OCCGeometry(Circle((0, 0), 1).Face(), dim=2).GenerateMesh(maxh=0.5))
+    mesh.ngmesh.SetBCName(0, "rim")
+    body = ngc.Body(mesh, material, supports={"rim": "normal"}, grounded="rim")
+    with pytest.raises(ValueError, match="weak 'normal' supports .*'rim'.* need linear"):
+        ngc.Simulation(body, keep_states=False)
 
 
 def test_a_law_in_3d_contact_with_an_obstacle(monkeypatch):
@@ -200,3 +206,11 @@ def test_a_law_in_3d_contact_with_an_obstacle(monkeypatch):
     assert forces[0] > 0
     assert np.abs(states[1] - states[0]).max() <= 1e-11 * np.abs(states[0]).max()
     assert forces[2] > 1.2 * forces[0]
+
+
+def test_the_error_estimator_refuses_a_law_by_name():
+    from ngcontact.estimators import EquilibratedEstimator
+    material = ngc.pzt5a().with_elasticity(laws.ProjectionLaw(1e10, laws.VonMisesBall(1e-4)))
+    body = ngc.Body(plate(0.1, 0.02, maxh=0.01), material, clamped="left", grounded="left")
+    with pytest.raises(ValueError, match="estimator needs linear tensors.*projection law"):
+        EquilibratedEstimator(ngc.Simulation(body, keep_states=False))

@@ -114,6 +114,9 @@ class EquilibratedEstimator:
 
     def __init__(self, sim):
         body = sim.body
+        if not body.tensors.linear:
+            raise ValueError("the equilibrated estimator needs linear tensors: with a nonlinear law "
+                             f"({(body.tensors.F_law or body.tensors.A_law).name}) its energy norm is not defined")
         for support in body.supports:
             if support.normal:
                 raise ValueError(f"the equilibrated estimator does not take weak 'normal' supports yet "
