@@ -74,13 +74,7 @@ class ContactSide:
         self.midpoints = self.facet_vertices.mean(axis=1)
         # the Gauss points of the residual's order 2p on each facet (B^h's order)
         rule = ngs.IntegrationRule(ngs.SEGM if self.dim == 2 else ngs.TRIG, 2 * max(body.order, body.order_phi))
-        nq = len(rule.points)
-        index = np.zeros((self.B.ndof, nq), dtype=int)
-        for el in elements:
-            index[order[facets.GetDofNrs(el)[0]]] = el.nr * nq + np.arange(nq)
-        self._gauss = mesh.MapToAllElements(rule, ngs.BND)[index.ravel()]
-        self.gauss_points = np.stack([c(self._gauss).ravel() for c in (ngs.x, ngs.y, ngs.z)[:self.dim]],
-                                     axis=-1).reshape(self.B.ndof, nq, self.dim)
+        self._gauss, self.gauss_points = self._mapped(rule, elements, facets, order)
         weights = np.array(rule.weights)
         self.gauss_weights = np.outer(self.measure, weights / weights.sum())   # m (m² in 3D) per point
         n = ngs.specialcf.normal(self.dim)
@@ -99,13 +93,18 @@ class ContactSide:
         # the reference segment has vertex 0 at x = 1, the reference triangle its vertices at
         # (1, 0), (0, 1), (0, 0)
         sample_rule = ngs.IntegrationRule([tuple(w[:self.dim - 1]) for w in weights], [1.0] * len(weights))
-        ns = len(weights)
-        index = np.zeros((self.B.ndof, ns), dtype=int)
+        self._mesh_points, self.sample_points = self._mapped(sample_rule, elements, facets, order)
+
+    def _mapped(self, rule, elements, facets, order):
+        """The points of ``rule`` mapped onto every facet of Γ3 (in the order of B^h's DOFs):
+        NGSolve's mapped points and their coordinates (facets × points × dim)."""
+        count = len(rule.points)
+        index = np.zeros((self.B.ndof, count), dtype=int)
         for el in elements:
-            index[order[facets.GetDofNrs(el)[0]]] = el.nr * ns + np.arange(ns)
-        self._mesh_points = mesh.MapToAllElements(sample_rule, ngs.BND)[index.ravel()]
-        self.sample_points = np.stack([c(self._mesh_points).ravel() for c in (ngs.x, ngs.y, ngs.z)[:self.dim]],
-                                      axis=-1).reshape(self.B.ndof, ns, self.dim)
+            index[order[facets.GetDofNrs(el)[0]]] = el.nr * count + np.arange(count)
+        points = self.mesh.MapToAllElements(rule, ngs.BND)[index.ravel()]
+        coordinates = np.stack([c(points).ravel() for c in (ngs.x, ngs.y, ngs.z)[:self.dim]], axis=-1)
+        return points, coordinates.reshape(self.B.ndof, count, self.dim)
 
     def facet_integrals(self, cf, quadrature="exact"):
         """A function returning (∫_facet cf da for each facet of Γ3) when called: the

@@ -29,19 +29,12 @@ product of the Voigt vectors. The dimension is read off the arguments (``u.dim``
 import ngsolve as ngs
 
 from .loads import as_cf
-
-
-def matrix_cf(M):
-    """A numpy matrix as a constant matrix-valued CoefficientFunction."""
-    return ngs.CF(tuple(float(v) for v in M.flat), dims=M.shape)
+from .voigt import matrix_cf, strain_vector, stress_matrix
 
 
 def strain(u):
     """ε(u) as a Voigt vector: (ε11, ε22, 2ε12) in 2D, (ε11, ε22, ε33, 2ε23, 2ε13, 2ε12) in 3D."""
-    e = ngs.Sym(ngs.Grad(u))
-    if u.dim == 2:
-        return ngs.CF((e[0, 0], e[1, 1], 2 * e[0, 1]))
-    return ngs.CF((e[0, 0], e[1, 1], e[2, 2], 2 * e[1, 2], 2 * e[0, 2], 2 * e[0, 1]))
+    return strain_vector(ngs.Sym(ngs.Grad(u)), u.dim)
 
 
 def stress(T, u, phi, strain_rate=None):
@@ -65,12 +58,7 @@ def electric_displacement(T, u, phi):
 def normal_stress(sigma, n, direction=None):
     """σ_ν = σν · ν from a Voigt stress vector and the unit normal n; with ``direction``
     (an obstacle normal n_o) the traction's component σν · n_o."""
-    s = sigma
-    if n.dim == 2:
-        S = ngs.CF((s[0], s[2], s[2], s[1]), dims=(2, 2))
-    else:
-        S = ngs.CF((s[0], s[5], s[4], s[5], s[1], s[3], s[4], s[3], s[2]), dims=(3, 3))
-    return (n if direction is None else direction) * (S * n)
+    return (n if direction is None else direction) * (stress_matrix(sigma, n.dim) * n)
 
 
 def step_normal_stress(T, u, phi, rate, anchor=None, direction=None):

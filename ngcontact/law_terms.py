@@ -33,8 +33,10 @@ class LawTerms:
         self._positions = {}
 
     def assemble_scales(self):
-        """The tangents at 0 for the step's rate coefficient c (with each new c)."""
+        """The tangents at 0 for the step's rate coefficient c (with each new c), and their
+        diagonal."""
         self.scales.Assemble()
+        self._diagonal = csr(self.scales.mat).diagonal()
 
     def apply(self, x):
         """N(x), in ``residual``."""
@@ -53,7 +55,7 @@ class LawTerms:
 
     def diagonal(self):
         """The diagonal of the tangents at 0 (numpy): Newton's scales."""
-        return csr(self.scales.mat).diagonal()
+        return self._diagonal
 
     def magnitude(self, x):
         """|N'| |x| + |N(x)| (numpy) by the last tangent (the one at 0 before any): the size of

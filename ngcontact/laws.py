@@ -30,30 +30,17 @@ own linear tensor ℰ (its F, or its A for a viscosity):
   1 ≤ r ≤ 2, a shear-thinning (power-law) viscosity regularised by δ > 0 (s⁻¹) to be
   Lipschitz (L ≤ λ_max(ℰ) + ζ δ^(r−2)); the gradient of a convex potential, so monotone.
 """
+import inspect
 import math
-import numbers
 
 import ngsolve as ngs
 import numpy as np
 
+from .checks import number
+from .voigt import matrix_cf, strain_matrix, strain_vector, stress_matrix, stress_vector
+
 SAMPLES = 64
 """Pairs of strains at which a law's hypotheses are checked."""
-
-
-def voigt_to_matrix(voigt, dim):
-    """A Voigt strain vector (engineering shear) as the symmetric strain matrix CF."""
-    s = voigt
-    if dim == 2:
-        return ngs.CF((s[0], s[2] / 2, s[2] / 2, s[1]), dims=(2, 2))
-    return ngs.CF((s[0], s[5] / 2, s[4] / 2, s[5] / 2, s[1], s[3] / 2, s[4] / 2, s[3] / 2, s[2]), dims=(3, 3))
-
-
-def matrix_to_voigt(S, dim):
-    """A stress matrix CF as the Voigt stress vector (σ11, σ22, σ12) or the 3D six (no factor 2):
-    its dot product with the engineering Voigt strain is σ : ε."""
-    if dim == 2:
-        return ngs.CF((S[0, 0], S[1, 1], S[0, 1]))
-    return ngs.CF((S[0, 0], S[1, 1], S[2, 2], S[1, 2], S[0, 2], S[0, 1]))
 
 
 def deviator(eps, dim):
@@ -137,13 +124,13 @@ class StrainLaw:
         self.monotonicity = None if monotonicity is None else _positive(f"law {self.name!r}: monotonicity",
                                                                        monotonicity)
         self.strain_scale = _positive(f"law {self.name!r}: strain_scale", strain_scale)
+        self.takes_linear = self._arguments() >= 2
 
-    def takes_linear(self):
+    def _arguments(self):
         try:
-            import inspect
-            return len(inspect.signature(self.function).parameters) >= 2
-        except (TypeError, ValueError):
-            return False
+            return len(inspect.signature(self.function).parameters)
+        except (TypeError, ValueError):            # a builtin without a signature: ε only
+            return 1
 
     def bind(self, linear, dim, what):
         """The law for a ``dim``-D model whose material's linear tensor (Voigt, model
@@ -176,9 +163,7 @@ class PowerViscosity(StrainLaw):
 
     def __init__(self, zeta, exponent=1.5, delta=1.0, **options):
         zeta = _nonnegative("PowerViscosity: zeta", zeta)
-        r = _number("PowerViscosity: exponent", exponent)
-        if not 1 <= r <= 2:
-            raise ValueError(f"PowerViscosity: exponent must be in [1, 2] (monotone and Lipschitz), got {exponent!r}")
+        r = number("PowerViscosity: exponent (monotone and Lipschitz)", exponent, 1, 2)
         delta = _positive("PowerViscosity: delta", delta)
         self.zeta, self.exponent, self.delta = zeta, r, delta
 
@@ -196,23 +181,21 @@ class BoundLaw:
 
     def __init__(self, law, linear, dim, what):
         self.law, self.dim, self.what, self.name = law, dim, what, law.name
-        self._linear_matrix = linear
 
         def linear_stress(eps):
-            voigt = ngs.CF(tuple(float(v) for v in linear.flat), dims=linear.shape) * _voigt_strain(eps, dim)
-            return _stress_matrix(voigt, dim)
+            return stress_matrix(matrix_cf(linear) * strain_vector(eps, dim), dim)
         self._linear_stress = linear_stress
         self._check()
 
     def matrix_stress(self, eps):
         """σ = law(ε) as a matrix CF, for a strain matrix CF ε."""
-        if self.law.takes_linear():
+        if self.law.takes_linear:
             return self.law.function(eps, self._linear_stress)
         return self.law.function(eps)
 
     def voigt_stress(self, strain_voigt):
         """The Voigt stress of a Voigt strain CF (``forms.strain``)."""
-        return matrix_to_voigt(self.matrix_stress(voigt_to_matrix(strain_voigt, self.dim)), self.dim)
+        return stress_vector(self.matrix_stress(strain_matrix(strain_voigt, self.dim)), self.dim)
 
     # ---------------------------------------------------------------- the hypotheses (2.16)-(2.17)
     def _check(self):
@@ -243,7 +226,6 @@ class BoundLaw:
         rng = np.random.default_rng(20261125)           # the same samples in every run
         scale = self.law.strain_scale
         m, L = math.inf, 0.0
-        zero = evaluate(np.zeros((dim, dim)))
         for k in range(SAMPLES):
             a, b = (_sample(rng, dim, scale) for _ in range(2))
             if k % 4 == 0:
@@ -283,7 +265,6 @@ class BoundLaw:
             column = (evaluate(e) - evaluate(-e)) / (2 * h)
             tangent[:, J] = [column[i, j] for (i, j) in order]
         self.linear = 0.5 * (tangent + tangent.T)
-        self.stress_at_zero = zero
 
 
 _MESH = None
@@ -304,35 +285,9 @@ def _sample(rng, dim, scale):
     return size * a / np.linalg.norm(a)
 
 
-def _voigt_strain(eps, dim):
-    if dim == 2:
-        return ngs.CF((eps[0, 0], eps[1, 1], 2 * eps[0, 1]))
-    return ngs.CF((eps[0, 0], eps[1, 1], eps[2, 2], 2 * eps[1, 2], 2 * eps[0, 2], 2 * eps[0, 1]))
-
-
-def _stress_matrix(voigt, dim):
-    s = voigt
-    if dim == 2:
-        return ngs.CF((s[0], s[2], s[2], s[1]), dims=(2, 2))
-    return ngs.CF((s[0], s[5], s[4], s[5], s[1], s[3], s[4], s[3], s[2]), dims=(3, 3))
-
-
-def _number(name, value):
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
-        raise (TypeError if not isinstance(value, numbers.Real) or isinstance(value, bool) else ValueError)(
-            f"{name} must be a finite number, got {value!r}")
-    return float(value)
-
-
 def _positive(name, value):
-    value = _number(name, value)
-    if value <= 0:
-        raise ValueError(f"{name} must be > 0, got {value!r}")
-    return value
+    return number(name, value, 0, low_open=True)
 
 
 def _nonnegative(name, value):
-    value = _number(name, value)
-    if value < 0:
-        raise ValueError(f"{name} must be >= 0, got {value!r}")
-    return value
+    return number(name, value, 0)

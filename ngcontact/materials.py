@@ -24,6 +24,7 @@ import numpy as np
 
 from .checks import number
 from .laws import StrainLaw
+from .voigt import matrix_cf
 
 EPS0 = 8.8541878128e-12
 """Vacuum permittivity ε0 in F/m."""
@@ -102,14 +103,12 @@ class MaterialTensors:
         """F ε (Voigt CF) for a Voigt strain CF: the law's, or the tensor's."""
         if self.F_law is not None:
             return self.F_law.voigt_stress(strain)
-        from .forms import matrix_cf
         return matrix_cf(self.F) * strain
 
     def viscous_stress(self, strain_rate):
         """A ε̇ (Voigt CF) for a Voigt strain rate CF: the law's, or the tensor's."""
         if self.A_law is not None:
             return self.A_law.voigt_stress(strain_rate)
-        from .forms import matrix_cf
         return matrix_cf(self.A) * strain_rate
 
     def stiffness(self, rate=0.0):

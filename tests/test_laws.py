@@ -118,6 +118,19 @@ def test_a_law_without_its_nonlinearity_gives_the_linear_result(which):
     assert np.abs(states[0] - states[1]).max() <= 1e-11 * scale
 
 
+def test_two_runs_with_a_law_are_bitwise_equal():
+    """The laws' samples use a fixed seed and no solver decision reads the clock: two runs of
+    the reference scene with a law give the same bits."""
+    material = ngc.pzt5a(relaxation_time=reference.RELAXATION_TIME).with_elasticity(
+        laws.ProjectionLaw(5e10, laws.VonMisesBall(1e-5)))
+    states = []
+    for _ in range(2):
+        sim = reference.simulation(1, 0.005, material=material, keep_states=False)
+        sim.run(0.01, 0.1)
+        states.append(sim.gfu.vec.FV().NumPy().copy())
+    assert np.array_equal(states[0], states[1])
+
+
 def test_newton_converges_quadratically_on_a_smooth_nonlinear_law():
     """A saturating elasticity F(ε) = ℰε + ζ s dev ε/(s² + |dev ε|²)^½ (smooth, monotone,
     Lipschitz) on a plate clamped left and pulled on the right: the residuals fall
@@ -138,8 +151,14 @@ def test_newton_converges_quadratically_on_a_smooth_nonlinear_law():
 
 
 def test_the_contact_stiffness_scale_follows_the_law():
-    """γ's scale (MaterialTensors.stiffness) grows with the law's Lipschitz constant; a law
-    that is linear keeps the linear scale exactly."""
+    """γ's scale (MaterialTensors.stiffness) grows by L/|F'(0)| with the law's Lipschitz
+    constant L; a law that is linear keeps the linear scale exactly. |F'(0)| is the norm of
+    ε -> σ in Frobenius norms: for isotropic plane strain 2μ + 2λ (the volumetric mode), for
+    isotropic 3D 2μ + 3λ."""
+    lam, mu = 2.0, 3.0
+    iso = ngc.Material.isotropic(mu * (3 * lam + 2 * mu) / (lam + mu), lam / (2 * (lam + mu)), 1e-9)
+    assert ngc.materials.frobenius_norm(iso.tensors(2).F) == pytest.approx(2 * mu + 2 * lam, rel=1e-12)
+    assert ngc.materials.frobenius_norm(iso.tensors(3).F) == pytest.approx(2 * mu + 3 * lam, rel=1e-12)
     base = ngc.pzt5a()
     linear = base.tensors(2).stiffness(0.0)
     assert base.with_elasticity(laws.ProjectionLaw(0.0, laws.VonMisesBall(1e-4))).tensors(2).stiffness(0.0) == linear
@@ -164,10 +183,11 @@ def test_bad_laws_are_refused_with_the_law_and_the_value(law, error, words):
 
 
 @pytest.mark.parametrize("make, words", [
-    (lambda: laws.ProjectionLaw(-1.0, laws.VonMisesBall(1e-4)), "zeta must be >= 0, got -1.0"),
-    (lambda: laws.VonMisesBall(0.0), "radius must be > 0, got 0.0"),
-    (lambda: laws.PowerViscosity(1.0, exponent=3.0), r"exponent must be in \[1, 2\]"),
-    (lambda: laws.StrainLaw(lambda e: e, lipschitz=-2.0), "lipschitz must be > 0, got -2.0"),
+    (lambda: laws.ProjectionLaw(-1.0, laws.VonMisesBall(1e-4)), "zeta must be a finite number >= 0, got -1.0"),
+    (lambda: laws.VonMisesBall(0.0), "radius must be a finite number > 0, got 0.0"),
+    (lambda: laws.PowerViscosity(1.0, exponent=3.0), r"exponent .* in \[1, 2\], got 3.0"),
+    (lambda: laws.StrainLaw(lambda e: e, lipschitz=-2.0), "lipschitz must be a finite number > 0, got -2.0"),
+    (lambda: laws.ProjectionLaw("1e9", laws.VonMisesBall(1e-4)), "zeta must be a number"),
     (lambda: laws.Slab(1, 1e-3, -1e-3), "lower < upper"),
     (lambda: ngc.pzt5a().with_elasticity(laws.StrainLaw(lambda e, linear: linear(e), lipschitz=1e9)).tensors(2),
      "Lipschitz constant 1e\\+09 is below the sampled"),
@@ -191,8 +211,9 @@ def test_condensation_and_weak_normal_supports_refuse_a_law():
 
 
 def test_a_law_in_3d_contact_with_an_obstacle(monkeypatch):
-    """The 3D Hertz half-ball pressed onto a plane (Nitsche, supports): ζ = 0 gives the linear
-    state to 1e-11; ζ = max|F| stiffens it, so the same indentation takes more force."""
+    """The 3D Hertz half-ball pressed onto a plane (Nitsche, supports; h_contact = 0.05, where
+    no run is flagged for penetration): ζ = 0 gives the linear state to 1e-11; ζ = max|F|
+    stiffens it, so the same indentation takes more force (measured 1.65×)."""
     from ngcontact.scenes import hertz
     base = hertz.material()
     scale = float(np.abs(base.tensors(3).F).max())
@@ -200,12 +221,12 @@ def test_a_law_in_3d_contact_with_an_obstacle(monkeypatch):
     for zeta in (None, 0.0, scale):
         material = base if zeta is None else base.with_elasticity(laws.ProjectionLaw(zeta, laws.VonMisesBall(2e-3)))
         monkeypatch.setattr(hertz, "material", lambda: material)
-        sim = hertz.simulation(1, dim=3, mesh=hertz.mesh(3, h_contact=0.15), keep_states=False)
+        sim = hertz.simulation(1, dim=3, mesh=hertz.mesh(3, h_contact=0.05), keep_states=False)
         forces.append(sim.step(1.0).contact.force[2])
         states.append(sim.gfu.vec.FV().NumPy().copy())
     assert forces[0] > 0
     assert np.abs(states[1] - states[0]).max() <= 1e-11 * np.abs(states[0]).max()
-    assert forces[2] > 1.2 * forces[0]
+    assert forces[2] > 1.4 * forces[0]
 
 
 def test_the_error_estimator_refuses_a_law_by_name():
