@@ -11,6 +11,9 @@
 * Complete debonding: β = 0 and the contact force of the glue-free body.
 * Load cycles: cut-backs where Newton cycles, force balance at every step.
 * The conductive foundation meeting a flat face (a weak spot found by these studies).
+* Nonlinear laws: ζ = 0 is the linear plate, the force falls as ζ stiffens the plate; Newton
+  fails without cut-backs at κ ≈ 2e5 (projection) and where a sharp power viscosity's yield
+  stress meets the load.
 """
 import math
 
@@ -24,8 +27,8 @@ from ngcontact import cli
 from ngcontact.scenes import column, reference
 from ngcontact.studies import common
 from ngcontact.studies import stability as st
-from ngcontact.studies.stability import (debonding, incompressibility, load_cycles, nitsche_map, penalty_sweep,
-                                         shared, strong_coupling, time_step_sweep)
+from ngcontact.studies.stability import (debonding, incompressibility, load_cycles, nitsche_map, nonlinear_laws,
+                                         penalty_sweep, shared, strong_coupling, time_step_sweep)
 
 
 # ------------------------------------------------------------------------------- helpers
@@ -169,6 +172,25 @@ def test_load_cycles_complete_with_cutbacks_and_force_balance():
     assert row["failure"] == "" and row["cutbacks"] >= 1 and row["cycling"] >= 1
     assert row["records"] > 0.2 / 0.025 and row["openings"] == 2
     assert row["balance"] < 1e-10
+
+
+# ------------------------------------------------------------------------------- nonlinear laws
+
+def test_newton_fails_where_a_law_becomes_a_constraint_and_cutbacks_recover_the_projection():
+    """ζ = 0 gives the linear force (1e-9); the force falls monotonically as ζ grows (a
+    stiffer plate presses less); the projection law at ζ = 1e16 Pa (κ ≈ 2.4e5) fails without
+    cut-backs and converges with them; the power viscosity at r = 1 with ζ = 1e6 Pa (the
+    order of the 2 MPa load) and δ = 1e-6 1/s fails either way, with δ = 1e-3 it converges."""
+    rows = nonlinear_laws.run(zetas=(0.0, 1e11, 1e12, 1e16), power=((1e6, 1e-3), (1e6, 1e-6)), progress=False)
+    projection = {(r["zeta"], r["cutbacks"]): r for r in rows if r["law"] == "projection"}
+    assert abs(projection[0.0, 0]["force_change"]) < 1e-9
+    changes = [projection[z, 0]["force_change"] for z in (0.0, 1e11, 1e12)]
+    assert changes[0] > changes[1] > changes[2] > -1, changes
+    assert not projection[1e16, 0]["converged"] and projection[1e16, 6]["converged"]
+    assert projection[1e16, 0]["kappa"] > 1e5
+    power = {(r["delta"], r["cutbacks"]): r for r in rows if r["law"] == "power"}
+    assert power[1e-3, 0]["converged"] and not power[1e-6, 0]["converged"] and not power[1e-6, 6]["converged"]
+    assert nonlinear_laws.first_failure(rows, "projection") == projection[1e16, 0]["kappa"]
 
 
 # ------------------------------------------------------------------------------- conduction

@@ -38,10 +38,30 @@ def _voigt_strain(u, X, dim):
                       for (i, j) in pairs]), pairs
 
 
-class Manufactured:
-    """Exact (u, φ) and the loads that produce them, for the tensors of a Body."""
+def fiber_excess(s, width, sqrt=sp.sqrt):
+    """ψ(s) = s − w s / √(w² + s²): a smooth dead zone of width w (ψ(0) = ψ'(0) = 0,
+    0 ≤ ψ' < 1), the smooth cousin of ``laws.Slab``'s ε − P_K ε; ``sqrt`` sympy's or ngsolve's."""
+    return s - width * s / sqrt(width**2 + s**2)
 
-    def __init__(self, tensors, u, phi, dim=2):
+
+def fiber_law(zeta, width, name):
+    """The law ℰε + ζ ψ(ε_xx) e_x ⊗ e_x (2D; ℰ the material's linear tensor): fibres along x
+    that stiffen by ζ outside |ε_xx| ≲ w. Strongly monotone (ψ nondecreasing), Lipschitz
+    (L ≤ λ_max(ℰ) + ζ), smooth; it adds to σ_xx only, so the traction on Γ3 (normal y) is the
+    linear one."""
+    from ngcontact.laws import StrainLaw
+
+    def fibers(eps, linear):
+        return linear(eps) + zeta * ngs.CF((fiber_excess(eps[0, 0], width, ngs.sqrt), 0, 0, 0), dims=(2, 2))
+    return StrainLaw(fibers, name, strain_scale=width)
+
+
+class Manufactured:
+    """Exact (u, φ) and the loads that produce them, for the tensors of a Body; ``extra_stress``
+    (optional): the nonlinear part of the stress, a sympy function of the Voigt strain and
+    strain-rate vectors returning a Voigt stress vector (added to F ε + A ε̇ + Eᵀ∇φ)."""
+
+    def __init__(self, tensors, u, phi, dim=2, extra_stress=None):
         X = (x, y, z)[:dim]
         self.dim, self.u, self.phi = dim, sp.Matrix(u), sp.sympify(phi)
         F, A, E, C = (sp.Matrix(np.asarray(m)) for m in (tensors.F, tensors.A, tensors.E, tensors.C))
@@ -49,6 +69,8 @@ class Manufactured:
         eps_dot = sp.diff(eps, t)
         grad_phi = sp.Matrix([sp.diff(self.phi, c) for c in X])
         s = F * eps + A * eps_dot + E.T * grad_phi
+        if extra_stress is not None:
+            s = s + extra_stress(eps, eps_dot)
         sigma = sp.zeros(dim, dim)
         for k, (i, j) in enumerate(pairs):
             sigma[i, j] = sigma[j, i] = s[k]
@@ -129,13 +151,24 @@ class ContactManufactured(Manufactured):
     Conduction everywhere on Γ3 (ramp width δ larger than any separation, L_φ large):
     φ_Γ = φ − D·ν / ψ(u_ν − g).
 
+    Nonlinear laws (``fibers=(ζ_F, ζ_A)``, ``fiber_width`` w): F(ε) = ℰε + ζ_F ψ(ε_xx) e_x ⊗ e_x
+    and A(ε̇) = τℰε̇ + ζ_A ψ(ε̇_xx) e_x ⊗ e_x (``fiber_law``; ``with_laws(material)`` gives the
+    material): they add to σ_xx only, so the construction on Γ3 holds unchanged and f0, f2
+    carry the laws (each a smooth function of x). Backward Euler stays exact in time for the
+    linear profile (ε̇ = ε̂ is constant).
+
     Regularity: N(x) contains T'(x), so u ∈ H^{k − 1/2 − ε}(Ω) and the energy error of order
     p converges as h^min(p, k − 3/2); k = 3 mimics the H^{5/2 − ε} of real contact solutions.
     """
 
     def __init__(self, tensors, case="viscous", time_profile="linear", L1=1.0, L2=0.5,
-                 x_c=0.5, smoothness=4, tau=0.3):
+                 x_c=0.5, smoothness=4, tau=0.3, fibers=(0.0, 0.0), fiber_width=0.1):
         k = smoothness
+        self.fibers = tuple(float(z) for z in fibers)
+        self.fiber_width = float(fiber_width)
+        if len(self.fibers) != 2 or min(self.fibers) < 0 or not self.fiber_width > 0:
+            raise ValueError(f"fibers must be two numbers >= 0 (zeta_F, zeta_A) and fiber_width > 0, got "
+                             f"{fibers!r}, {fiber_width!r}")
         if case not in ("viscous", "adhesive"):
             raise ValueError(f"case must be 'viscous' or 'adhesive', got {case!r}")
         if int(k) != k or k < 3:
@@ -171,8 +204,23 @@ class ContactManufactured(Manufactured):
         sol = sp.solve([sig0[2], sig0[1] - s_hat], [a, b], dict=True)[0]
         W = sp.Matrix([sp.cos(y) / 5, sp.sin(x + y) / 10])
         U = sp.Matrix([trace_x, trace_y]) + y * sp.Matrix([sol[a], sol[b]]) + y**2 * x * W
-        super().__init__(tensors, s_u * U, s_phi * Phi, dim=2)
+
+        def extra_stress(eps, eps_dot):              # Voigt (xx, yy, xy): σ_xx only
+            zeta_F, zeta_A = self.fibers
+            w = self.fiber_width
+            return sp.Matrix([zeta_F * fiber_excess(eps[0], w) + zeta_A * fiber_excess(eps_dot[0], w), 0, 0])
+        super().__init__(tensors, s_u * U, s_phi * Phi, dim=2,
+                         extra_stress=extra_stress if any(self.fibers) else None)
         self.u_normal_expr = -self.u[1].subs(y, 0)   # ν = (0, −1) on Γ3
+
+    def with_laws(self, material):
+        """``material`` with this solution's fibre laws (those with ζ > 0)."""
+        zeta_F, zeta_A = self.fibers
+        if zeta_F:
+            material = material.with_elasticity(fiber_law(zeta_F, self.fiber_width, f"fibres ζ = {zeta_F:g}"))
+        if zeta_A:
+            material = material.with_viscosity(fiber_law(zeta_A, self.fiber_width, f"viscous fibres ζ = {zeta_A:g}"))
+        return material
 
     def contact(self, time, theta=1, gamma0=10.0, beta_update="explicit"):
         """The Contact data (g, laws, φ_Γ, β0) that make this solution exact."""

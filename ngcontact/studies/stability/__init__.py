@@ -12,6 +12,7 @@ returning its rows (flat dicts, one per run or per step) and drawing its charts 
 * ``debonding``: complete debonding and contact afterwards, against the glue-free body.
 * ``load_cycles``: push-pull cycles that open and close the contact.
 * ``penalty_sweep``: the penalty factor over decades against Nitsche's γ0.
+* ``nonlinear_laws``: where Newton fails as a law's ζ grows (projection law, power viscosity).
 
 Runs are made without time-step cut-backs unless stated, so that failures show; a failed
 Newton solve is classified by ``common.failure_kind``. Units are SI, per metre of depth.
@@ -21,12 +22,12 @@ import time as wallclock
 from ngcontact import checks, parallel
 
 from ..common import write_csv
-from . import (debonding, incompressibility, load_cycles, nitsche_map, penalty_sweep, strong_coupling,
-               time_step_sweep)
+from . import (debonding, incompressibility, load_cycles, nitsche_map, nonlinear_laws, penalty_sweep,
+               strong_coupling, time_step_sweep)
 
 STUDIES = dict(nitsche_map=nitsche_map, time_step_sweep=time_step_sweep, incompressibility=incompressibility,
                strong_coupling=strong_coupling, debonding=debonding, load_cycles=load_cycles,
-               penalty_sweep=penalty_sweep)
+               penalty_sweep=penalty_sweep, nonlinear_laws=nonlinear_laws)
 """The studies in the order ``python -m ngcontact stability`` runs them."""
 
 
