@@ -28,10 +28,13 @@ import ngsolve as ngs
 import ngsolve.config
 import numpy as np
 
+from . import petsc_solver
 
-NAMES = ("sparsecholesky", "umfpack") + (("pardiso",) if ngsolve.config.USE_PARDISO else ())
-"""The direct solvers of this NGSolve build (``inverse=`` names; "pardiso" only where NGSolve
-was built with MKL, which the PyPI wheel is not)."""
+
+NAMES = ("sparsecholesky", "umfpack") + (("pardiso",) if ngsolve.config.USE_PARDISO else ()) + petsc_solver.NAMES
+"""The direct solvers (``inverse=`` names): this NGSolve build's ("pardiso" only where NGSolve
+was built with MKL, which the PyPI wheel is not) and PETSc's MUMPS (``petsc_solver``; serial
+and distributed, where PETSc is installed)."""
 PARALLEL_NAMES = ("masterinverse",)
 """The direct solver of a ParallelMatrix on a distributed mesh: NGSolve gathers the matrix on
 rank 0 and factorises it there (exact for non-symmetric matrices; "umfpack" and
@@ -90,13 +93,16 @@ class DirectSolver:
     Parameters
     ----------
     name : one of ``NAMES``, or of ``PARALLEL_NAMES`` for a distributed mesh.
+    symmetric : for "mumps": LDLᵀ (the matrix is symmetric) instead of LU.
     """
 
-    def __init__(self, name):
+    def __init__(self, name, symmetric=False):
         if name not in NAMES + PARALLEL_NAMES:
             raise ValueError(f"inverse must be one of {', '.join(map(repr, NAMES + PARALLEL_NAMES))}, "
                              f"got {name!r}")
-        self.name = name
+        if name in petsc_solver.NAMES:
+            petsc_solver.load()                       # missing PETSc: the install line, before any work
+        self.name, self.symmetric = name, symmetric
         self.factorizations = 0
         self._inverse = self._matrix = self._freedofs = None
 
@@ -111,12 +117,15 @@ class DirectSolver:
         with reproducible():
             if self._inverse is not None and matrix is self._matrix and freedofs is self._freedofs:
                 try:
-                    self._inverse.Update()
+                    self._inverse.update() if self.name in petsc_solver.NAMES else self._inverse.Update()
                     self.factorizations += 1
                     return
                 except Exception:                     # an inverse without Update: factorise anew
                     pass
-            self._inverse = matrix.Inverse(freedofs, inverse=self.name)
+            if self.name in petsc_solver.NAMES:
+                self._inverse = petsc_solver.MumpsFactorization(matrix, freedofs, self.symmetric)
+            else:
+                self._inverse = matrix.Inverse(freedofs, inverse=self.name)
         self._matrix, self._freedofs = matrix, freedofs
         self.factorizations += 1
 
@@ -129,7 +138,7 @@ class DirectSolver:
             w.data = self._inverse * r
 
     def __repr__(self):
-        return f"DirectSolver({self.name!r})"
+        return f"DirectSolver({self.name!r}{', symmetric=True' if self.symmetric else ''})"
 
 
 class KeptFactorization:

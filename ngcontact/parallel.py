@@ -199,8 +199,9 @@ def check_simulation(mesh, contact, inverse, condense, reuse_factorization, iter
     if contact is not None and contact.method == "active_set":
         serial_only(mesh, "Contact.method 'active_set' (the nodal constraint)",
                     "its saddle point systems are scipy matrices of one rank; use 'nitsche' or 'penalty'")
-    if inverse is not None:
-        serial_only(mesh, f"inverse={inverse!r}", "leave inverse=None: NGSolve's 'masterinverse' is used")
+    if inverse is not None and inverse not in ("mumps", "masterinverse"):
+        serial_only(mesh, f"inverse={inverse!r}", "use inverse='mumps' (PETSc) or 'masterinverse', or leave "
+                    "inverse=None (MUMPS where PETSc is installed, else NGSolve's 'masterinverse')")
     if condense:
         serial_only(mesh, "condense=True (static condensation)", "not implemented; pass condense=None or False")
     if iterative:
@@ -209,5 +210,5 @@ def check_simulation(mesh, contact, inverse, condense, reuse_factorization, iter
     notes = ["static condensation: off (not implemented on a distributed mesh)"]
     if reuse_factorization:
         notes.append("reuse_factorization: off (its GMRES works on the rank's numpy arrays); "
-                     "masterinverse factorises at every Newton iteration")
+                     "the direct solver factorises at every Newton iteration")
     return notes

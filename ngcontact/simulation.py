@@ -49,7 +49,9 @@ class Simulation:
     u0 : initial displacement (number tuple or CoefficientFunction), zero on Γ1 and admissible;
         default 0. Newton's start of a step may differ from it (``step(dt, guess=...)``).
     inverse : the direct factorisation of the Newton corrections ("sparsecholesky",
-        "umfpack", "pardiso"); default: "sparsecholesky" where the step Jacobian is symmetric
+        "umfpack", "pardiso", or "mumps": PETSc's MUMPS, LDLᵀ or LU by the Jacobian's
+        symmetry, serial or distributed, where PETSc is installed: ``petsc_solver``); default
+        on a distributed mesh: "mumps" where PETSc is installed, else "masterinverse"; serially: "sparsecholesky" where the step Jacobian is symmetric
         (no contact, or ``Contact.symmetric``), else, with ``reuse_factorization``, the
         sparse Cholesky factorisation of its symmetric part as GMRES's preconditioner, and
         "umfpack" without, and for Nitsche's θ = −1 (its skew Γ3 part makes GMRES slower

@@ -5,13 +5,17 @@ reuse_factorization=, iterative=)``), chosen by the system's symmetry, size and 
   for P1, block BDDC for P2 and higher): by default in 3D from ``ITERATIVE_FROM`` DOFs
   without static condensation, for P1 on nested meshes (``meshes.nested_mesh``); direct
   factorisations fill in like n^(4/3) there.
-* on a mesh distributed over MPI ranks: NGSolve's "masterinverse" (the Jacobian gathered
-  and factorised on rank 0) at every Newton iteration;
+* on a mesh distributed over MPI ranks: MUMPS (``inverse="mumps"``, through PETSc: the
+  factorisation spread over the ranks) where PETSc is installed, else NGSolve's
+  "masterinverse" (the Jacobian gathered and factorised on rank 0), at every Newton iteration;
+* ``inverse="mumps"`` serially: MUMPS's LDLᵀ (symmetric Jacobian) or LU, kept as GMRES's
+  preconditioner like the other factorisations;
 * else a direct factorisation: kept between Newton iterations as GMRES's preconditioner
   (``linear_solver.KeptFactorization``; of the symmetric part for a non-symmetric Jacobian),
   or made at every iteration (``reuse_factorization=False``, and Nitsche's θ = −1, whose
   skew Γ3 part makes GMRES slower than factorising, docs/speed.md).
 """
+from . import petsc_solver
 from .linear_solver import NAMES, PARALLEL_NAMES, DirectSolver, KeptFactorization, factorization_worth
 from .meshes import refinements
 from .multigrid import MultigridSolver, needs_nested_mesh
@@ -32,12 +36,16 @@ def choose(body, contact, system, space, *, inverse, reuse_factorization, iterat
     and ``contact`` on the StepSystem ``system`` of the product ``space`` (``realcompile``: of
     the multigrid hierarchy's integrands). ``distributed`` (a mesh over several MPI ranks):
     NGSolve's "masterinverse" at every iteration (``parallel.check_simulation``)."""
-    if inverse is not None and inverse not in NAMES:
-        raise ValueError(f"inverse must be one of {', '.join(map(repr, NAMES))} or None, got {inverse!r}")
+    names = NAMES + (PARALLEL_NAMES if distributed else ())
+    if inverse is not None and inverse not in names:
+        raise ValueError(f"inverse must be one of {', '.join(map(repr, names))} or None, got {inverse!r}")
     if iterative not in (None, True, False):
         raise ValueError(f"iterative must be None (automatic), True or False, got {iterative!r}")
+    symmetric = (contact is None or contact.symmetric) and body.tensors.linear   # a law's Nitsche term: not
     if distributed:                              # what cannot run there raised in parallel.check_simulation
-        return DirectSolver(PARALLEL_NAMES[0]), DirectSolver(PARALLEL_NAMES[0])
+        name = inverse or ("mumps" if petsc_solver.available() else PARALLEL_NAMES[0])
+        sym = symmetric and name == "mumps"
+        return DirectSolver(name, symmetric=sym), DirectSolver(name, symmetric=sym)
     if iterative is None:
         iterative = inverse is None and iterative_by_default(body, condense)
     if iterative:
@@ -53,9 +61,14 @@ def choose(body, contact, system, space, *, inverse, reuse_factorization, iterat
         newton = MultigridSolver(body, system, layer, electric=electric, realcompile=realcompile)
         potential = MultigridSolver(body, system, layer, electric=True, realcompile=realcompile, displacement=False)
         return newton, potential
-    symmetric = (contact is None or contact.symmetric) and body.tensors.linear   # a law's Nitsche term: not
     name = inverse or ("sparsecholesky" if symmetric else "umfpack")
     skew = contact is not None and contact.method == "nitsche" and contact.theta == -1
+    if name == "mumps":                          # LDLᵀ or LU by symmetry; kept as GMRES's preconditioner
+        direct = DirectSolver(name, symmetric=symmetric)
+        if not reuse_factorization:
+            return direct, DirectSolver(name, symmetric=symmetric)
+        return (KeptFactorization(direct, budget=factorization_worth(body.ndof, body.dim)),
+                DirectSolver(name, symmetric=symmetric))
     if not reuse_factorization or (inverse is None and skew):
         return DirectSolver(name), DirectSolver(name)
     budget = factorization_worth(body.ndof, body.dim)
