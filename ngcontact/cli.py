@@ -110,8 +110,9 @@ def parser():
     bench.add_argument("--steps", metavar="N", type=int, default=10,
                        help="time steps per case (default 10: first contact and its spreading)")
     bench.add_argument("--dt", metavar="DT", type=float, default=2.5e-3, help="time step, s")
-    bench.add_argument("--inverse", choices=("umfpack", "sparsecholesky"),
-                       help="direct solver (default: sparsecholesky if symmetric, else umfpack)")
+    bench.add_argument("--inverse", choices=("umfpack", "sparsecholesky", "mumps"),
+                       help="direct solver (default: sparsecholesky if symmetric, else umfpack; mumps: PETSc's, "
+                            "docs/cluster.md)")
     bench.add_argument("--realcompile", choices=("auto", "yes", "no"), default="auto",
                        help="compile the Γ3 integrand to machine code (auto: when the run's expected Newton "
                             "iterations pay for it, ngcontact.machine_code)")

@@ -18,6 +18,7 @@ reuse_factorization=, iterative=)``), chosen by the system's symmetry, size and 
 from . import petsc_solver
 from .linear_solver import NAMES, PARALLEL_NAMES, DirectSolver, KeptFactorization, factorization_worth
 from .meshes import refinements
+from .parallel import oversubscribed
 from .multigrid import MultigridSolver, needs_nested_mesh
 
 ITERATIVE_FROM = 100_000
@@ -45,6 +46,9 @@ def choose(body, contact, system, space, *, inverse, reuse_factorization, iterat
     if distributed:                              # what cannot run there raised in parallel.check_simulation
         name = inverse or ("mumps" if petsc_solver.available() else PARALLEL_NAMES[0])
         sym = symmetric and name == "mumps"
+        if name == "mumps" and reuse_factorization and not oversubscribed():   # PETSc's GMRES, kept MUMPS
+            return (petsc_solver.KeptMumps(sym, budget=factorization_worth(body.ndof, body.dim)),
+                    DirectSolver(name, symmetric=sym))
         return DirectSolver(name, symmetric=sym), DirectSolver(name, symmetric=sym)
     if iterative is None:
         iterative = inverse is None and iterative_by_default(body, condense)
