@@ -57,11 +57,19 @@ def distributed_mesh(make, refine, comm):
     broken parallel topology in NGSolve 6.2.2608: wrong global DOF counts, hangs) and
     distributes it; the other ranks receive their parts."""
     from netgen.meshing import Mesh as NetgenMesh
+    elements = 0
     if comm.rank == 0:
         ngmesh = make()
         serial = ngs.Mesh(ngmesh)
         for _ in range(refine):
             serial.Refine()
+        elements = serial.ne
+    elements = comm.bcast(elements, root=0)
+    if elements < comm.size - 1:                  # every rank raises, before distributing
+        raise ValueError(f"mpiexec -n {comm.size}: the mesh has {elements} elements for {comm.size - 1} "
+                         f"computing ranks (rank 0 keeps none); run on at most {elements + 1} ranks or "
+                         f"refine the mesh")
+    if comm.rank == 0:
         ngmesh = ngmesh.Distribute(comm)
     else:
         ngmesh = NetgenMesh.Receive(comm)

@@ -124,8 +124,16 @@ class MumpsFactorization(ngs.BaseMatrix):
         self.pc.setType("cholesky" if symmetric else "lu")
         self.pc.setFactorSolverType("mumps")
         self.pc.setFromOptions()                    # PETSC_OPTIONS, e.g. -mat_mumps_icntl_4 2
-        self.pc.setUp()
+        self._factorise()
         self._x, self._y = self.petsc.mat.createVecs()
+
+    def _factorise(self):
+        """PCSetUp; a factorisation PETSc reports as failed raises with PETSc's reason."""
+        self.pc.setUp()
+        reason = self.pc.getFailedReason()
+        if reason:
+            raise ArithmeticError(f"the MUMPS factorisation failed (PETSc's reason: {reason}, "
+                                  f"{'LDLᵀ' if self.symmetric else 'LU'} of {self.matrix.height} rows)")
 
     def _mark_symmetric(self):
         if self.symmetric:
@@ -137,7 +145,7 @@ class MumpsFactorization(ngs.BaseMatrix):
         self.petsc.refill()
         self._mark_symmetric()
         self.pc.setOperators(self.petsc.mat)
-        self.pc.setUp()
+        self._factorise()
 
     def Height(self):
         return self.matrix.height

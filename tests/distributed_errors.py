@@ -46,6 +46,18 @@ for name, guess in [("nested", "nested"), ("approach", Approach(1e-6))]:
         message = str(err)
     if parallel.rank() == 0:
         print(f"{name}: {message}", flush=True)
+try:                                     # fewer elements than computing ranks
+    from netgen.occ import OCCGeometry, WorkPlane
+    triangle = WorkPlane()
+    triangle.LineTo(1, 0)
+    triangle.LineTo(0, 1)
+    triangle.Close()
+    parallel.distributed_mesh(lambda: OCCGeometry(triangle.Face(), dim=2).GenerateMesh(maxh=10), 0, parallel.world())
+    message = "no error"
+except ValueError as err:
+    message = str(err)
+if parallel.rank() == 0:
+    print(f"ranks: {message}", flush=True)
 sim.run(2.5e-3, 5e-3, vtk=pathlib.Path(sys.argv[1]) / "fields")
 if parallel.rank() == 0:
     print(f"vtk: {len(sim.history) - 1} steps", flush=True)

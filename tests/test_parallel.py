@@ -63,8 +63,8 @@ def test_distributed_demo_equals_the_serial_run(serial, tmp_path, ranks):
 
 
 def test_what_does_not_run_distributed_says_so(tmp_path):
-    """A serial mesh given to Body, the nodal active set, GMRES with multigrid, a serial
-    inverse, static condensation, the stream of results and the guesses that need the whole mesh raise a ValueError naming the
+    """A serial mesh given to Body, more computing ranks than elements, the nodal active set,
+    GMRES with multigrid, a serial inverse, static condensation, the stream of results and the guesses that need the whole mesh raise a ValueError naming the
     feature under mpiexec; ``run(vtk=)``
     writes one ParaView file per computing rank and step (the initial state and 2 steps),
     with u and φ, collected by one .pvd."""
@@ -79,6 +79,8 @@ def test_what_does_not_run_distributed_says_so(tmp_path):
     assert "distributed" in lines["out"]
     assert lines["nested"].startswith("guess='nested'") and lines["approach"].startswith(
         "guess=Approach(depth) without a direction does not run on a distributed mesh")
+    assert lines["ranks"] == ("mpiexec -n 3: the mesh has 1 elements for 2 computing ranks (rank 0 keeps none); "
+                              "run on at most 2 ranks or refine the mesh")
     assert lines["vtk"] == "2 steps"
     parts = sorted(path.name for path in tmp_path.glob("fields_proc*.vtu"))
     assert len(parts) == 2 * 3, parts                # 2 computing ranks × (initial state + 2 steps)
