@@ -14,17 +14,14 @@ import os as _os
 import sys as _sys
 import warnings as _warnings
 
-if any(_os.environ.get(_n, "1").isdigit() and int(_os.environ.get(_n, "1")) > 1
-       for _n in ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE", "MPI_LOCALNRANKS")):
-    # Under mpiexec: one OpenMP/BLAS thread per rank unless the user chose otherwise. The
-    # runtimes read these once, when NGSolve (or PETSc) loads: with their default, 2 ranks on
-    # 2 cores spent 8x longer per Newton iteration (docs/cluster.md).
+from . import mpi_launch as _mpi_launch
+
+if _mpi_launch.launched():                      # before NGSolve loads, if it has not yet
     if "ngsolve" in _sys.modules and "OMP_NUM_THREADS" not in _os.environ:
         _warnings.warn("ngsolve was imported before ngcontact under mpiexec without OMP_NUM_THREADS: every rank "
                        "may start one OpenMP thread per core, which made the solves 8x slower on 2 cores; "
                        "export OMP_NUM_THREADS=1 (docs/cluster.md)", RuntimeWarning, stacklevel=2)
-    for _name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
-        _os.environ.setdefault(_name, "1")
+    _mpi_launch.one_thread_per_rank()
 
 from . import adapt, checks, contact_laws, estimators, laws, meshes, parallel, schemes  # noqa: E402
 from .admissible import PhysicsWarning

@@ -117,7 +117,7 @@ class DirectSolver:
         with reproducible():
             if self._inverse is not None and matrix is self._matrix and freedofs is self._freedofs:
                 try:
-                    self._inverse.update() if self.name in petsc_solver.NAMES else self._inverse.Update()
+                    self._inverse.Update()
                     self.factorizations += 1
                     return
                 except Exception:                     # an inverse without Update: factorise anew

@@ -24,14 +24,12 @@ import os
 import ngsolve as ngs
 import numpy as np
 
-_SIZE_VARIABLES = ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE", "MPI_LOCALNRANKS")
-
+from . import mpi_launch, petsc_solver
 
 def world():
     """mpi4py's COMM_WORLD when this process is one of several MPI ranks (started by
     mpiexec), else None (mpi4py is then not imported)."""
-    if not any(os.environ.get(name, "1").isdigit() and int(os.environ.get(name, "1")) > 1
-               for name in _SIZE_VARIABLES):
+    if not mpi_launch.launched():
         return None
     from mpi4py import MPI
     return MPI.COMM_WORLD if MPI.COMM_WORLD.size > 1 else None
@@ -224,7 +222,6 @@ def check_simulation(mesh, contact, inverse, condense, reuse_factorization, iter
         serial_only(mesh, "iterative=True (GMRES with multigrid)", "a distributed mesh has no nested meshes "
                     "(NGSolve 6.2.2608 cannot refine it); leave iterative=None")
     notes = ["static condensation: off (not implemented on a distributed mesh)"]
-    from . import petsc_solver
     mumps = inverse == "mumps" or (inverse is None and petsc_solver.available())
     if reuse_factorization and not mumps:
         notes.append("reuse_factorization: off (its GMRES works on the rank's numpy arrays); "

@@ -17,21 +17,18 @@ wheel ships PETSc 3.25 with MUMPS and its own petsc4py (``INSTALL``); on a clust
 petsc4py against the site's PETSc (docs/cluster.md). Without PETSc, ``inverse="mumps"`` is an
 error that says how to install it, before any work.
 """
-import os
+from contextlib import nullcontext
 
 import ngsolve as ngs
 import numpy as np
+
+from . import mpi_launch
 
 NAMES = ("mumps",)
 """The ``inverse=`` names of the PETSc engine."""
 INSTALL = ('on Python >= 3.12: pip install --no-deps dolfinx-solver-real ngsPETSc && pip install packaging '
            '(or petsc4py built against a PETSc with MUMPS, and ngsPETSc; docs/cluster.md)')
 """How to install what ``inverse="mumps"`` needs."""
-
-THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS")
-"""Set to 1 when PETSc is loaded, unless the user set them: the wheel's MUMPS and BLAS start
-OpenMP threads on every rank, which on the project's 2 cores fought NGSolve's and the other
-ranks' (mpiexec -n 2, 34 749 DOFs: 18 factorisations 27-47 s, 5.1 s with one thread each)."""
 
 _modules = None
 
@@ -41,8 +38,9 @@ def load():
     so that PETSc finds the MPI library); ImportError with ``INSTALL`` if missing."""
     global _modules
     if _modules is None:
-        for name in THREAD_VARIABLES:              # before the libraries load (read once there)
-            os.environ.setdefault(name, "1")
+        # the wheel's MUMPS and BLAS start OpenMP threads on every rank: one each, unless set
+        # (mpiexec -n 2, 34 749 DOFs: 18 factorisations 27-47 s, 5.1 s with one thread each)
+        mpi_launch.one_thread_per_rank()
         try:
             from mpi4py import MPI  # noqa: F401  (loads libmpi for petsc4py)
             from petsc4py import PETSc
@@ -140,8 +138,9 @@ class MumpsFactorization(ngs.BaseMatrix):
             PETSc, _ = load()
             self.petsc.mat.setOption(PETSc.Mat.Option.SYMMETRIC, True)
 
-    def update(self):
-        """Factorise the matrix's current values (same pattern): MUMPS's analysis is kept."""
+    def Update(self):
+        """Factorise the matrix's current values (same pattern): MUMPS's analysis is kept
+        (the name of NGSolve's inverses' method, so that ``DirectSolver`` treats both alike)."""
         self.petsc.refill()
         self._mark_symmetric()
         self.pc.setOperators(self.petsc.mat)
@@ -179,8 +178,8 @@ class KeptMumps:
 
     def __init__(self, symmetric=False, *, tol=1e-8, budget=20):
         self.symmetric, self.tol, self.budget = symmetric, tol, int(max(1, budget))
-        self.krylov_iterations = self.krylov_failures = self.fallbacks = self.factorizations = 0
-        self._factorization = self._current = self._ksp = self._generation = None
+        self.krylov_iterations = self.krylov_failures = self.factorizations = 0
+        self._factorization = self._current = self._ksp = self._generation = self._weighted = None
 
     name = "GMRES preconditioned by a kept MUMPS factorisation of an earlier Jacobian (PETSc)"
 
@@ -200,7 +199,11 @@ class KeptMumps:
         self.factorizations += 1
 
     def _weights(self, r, weights):
-        """S = diag(weights)^½ and S⁻¹ as PETSc vectors (ones without weights)."""
+        """S = diag(weights)^½ and S⁻¹ as PETSc vectors (ones without weights); made again
+        only for new weights (Newton's norm keeps its array within a step)."""
+        if weights is self._weighted and weights is not None:
+            return
+        self._weighted = weights
         if weights is None:
             self._scale.set(1.0)
         else:
@@ -214,7 +217,7 @@ class KeptMumps:
 
     def solve(self, matrix, freedofs, r, w, generation=None, timer=None, weights=None, tol=None, changing=None):
         """w = A⁻¹ r (``changing`` is not used)."""
-        timer = timer or (lambda phase: _untimed())
+        timer = timer or (lambda phase: nullcontext())
         tol = self.tol if tol is None else tol
         if self._factorization is None or self._factorization.matrix is not matrix \
                 or self._factorization.freedofs is not freedofs:
@@ -250,10 +253,9 @@ class KeptMumps:
         self._current.vectors.ngsVec(self._x, w)
 
     def _refactor(self, timer):
-        """Factorise the current Jacobian."""
-        self._current.refill()
+        """Factorise the current Jacobian (``_current`` is refilled before its next use)."""
         with timer("factorization"):
-            self._factorization.update()
+            self._factorization.Update()
         self.factorizations += 1
 
     def __repr__(self):
@@ -271,8 +273,3 @@ class _ScaledSolve:
         kept._t.pointwiseMult(x, kept._inverse_scale)
         kept._factorization.pc.apply(kept._t, y)
         y.pointwiseMult(y, kept._scale)
-
-
-def _untimed():
-    from contextlib import nullcontext
-    return nullcontext()

@@ -6,6 +6,7 @@ dolfinx-solver-real ngsPETSc && pip install packaging``; ``.ci/run`` runs this f
 MUMPS solves equal NGSolve's, and the distributed runs equal the serial one."""
 import json
 import os
+import subprocess
 import sys
 
 import numpy as np
@@ -69,9 +70,8 @@ def serial_runs(tmp_path_factory):
     out = tmp_path_factory.mktemp("serial")
     runs = {}
     for scene in ("reference", "block"):
-        launch_serial = [sys.executable, str(HERE / "distributed_petsc.py"), scene, "default", str(out / f"{scene}.json")]
-        import subprocess
-        done = subprocess.run(launch_serial, capture_output=True, text=True, cwd=HERE.parent, timeout=900)
+        command = [sys.executable, str(HERE / "distributed_petsc.py"), scene, "default", str(out / f"{scene}.json")]
+        done = subprocess.run(command, capture_output=True, text=True, cwd=HERE.parent, timeout=900)
         assert done.returncode == 0, done.stderr[-3000:]
         runs[scene] = json.loads((out / f"{scene}.json").read_text())
     return runs

@@ -49,11 +49,9 @@ def fiber_law(zeta, width, name):
     that stiffen by ζ outside |ε_xx| ≲ w. Strongly monotone (ψ nondecreasing), Lipschitz
     (L ≤ λ_max(ℰ) + ζ), smooth; it adds to σ_xx only, so the traction on Γ3 (normal y) is the
     linear one."""
-    from ngcontact.laws import StrainLaw
-
     def fibers(eps, linear):
         return linear(eps) + zeta * ngs.CF((fiber_excess(eps[0, 0], width, ngs.sqrt), 0, 0, 0), dims=(2, 2))
-    return StrainLaw(fibers, name, strain_scale=width)
+    return ngc.laws.StrainLaw(fibers, name, strain_scale=width)
 
 
 class Manufactured:

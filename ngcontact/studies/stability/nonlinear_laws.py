@@ -18,7 +18,7 @@ from ngcontact import laws
 from ngcontact.progress import bar
 from ngcontact.scenes import reference
 
-from ..common import add_row, newton_total, run as run_quietly, table
+from ..common import add_row, newton_total, table
 from .shared import press
 
 COLUMNS = ("law", "zeta", "delta", "kappa", "cutbacks", "converged", "failure", "newton", "newton_max", "force_change")
@@ -40,7 +40,7 @@ def _kappa(material, law, zeta, delta, exponent):
     tensors = material.tensors(2)
     if law == "projection":
         return tensors.F_law.lipschitz / tensors.F_law.monotonicity
-    eigen = np.linalg.eigvalsh(np.asarray(reference.RELAXATION_TIME * ngc.pzt5a().tensors(2).F))
+    eigen = np.linalg.eigvalsh(reference.RELAXATION_TIME * np.asarray(tensors.F))   # τℰ, F linear here
     return (eigen[-1] + zeta * delta ** (exponent - 2)) / eigen[0]
 
 
