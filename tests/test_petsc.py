@@ -98,3 +98,19 @@ def test_distributed_mumps_equals_the_serial_run(serial_runs, tmp_path, scene, r
         assert a.shape == b.shape and np.abs(a).max() > 0, key
         assert np.abs(a - b).max() <= 1e-8 * np.abs(a).max(), (key, np.abs(a - b).max() / np.abs(a).max())
     assert np.abs(np.subtract(serial["newton"], distributed["newton"])).max() <= 1
+
+
+@needs_petsc
+def test_two_mumps_runs_are_bitwise_equal(tmp_path):
+    """Two processes with ``inverse="mumps"`` (the kept LU and GMRES, one thread): the contact
+    force, the charge flux and Newton's iterations of every step are bitwise equal."""
+    runs = []
+    for name in ("a", "b"):
+        out = tmp_path / f"{name}.json"
+        done = subprocess.run([sys.executable, str(HERE / "distributed_petsc.py"), "reference", "mumps", str(out)],
+                              capture_output=True, text=True, cwd=HERE.parent, timeout=900)
+        assert done.returncode == 0, done.stderr[-3000:]
+        runs.append(json.loads(out.read_text()))
+    assert runs[0]["solver"] == "KeptFactorization(DirectSolver('mumps'), symmetric=False)"
+    for key in ("force", "charge", "newton"):
+        assert runs[0][key] == runs[1][key], key
