@@ -22,16 +22,16 @@ def elements_at(mesh, region):
     return elements
 
 
-def element_boundary_layer(mesh, region):
+def element_boundary_layer(mesh, region, bonus_intorder=0):
     """(dx, indicator) for integrals over the boundary ``region`` that need the volume
     element's gradients and may be statically condensed: ``indicator * f * dx`` integrates
     f over the element boundaries of the volume elements at ``region`` (dx with
-    ``element_boundary=True``), where the indicator (order-0 facet GridFunction) is 1 on the
-    facets of ``region`` and 0 elsewhere."""
+    ``element_boundary=True``, ``bonus_intorder`` more quadrature orders), where the indicator
+    (order-0 facet GridFunction) is 1 on the facets of ``region`` and 0 elsewhere."""
     elements = elements_at(mesh, region)
     indicator = ngs.GridFunction(ngs.FacetFESpace(mesh, order=0), name="indicator")
     indicator.Set(1.0, definedon=region)
-    return ngs.dx(element_boundary=True, definedonelements=elements), indicator
+    return ngs.dx(element_boundary=True, definedonelements=elements, bonus_intorder=bonus_intorder), indicator
 
 
 class ContactSide:

@@ -200,18 +200,45 @@ def weak_normal_support(T, order, trial, test, gamma0):
       −σ_ν(u, φ) v_ν − σ_ν(v, ξ) u_ν + γ_s u_ν v_ν,   γ_s = gamma0 p² stiffness / h,
 
     σ_ν of the step (its A ε(u)/dt part in the viscous term), so that the traction of the
-    support, −∫ σ_ν v_ν, is consistent and the whole stays symmetric."""
+    support, −∫ σ_ν v_ν, is consistent and the whole stays symmetric. With laws (2.16)-(2.17)
+    these are the terms without them (``weak_normal_support_laws`` gives the rest): the
+    consistency term leaves out F(ε(u)) where F is a law, and the viscous part is None where A
+    is one."""
     (u, phi), (v, xi) = trial, test
     n = ngs.specialcf.normal(u.dim)
-    gamma_el, gamma_A = _support_gammas(T, order, gamma0)
-    elastic = (-normal_stress(stress(T, u, phi), n) * (v * n) - normal_stress(stress(T, v, xi), n) * (u * n)
+    gamma_el, _ = _support_gammas(T, order, gamma0)
+    tangent = T.tangent()
+    own = stress(T, u, phi) if T.F_law is None else matrix_cf(T.E).trans * ngs.grad(phi)
+    elastic = (-normal_stress(own, n) * (v * n) - normal_stress(stress(tangent, v, xi), n) * (u * n)
                + gamma_el * (u * n) * (v * n))
-    if not T.viscous:
+    if not T.viscous or T.A_law is not None:
         return elastic, None
-    A = matrix_cf(T.A)
-    viscous = (-normal_stress(A * strain(u), n) * (v * n) - normal_stress(A * strain(v), n) * (u * n)
-               + gamma_A * (u * n) * (v * n))
-    return elastic, viscous
+    return elastic, -normal_stress(matrix_cf(T.A) * strain(u), n) * (v * n) + _viscous_support(T, order, gamma0, u, v)
+
+
+def _viscous_support(T, order, gamma0, w, v):
+    """−ν·(A ε(v))ν w_ν + γ_A w_ν v_ν: the symmetric and penalty terms of a weak normal support
+    per unit rate coefficient, A the linear tensor (a law's tangent at 0)."""
+    n = ngs.specialcf.normal(v.dim)
+    _, gamma_A = _support_gammas(T, order, gamma0)
+    return -normal_stress(matrix_cf(T.A) * strain(v), n) * (w * n) + gamma_A * (w * n) * (v * n)
+
+
+def weak_normal_support_laws(T, order, u, v, rate, anchor, gamma0):
+    """The weak normal support's terms that laws give (``weak_normal_support`` has the rest),
+    integrand on the support, nonlinear in u: the consistency term −ν·F(ε(u))ν v_ν where F is
+    a law; where A is one, −ν·A(c ε(u − û))ν v_ν and the symmetric and penalty terms
+    c (−ν·(A'(0) ε(v))ν (u − û)_ν + γ_A (u − û)_ν v_ν) (c = ``rate``, û = ``anchor``, the time
+    scheme's); None without laws."""
+    n = ngs.specialcf.normal(u.dim)
+    terms = None
+    if T.F_law is not None:
+        terms = -normal_stress(T.elastic_stress(strain(u)), n) * (v * n)
+    if T.A_law is not None:
+        viscous = -normal_stress(T.viscous_stress(rate * (strain(u) - strain(anchor))), n) * (v * n) \
+            + rate * _viscous_support(T, order, gamma0, u - anchor, v)
+        terms = viscous if terms is None else terms + viscous
+    return terms
 
 
 def _support_gammas(T, order, gamma0):

@@ -1,6 +1,7 @@
 """The parts of the step residual that nonlinear laws give (``laws``, the paper's (2.16)-(2.17)):
 
   N(x; v) = (F(ε(u)), ε(v)) + (A(c ε(u − û)), ε(v))      (``forms.nonlinear_bulk``)
+           + (the weak normal supports' terms with a law: ``forms.weak_normal_support_laws``)
 
 (each only where a law replaces the linear tensor), with c and û the time scheme's. NGSolve
 differentiates N for Newton (``BilinearForm.AssembleLinearization``); ``StepSystem`` adds
@@ -17,7 +18,8 @@ rates 1.92, 1.75, 2.04 with the default rule, 2.01, 2.00, 2.00 with p more order
 import ngsolve as ngs
 import numpy as np
 
-from . import forms
+from . import forms, parallel
+from .contact_side import element_boundary_layer
 from .matrices import csr, matching_positions
 
 
@@ -33,14 +35,20 @@ def quadrature_order(p):
 
 
 class LawTerms:
-    """N(x) and N'(x) on the product space ``X`` for the MaterialTensors ``T`` with laws."""
+    """N(x) and N'(x) on the product space ``X`` for the MaterialTensors ``T`` with laws;
+    ``supports``: the boundary regions of the weak normal supports, of Nitsche parameter
+    ``gamma0`` for u of degree ``order`` (``forms.weak_normal_support_laws``)."""
 
-    def __init__(self, T, X, coefficients):
+    def __init__(self, T, X, coefficients, supports=(), order=1, gamma0=0.0):
         (u, _), (v, _) = X.TnT()
         self.form = ngs.BilinearForm(X, symmetric=False)
         bonus = BONUS_ORDER_PER_DEGREE * X.components[0].globalorder     # on NGSolve's 2(p − 1)
         self.form += forms.nonlinear_bulk(T, u, v, coefficients.rate, coefficients.anchor).Compile() \
             * ngs.dx(bonus_intorder=bonus)
+        for region in supports:                         # the weak normal supports' boundary regions
+            dx, indicator = element_boundary_layer(X.mesh, region, bonus)
+            term = forms.weak_normal_support_laws(T, order, u, v, coefficients.rate, coefficients.anchor, gamma0)
+            self.form += (indicator * term).Compile() * dx
         self.scales = ngs.BilinearForm(X, symmetric=False)          # the laws' tangents at 0
         tangent = 0
         if T.F_law is not None:
@@ -64,14 +72,15 @@ class LawTerms:
         return self.residual
 
     def add_tangent(self, x, target):
-        """target += N'(x) (target: a matrix of the bulk's pattern)."""
+        """target += N'(x) (target: a matrix of the bulk's pattern; on a distributed mesh the
+        rank's part, to which the rank's part of N'(x) adds)."""
         self.form.AssembleLinearization(x)
         self.linearized = True
         positions = self._positions.get(id(target))
         if positions is None:
-            positions = self._positions[id(target)] = matching_positions(self.form.mat, target)
+            positions = self._positions[id(target)] = matching_positions(parallel.local_matrix(self.form.mat), target)
         source, into = positions
-        target.AsVector().FV().NumPy()[into] += self.form.mat.AsVector().FV().NumPy()[source]
+        target.AsVector().FV().NumPy()[into] += parallel.local_matrix(self.form.mat).AsVector().FV().NumPy()[source]
 
     def diagonal(self):
         """The diagonal of the tangents at 0 (numpy): Newton's scales."""
@@ -79,6 +88,7 @@ class LawTerms:
 
     def magnitude(self, x):
         """|N'| |x| + |N(x)| (numpy) by the last tangent (the one at 0 before any): the size of
-        the laws' terms in the residual."""
+        the laws' terms in the residual (on a distributed mesh the rank's part, for x cumulated:
+        ``StepSystem.magnitude`` sums them over the ranks)."""
         tangent = self.form.mat if self.linearized else self.scales.mat
         return abs(csr(tangent)) @ np.abs(x) + np.abs(self.residual.FV().NumPy())

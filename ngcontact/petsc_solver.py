@@ -30,6 +30,12 @@ INSTALL = ('on Python >= 3.12: pip install --no-deps dolfinx-solver-real ngsPETS
            '(or petsc4py built against a PETSc with MUMPS, and ngsPETSc; docs/cluster.md)')
 """How to install what ``inverse="mumps"`` needs."""
 
+WORKSPACE_RELAXATION = 30
+"""MUMPS's ICNTL(14): the workspace beyond the analysis's estimate, in % (MUMPS's default 20 for
+LU, 30 for LDLᵀ of an indefinite matrix)."""
+MAX_RELAXATION = 640
+"""The largest ICNTL(14) a factorisation that ran out of workspace is retried with (%)."""
+
 _modules = None
 
 
@@ -109,6 +115,8 @@ class MumpsFactorization(ngs.BaseMatrix):
     matrix : ngsolve SparseMatrix or ParallelMatrix.
     freedofs : BitArray of the free DOFs.
     symmetric : LDLᵀ (PETSc "cholesky") instead of LU; only for a symmetric matrix.
+
+    ``relaxation``: MUMPS's workspace relaxation ICNTL(14) (%) the last factorisation needed.
     """
 
     def __init__(self, matrix, freedofs, symmetric=False):
@@ -121,17 +129,42 @@ class MumpsFactorization(ngs.BaseMatrix):
         self.pc.setOperators(self.petsc.mat)
         self.pc.setType("cholesky" if symmetric else "lu")
         self.pc.setFactorSolverType("mumps")
+        self.pc.setFactorSetUpSolverType()
+        self.relaxation = WORKSPACE_RELAXATION
+        self.pc.getFactorMatrix().setMumpsIcntl(14, self.relaxation)
         self.pc.setFromOptions()                    # PETSC_OPTIONS, e.g. -mat_mumps_icntl_4 2
         self._factorise()
         self._x, self._y = self.petsc.mat.createVecs()
 
     def _factorise(self):
-        """PCSetUp; a factorisation PETSc reports as failed raises with PETSc's reason."""
-        self.pc.setUp()
-        reason = self.pc.getFailedReason()
-        if reason:
-            raise ArithmeticError(f"the MUMPS factorisation failed (PETSc's reason: {reason}, "
-                                  f"{'LDLᵀ' if self.symmetric else 'LU'} of {self.matrix.height} rows)")
+        """PCSetUp. A factorisation that ran out of its workspace (MUMPS's INFOG(1) = −9, PETSc's
+        FACTOR_OUTMEMORY: pivots delayed beyond the analysis's estimate, as in the symmetric
+        indefinite Jacobian of a 3D indentation, LDLᵀ on 2 ranks) is made again with twice the
+        relaxation ICNTL(14), up to ``MAX_RELAXATION`` %; any other failure raises with PETSc's
+        reason and MUMPS's INFOG(1), INFOG(2)."""
+        PETSc, _ = load()
+        while True:
+            self.pc.setUp()
+            reason = self.pc.getFailedReason()
+            if not reason:
+                return
+            factor = self.pc.getFactorMatrix()
+            info = factor.getMumpsInfog(1), factor.getMumpsInfog(2)
+            if reason == PETSc.PC.FailedReason.FACTOR_OUTMEMORY and 2 * self.relaxation <= MAX_RELAXATION:
+                self.relaxation *= 2
+                factor.setMumpsIcntl(14, self.relaxation)
+                self.pc.reset()
+                self.pc.setOperators(self.petsc.mat)
+                self.pc.setType("cholesky" if self.symmetric else "lu")
+                self.pc.setFactorSolverType("mumps")
+                self.pc.setFactorSetUpSolverType()
+                self.pc.getFactorMatrix().setMumpsIcntl(14, self.relaxation)
+                continue
+            names = {v: k for k, v in vars(PETSc.PC.FailedReason).items() if not k.startswith("_")}
+            raise ArithmeticError(f"the MUMPS factorisation failed (PETSc's reason: {names.get(reason, reason)}; "
+                                  f"MUMPS's INFOG(1) = {info[0]}, INFOG(2) = {info[1]}; "
+                                  f"{'LDLᵀ' if self.symmetric else 'LU'} of {self.petsc.mat.getSize()[0]} rows, "
+                                  f"workspace relaxation ICNTL(14) = {self.relaxation} %)")
 
     def _mark_symmetric(self):
         if self.symmetric:
@@ -257,6 +290,11 @@ class KeptMumps:
         with timer("factorization"):
             self._factorization.Update()
         self.factorizations += 1
+
+    @property
+    def relaxation(self):
+        """MUMPS's workspace relaxation ICNTL(14) (%) of the kept factorisation (None before one)."""
+        return None if self._factorization is None else self._factorization.relaxation
 
     def __repr__(self):
         return f"KeptMumps(symmetric={self.symmetric})"

@@ -86,7 +86,6 @@ class StepSystem:
         trial, test = X.TnT()
         T = body.tensors
         if not T.linear:
-            parallel.serial_only(body.mesh, "a nonlinear law", "N(x) is not written for distributed vectors")
             if self.condense:
                 raise ValueError("condense=True needs linear tensors: a nonlinear law makes the interiors nonlinear")
         self.K_el = ngs.BilinearForm(X, symmetric=False)
@@ -95,12 +94,14 @@ class StepSystem:
         if T.viscous and T.A_law is None:
             self.K_A = ngs.BilinearForm(X, symmetric=False)
             self.K_A += forms.a(T, trial[0], test[0]) * ngs.dx
-        self.laws = LawTerms(T, X, coefficients) if not T.linear else None   # N(x): (2.16)-(2.17)
         weak_supports = self._weak_supports(trial, test)
         for elastic, viscous, dx in weak_supports:
             self.K_el += elastic * dx
             if viscous is not None:
                 self.K_A += viscous * dx
+        self.laws = None                 # N(x): (2.16)-(2.17), on Ω and on the weak supports
+        if not T.linear:
+            self.laws = LawTerms(T, X, coefficients, self._weak_support_regions(), body.order, SLIP_GAMMA0)
         for form in (self.K_el, self.K_A):
             if form is not None:
                 form.Assemble()
@@ -135,20 +136,20 @@ class StepSystem:
         self._clamped = ~np.array(list(clamped.FreeDofs()), dtype=bool)
 
     # ----------------------------------------------------------------------- building
+    def _weak_support_regions(self):
+        """The boundary regions of the weak normal supports."""
+        return [self.body.mesh.Boundaries("|".join(s.names)) for s in self.body.supports if s.normal]
+
     def _weak_supports(self, trial, test):
         """(elastic, viscous, dx) of the Nitsche terms of each weak normal support
-        (``forms.weak_normal_support``), on the element boundaries at the support."""
+        (``forms.weak_normal_support``; with laws their linear part, the rest in N(x)), on the
+        element boundaries at the support."""
         terms = []
-        for support in self.body.supports:
-            if support.normal and not self.body.tensors.linear:
-                raise ValueError(f"weak 'normal' supports ({', '.join(map(repr, support.names))}) need linear "
-                                 "tensors (their Nitsche terms are symmetric in σ_ν); hold an axis-aligned side")
-            if support.normal:
-                dx, indicator = element_boundary_layer(self.body.mesh, self.body.mesh.Boundaries(
-                    "|".join(support.names)))
-                elastic, viscous = forms.weak_normal_support(self.body.tensors, self.body.order, trial, test,
-                                                             SLIP_GAMMA0)
-                terms.append((indicator * elastic, None if viscous is None else indicator * viscous, dx))
+        for region in self._weak_support_regions():
+            dx, indicator = element_boundary_layer(self.body.mesh, region)
+            elastic, viscous = forms.weak_normal_support(self.body.tensors, self.body.order, trial, test,
+                                                         SLIP_GAMMA0)
+            terms.append((indicator * elastic, None if viscous is None else indicator * viscous, dx))
         return terms
 
     def add_boundary_terms(self, terms, side, realcompile=False):

@@ -62,6 +62,48 @@ def test_distributed_demo_equals_the_serial_run(serial, tmp_path, ranks):
     assert len(list(tmp_path.glob("fields_proc*_step00001.vtu"))) == ranks - 1
 
 
+@pytest.fixture(scope="module")
+def serial_scenes(tmp_path_factory):
+    out = tmp_path_factory.mktemp("serial_scenes")
+    runs = {}
+    for scene in SCENES:
+        command = [sys.executable, str(HERE / "distributed_scenes.py"), scene, "default", str(out / f"{scene}.json")]
+        done = subprocess.run(command, capture_output=True, text=True, cwd=HERE.parent, timeout=900)
+        assert done.returncode == 0, done.stderr[-3000:]
+        runs[scene] = json.loads((out / f"{scene}.json").read_text())
+    return runs
+
+
+SCENES = ("reference-law", "indenter3d")
+
+
+@pytest.mark.parametrize("ranks", [2, 3])
+@pytest.mark.parametrize("scene", SCENES)
+def test_distributed_scenes_equal_the_serial_run(serial_scenes, tmp_path, scene, ranks):
+    """``mpiexec -n 2|3`` with the default distributed solver (MUMPS where PETSc is installed,
+    else "masterinverse"): the 2D reference plate with a nonlinear elasticity (the projection
+    law, issue 26) and a 3D block on rollers and two symmetry planes indented by a moving rigid
+    sphere (``tests/distributed_scenes.py``): per step the contact force (every component),
+    the charge flux (the plate; the block has no conduction: u and φ at a probe under the
+    indenter instead) and the supports' reactions equal the serial run to 1e-8 of their largest
+    values, Newton's iterations to ±1; the indenter's force balances the reactions (1e-8)."""
+    launch(ranks, str(HERE / "distributed_scenes.py"), scene, "default", str(tmp_path / "run.json"), timeout=900)
+    distributed, serial = json.loads((tmp_path / "run.json").read_text()), serial_scenes[scene]
+    assert distributed["ranks"] == ranks
+    keys = ("force", "charge") if scene == "reference-law" else ("force", "probe_u", "probe_phi")   # no conduction
+    pairs = [(key, serial[key], distributed[key]) for key in keys]
+    pairs += [(name, serial["reactions"][name], distributed["reactions"][name]) for name in serial["reactions"]]
+    for key, a, b in pairs:
+        a, b = np.array(a), np.array(b)
+        assert a.shape == b.shape and np.abs(a).max() > 0, key
+        assert np.abs(a - b).max() <= 1e-8 * np.abs(a).max(), (key, np.abs(a - b).max() / np.abs(a).max())
+    assert np.abs(np.subtract(serial["newton"], distributed["newton"])).max() <= 1
+    if scene == "indenter3d":
+        for run in (serial, distributed):
+            force, reactions = np.array(run["force"])[1:], sum(np.array(r) for r in run["reactions"].values())
+            assert np.abs(force + reactions).max() <= 1e-8 * np.abs(force).max()
+
+
 def test_what_does_not_run_distributed_says_so(tmp_path):
     """A serial mesh given to Body, more computing ranks than elements, the nodal active set,
     GMRES with multigrid, a serial inverse, static condensation, the stream of results and the guesses that need the whole mesh raise a ValueError naming the

@@ -16,7 +16,7 @@ import ngcontact as ngc
 from ngcontact import petsc_solver
 from ngcontact.geometries import plate
 from ngcontact.scenes import reference
-from test_parallel import HERE, launch
+from test_parallel import HERE, launch, mpiexec
 
 needs_petsc = pytest.mark.skipif(not petsc_solver.available(),
                                  reason="PETSc is not installed (docs/cluster.md: the PETSc route)")
@@ -70,7 +70,7 @@ def serial_runs(tmp_path_factory):
     out = tmp_path_factory.mktemp("serial")
     runs = {}
     for scene in ("reference", "block"):
-        command = [sys.executable, str(HERE / "distributed_petsc.py"), scene, "default", str(out / f"{scene}.json")]
+        command = [sys.executable, str(HERE / "distributed_scenes.py"), scene, "default", str(out / f"{scene}.json")]
         done = subprocess.run(command, capture_output=True, text=True, cwd=HERE.parent, timeout=900)
         assert done.returncode == 0, done.stderr[-3000:]
         runs[scene] = json.loads((out / f"{scene}.json").read_text())
@@ -87,7 +87,7 @@ def test_distributed_mumps_equals_the_serial_run(serial_runs, tmp_path, scene, r
     iteration); over the push-hold-pull history of the 2D reference plate (P2) and
     of the 3D block (P1), the contact force and the charge flux per step equal the serial run
     to 1e-8 of their largest values, Newton's iterations to ±1."""
-    launch(ranks, str(HERE / "distributed_petsc.py"), scene, "default", str(tmp_path / "run.json"), timeout=900)
+    launch(ranks, str(HERE / "distributed_scenes.py"), scene, "default", str(tmp_path / "run.json"), timeout=900)
     distributed = json.loads((tmp_path / "run.json").read_text())
     serial = serial_runs[scene]
     kept = ranks <= os.cpu_count()          # more ranks than cores: a factorisation per iteration
@@ -107,10 +107,55 @@ def test_two_mumps_runs_are_bitwise_equal(tmp_path):
     runs = []
     for name in ("a", "b"):
         out = tmp_path / f"{name}.json"
-        done = subprocess.run([sys.executable, str(HERE / "distributed_petsc.py"), "reference", "mumps", str(out)],
+        done = subprocess.run([sys.executable, str(HERE / "distributed_scenes.py"), "reference", "mumps", str(out)],
                               capture_output=True, text=True, cwd=HERE.parent, timeout=900)
         assert done.returncode == 0, done.stderr[-3000:]
         runs.append(json.loads(out.read_text()))
     assert runs[0]["solver"] == "KeptFactorization(DirectSolver('mumps'), symmetric=False)"
     for key in ("force", "charge", "newton"):
         assert runs[0][key] == runs[1][key], key
+
+
+@needs_petsc
+def test_a_mumps_factorisation_out_of_workspace_is_made_again(serial_indenter, tmp_path):
+    """The 3D indentation's symmetric indefinite Jacobian (LDLᵀ) on 2 ranks needs more than
+    MUMPS's default workspace relaxation ICNTL(14) = 20 % (INFOG(1) = −9, PETSc's
+    FACTOR_OUTMEMORY: it failed so before ``WORKSPACE_RELAXATION`` and the retry): started at
+    20 %, the factorisation is made again at 40 % and the run equals the serial one to 1e-8."""
+    env = dict(os.environ, PYTHONWARNINGS="ignore", RELAXATION="20")
+    done = subprocess.run([mpiexec(), "-n", "2", sys.executable, str(HERE / "distributed_scenes.py"), "indenter3d",
+                           "mumps", str(tmp_path / "run.json")], capture_output=True, text=True, timeout=900,
+                          env=env, cwd=HERE.parent)
+    assert done.returncode == 0, done.stderr[-3000:]
+    run = json.loads((tmp_path / "run.json").read_text())
+    assert run["solver"] == "KeptMumps(symmetric=True)" and run["relaxation"] == 40
+    a, b = np.array(serial_indenter["force"]), np.array(run["force"])
+    assert np.abs(a - b).max() <= 1e-8 * np.abs(a).max()
+
+
+@pytest.fixture(scope="module")
+def serial_indenter(tmp_path_factory):
+    out = tmp_path_factory.mktemp("indenter") / "serial.json"
+    done = subprocess.run([sys.executable, str(HERE / "distributed_scenes.py"), "indenter3d", "default", str(out)],
+                          capture_output=True, text=True, cwd=HERE.parent, timeout=900)
+    assert done.returncode == 0, done.stderr[-3000:]
+    return json.loads(out.read_text())
+
+
+@needs_petsc
+@pytest.mark.parametrize("symmetric", [False, True])
+def test_a_failed_mumps_factorisation_says_why(symmetric):
+    """A singular matrix (the Laplacian's pattern with zero values): an ArithmeticError with
+    PETSc's reason by name, MUMPS's INFOG(1) (−10: numerically singular), the kind of
+    factorisation and the number of rows."""
+    import ngsolve as ngs
+    from netgen.geom2d import unit_square
+    mesh = ngs.Mesh(unit_square.GenerateMesh(maxh=0.3))
+    V = ngs.H1(mesh, order=1, dirichlet=".*")
+    u, v = V.TnT()
+    a = ngs.BilinearForm(ngs.grad(u) * ngs.grad(v) * ngs.dx).Assemble()
+    a.mat.AsVector()[:] = 0.0
+    kind = "LDLᵀ" if symmetric else "LU"
+    with pytest.raises(ArithmeticError, match=rf"PETSc's reason: FACTOR_NUMERIC_ZEROPIVOT; MUMPS's INFOG\(1\) = -10.*"
+                                              rf"{kind} of {V.FreeDofs().NumSet()} rows"):
+        petsc_solver.MumpsFactorization(a.mat, V.FreeDofs(), symmetric=symmetric)
