@@ -31,6 +31,9 @@ RESOLUTION = 1e-13
 """A step must be at least this fraction of the time it starts from: below it t + dt is t to
 13 digits."""
 AUTOMATIC = ("condense", "realcompile", "iterative", "electric")
+ITERATIVE_KINDS = ("multigrid", "gamg")
+"""The iterative solvers ``Simulation(iterative=...)`` names: NGSolve's multigrid on nested
+meshes (``multigrid``, serial) and PETSc's GAMG (``petsc_iterative``, serial or distributed)."""
 """The options of Simulation that are True, False or None (automatic); the others are True
 or False."""
 
@@ -46,7 +49,16 @@ def simulation(body, loads, contact, time, inverse, options):
                                         ("inverse", inverse, str, "a solver's name (str) or None")):
         if not isinstance(value, kind) and (value is not None or name == "body"):
             raise TypeError(f"Simulation: {name} must be {expected}, got {type(value).__name__}")
-    return {name: flag(name, value, none=name in AUTOMATIC) for name, value in options.items()}
+    iterative = options.get("iterative")
+    if isinstance(iterative, str):                  # or the name of an iterative solver
+        if iterative not in ITERATIVE_KINDS:
+            raise ValueError(f"Simulation: iterative must be True, False, None or one of "
+                             f"{', '.join(map(repr, ITERATIVE_KINDS))}, got {iterative!r}")
+        options = dict(options, iterative=None)
+    checked = {name: flag(name, value, none=name in AUTOMATIC) for name, value in options.items()}
+    if isinstance(iterative, str):
+        checked["iterative"] = iterative
+    return checked
 
 
 def time_step(dt, t):

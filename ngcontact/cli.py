@@ -125,9 +125,10 @@ def parser():
     bench.add_argument("--path", choices=("new", "old"), default="new",
                        help="new: kept factorisation and limited Newton steps (the defaults); old: a "
                             "factorisation at every Newton iteration, full steps")
-    bench.add_argument("--solver", choices=("auto", "iterative", "direct"), default="auto",
-                       help="linear solver: GMRES with multigrid, a factorisation, or by size (auto: "
-                            "iterative in 3D from 1e5 DOFs)")
+    bench.add_argument("--solver", choices=("auto", "iterative", "multigrid", "gamg", "direct"), default="auto",
+                       help="linear solver: GMRES with multigrid (iterative: NGSolve's multigrid serially, PETSc's "
+                            "GAMG under mpiexec; or name one), a factorisation, or by size (auto: iterative in 3D "
+                            "from 1e5 DOFs)")
     bench.add_argument("--compare", action="store_true",
                        help="run each case on both paths, one after the other: time ratio and state difference")
     bench.add_argument("--resume", action="store_true",
@@ -232,4 +233,4 @@ def _dispatch(args):
                   dt=args.dt, inverse=args.inverse, predictor=args.predictor,
                   realcompile=choice[args.realcompile], threads=choice[args.threads], bare=args.bare,
                   path=args.path, compare=args.compare, resume=args.resume,
-                  iterative=dict(auto=None, iterative=True, direct=False)[args.solver])
+                  iterative=dict(auto=None, iterative=True, direct=False).get(args.solver, args.solver))

@@ -27,6 +27,7 @@ Strains and stresses are Voigt vectors with engineering shear, so that σ : ε(v
 product of the Voigt vectors. The dimension is read off the arguments (``u.dim``).
 """
 import ngsolve as ngs
+import numpy as np
 
 from .loads import as_cf
 from .voigt import matrix_cf, strain_vector, stress_matrix
@@ -122,6 +123,19 @@ def linear_bulk(T, trial, test):
     (u, phi), (v, xi) = trial, test
     terms = e(T, v, phi) + e(T, u, xi) - c(T, phi, xi)
     return terms if T.F_law is not None else terms + b(T, u, v)
+
+
+def preconditioner_forms(body, u, v, phi, xi, rate):
+    """The SPD forms that block preconditioners of the step Jacobian approximate (``multigrid``,
+    ``petsc_iterative``), integrands on Ω: for u, (F̃ ε(u), ε(v)) + c (A ε(u), ε(v)) with the
+    piezo-stiffened F̃ = F + Eᵀ C⁻¹ E (c = ``rate``, 1/s; the linear tensors, a law's tangent at
+    0); for φ, (C ∇φ, ∇ξ). Returns (u integrand, φ integrand)."""
+    T = body.tensors
+    stiffened = T.F + T.E.T @ np.linalg.solve(T.C, T.E) if body.coupled else T.F
+    integrand = ngs.InnerProduct(matrix_cf(stiffened) * strain(u), strain(v))
+    if T.viscous:
+        integrand = integrand + rate * a(T, u, v)
+    return integrand, c(T, phi, xi)
 
 
 def c(T, phi, xi):

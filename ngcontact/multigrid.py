@@ -81,24 +81,19 @@ class Hierarchy:
         else:
             coarse, levels = kept
             self.mesh = ngs.Mesh(coarse.Copy())
-        T = body.tensors
         self.V = ngs.VectorH1(self.mesh, order=body.order,
                               **dirichlet_flags(body.boundaries["clamped"], body.supports, body.dim))
         self.W = ngs.H1(self.mesh, order=body.order_phi, dirichlet=body.region_names("grounded"))
         (u, v), (phi, xi) = self.V.TnT(), self.W.TnT()
-        stiffened = T.F + T.E.T @ np.linalg.solve(T.C, T.E) if body.coupled else T.F
-        strain = forms.strain
         self.rate = ngs.Parameter(rate)
-        integrand = ngs.InnerProduct(forms.matrix_cf(stiffened) * strain(u), strain(v))
-        if T.viscous:
-            integrand = integrand + self.rate * forms.a(T, u, v)
+        integrand, phi_integrand = forms.preconditioner_forms(body, u, v, phi, xi, self.rate)
         self.form_u = self.pre_u = None
         if displacement:
             self.form_u = ngs.BilinearForm(self.V, symmetric=True)
             self.form_u += compiled(integrand, realcompile) * ngs.dx
             self.pre_u = ngs.Preconditioner(self.form_u, self.kind)
         self.form_phi = ngs.BilinearForm(self.W, symmetric=True)
-        self.form_phi += compiled(forms.c(T, phi, xi), realcompile) * ngs.dx
+        self.form_phi += compiled(phi_integrand, realcompile) * ngs.dx
         self.pre_phi = ngs.Preconditioner(self.form_phi, self.kind)
         self._assemble()
         for _ in range(levels):

@@ -203,8 +203,9 @@ def point_values(mesh, cf, points):
 def check_simulation(mesh, contact, inverse, condense, reuse_factorization, iterative=None):
     """What a Simulation on a distributed mesh cannot do raises a ValueError naming the
     feature: the nodal constraint (``method="active_set"``: scipy saddle point systems of one
-    rank), a serial ``inverse``, ``condense=True``, ``iterative=True`` (GMRES with multigrid:
-    NGSolve 6.2.2608 cannot refine a distributed mesh, so it has no nested meshes). Returns the serial-only defaults switched
+    rank), a serial ``inverse``, ``condense=True``, ``iterative="multigrid"`` (NGSolve's
+    multigrid: NGSolve 6.2.2608 cannot refine a distributed mesh, so it has no nested meshes;
+    ``iterative=True`` is PETSc's GAMG there). Returns the serial-only defaults switched
     off, with the reason (``Simulation.parallel_notes``; [] on a serial mesh): the corrections
     are solved by NGSolve's "masterinverse" (the Jacobian gathered and factorised on rank 0)
     at every Newton iteration, without static condensation."""
@@ -218,9 +219,10 @@ def check_simulation(mesh, contact, inverse, condense, reuse_factorization, iter
                     "inverse=None (MUMPS where PETSc is installed, else NGSolve's 'masterinverse')")
     if condense:
         serial_only(mesh, "condense=True (static condensation)", "not implemented; pass condense=None or False")
-    if iterative:
-        serial_only(mesh, "iterative=True (GMRES with multigrid)", "a distributed mesh has no nested meshes "
-                    "(NGSolve 6.2.2608 cannot refine it); leave iterative=None")
+    if iterative == "multigrid":
+        serial_only(mesh, "iterative='multigrid' (GMRES with NGSolve's multigrid)", "a distributed mesh has no "
+                    "nested meshes (NGSolve 6.2.2608 cannot refine it); use iterative=True or 'gamg' (PETSc's "
+                    "algebraic multigrid)")
     notes = ["static condensation: off (not implemented on a distributed mesh)"]
     mumps = inverse == "mumps" or (inverse is None and petsc_solver.available())
     if reuse_factorization and not mumps:

@@ -39,9 +39,10 @@ MAX_RELAXATION = 640
 _modules = None
 
 
-def load():
+def load(what='inverse="mumps"'):
     """(petsc4py.PETSc, ngsPETSc), imported in the order the wheel needs (mpi4py's MPI first,
-    so that PETSc finds the MPI library); ImportError with ``INSTALL`` if missing."""
+    so that PETSc finds the MPI library); ImportError naming ``what`` needs them, with
+    ``INSTALL``, if missing."""
     global _modules
     if _modules is None:
         # the wheel's MUMPS and BLAS start OpenMP threads on every rank: one each, unless set
@@ -52,7 +53,7 @@ def load():
             from petsc4py import PETSc
             import ngsPETSc
         except ImportError as err:
-            raise ImportError(f'inverse="mumps" needs PETSc (petsc4py with MUMPS) and ngsPETSc, which are not '
+            raise ImportError(f'{what} needs PETSc (petsc4py with MUMPS) and ngsPETSc, which are not '
                               f'installed ({err}); {INSTALL}') from None
         _modules = PETSc, ngsPETSc
     return _modules
@@ -198,55 +199,119 @@ class MumpsFactorization(ngs.BaseMatrix):
         self.petsc.vectors.ngsVec(self._y, y)
 
 
+class WeightedGmres:
+    """PETSc's GMRES (left-preconditioned, no restart within ``maxiter``) for A w = r in
+    Newton's weighted norm, as ``linear_solver.gmres``: it runs on S A S⁻¹ (a shell operator
+    over the PetscMatrix ``matrix``, whose values the caller keeps current) with the
+    preconditioner S M S⁻¹, S = diag(weights)^½, M given by ``precondition(x, y)`` (y = M x on
+    PETSc vectors of A's layout), so that the preconditioned residual is measured in the weights'
+    norm (in the Euclidean norm the potential's entries, in V, swamped the displacement's, in m,
+    and Newton diverged)."""
+
+    def __init__(self, matrix, precondition):
+        PETSc, _ = load()
+        self.matrix, self.precondition = matrix, precondition
+        A = matrix.mat
+        comm = A.getComm()
+        self._x, self._b = A.createVecs()
+        self._scale, self._inverse_scale, self._t, self._s = (self._x.duplicate() for _ in range(4))
+        self._weighted = False
+        self._scale.set(1.0)
+        self._inverse_scale.set(1.0)
+        operator = PETSc.Mat().createPython(A.getSizes(), context=_ScaledOperator(self), comm=comm)
+        operator.setUp()
+        self.ksp = PETSc.KSP().create(comm=comm)
+        self.ksp.setType("gmres")
+        self.ksp.setOperators(operator)
+        pc = self.ksp.getPC()
+        pc.setType("python")
+        pc.setPythonContext(_ScaledPreconditioner(self))
+
+    def _weights(self, template, weights):
+        """S and S⁻¹ as PETSc vectors (ones without weights); made again only for new weights
+        (Newton's norm keeps its array within a step)."""
+        if weights is self._weighted:
+            return
+        self._weighted = weights
+        if weights is None:
+            self._scale.set(1.0)
+        else:
+            cumulated = template.CreateVector()
+            cumulated.FV().NumPy()[:] = np.sqrt(weights)
+            if hasattr(cumulated, "SetParallelStatus"):
+                cumulated.SetParallelStatus(ngs.la.PARALLEL_STATUS.CUMULATED)
+            self.matrix.vectors.petscVec(cumulated, self._scale)
+        self._inverse_scale.set(1.0)
+        self._inverse_scale.pointwiseDivide(self._inverse_scale, self._scale)
+
+    def solve(self, r, w, weights, tol, maxiter):
+        """w ≈ A⁻¹ r (NGSolve vectors) to ``tol`` in ``maxiter`` iterations at most: returns
+        (converged, iterations, PETSc's converged reason)."""
+        self._weights(r, weights)
+        self.matrix.vectors.petscVec(r, self._b)
+        self._b.pointwiseMult(self._b, self._scale)                         # S r
+        self.ksp.setGMRESRestart(max(1, int(maxiter)))
+        self.ksp.setTolerances(rtol=tol, atol=0.0, max_it=max(1, int(maxiter)))
+        self.ksp.solve(self._b, self._x)
+        self._x.pointwiseMult(self._x, self._inverse_scale)                 # w = S⁻¹ y
+        self.matrix.vectors.ngsVec(self._x, w)
+        reason = self.ksp.getConvergedReason()
+        return reason > 0, self.ksp.getIterationNumber(), reason
+
+    def apply(self, r, w):
+        """w = M r (NGSolve vectors): the preconditioner alone."""
+        self.matrix.vectors.petscVec(r, self._b)
+        self.precondition(self._b, self._x)
+        self.matrix.vectors.ngsVec(self._x, w)
+
+
+class _ScaledOperator:
+    """The PETSc python matrix S A S⁻¹ of ``WeightedGmres``."""
+
+    def __init__(self, gmres):
+        self.gmres = gmres
+
+    def mult(self, mat, x, y):
+        g = self.gmres
+        g._t.pointwiseMult(x, g._inverse_scale)
+        g.matrix.mat.mult(g._t, y)
+        y.pointwiseMult(y, g._scale)
+
+
+class _ScaledPreconditioner:
+    """The PETSc python PC S M S⁻¹ of ``WeightedGmres``."""
+
+    def __init__(self, gmres):
+        self.gmres = gmres
+
+    def apply(self, pc, x, y):
+        g = self.gmres
+        g._s.pointwiseMult(x, g._inverse_scale)
+        g.precondition(g._s, y)
+        y.pointwiseMult(y, g._scale)
+
+
 class KeptMumps:
     """w = A⁻¹ r by PETSc's GMRES preconditioned by the MUMPS factorisation of an earlier
     Jacobian, on a distributed mesh (``linear_solver.KeptFactorization``'s GMRES works on one
     rank's numpy arrays). A new factorisation (of A itself: its solve is exact) is made when
     there is none, when ``generation`` or the free DOFs changed, or when GMRES does not reach
     ``tol`` within ``budget`` iterations. GMRES measures the preconditioned residual in
-    Newton's weighted norm, as ``linear_solver.gmres`` does: it runs on S A S⁻¹ with the
-    preconditioner S M⁻¹ S⁻¹, S = diag(weights)^½ (in the Euclidean norm the potential's
-    entries, in V, swamped the displacement's, in m, and Newton diverged). Same ``solve``
-    protocol and counters as ``linear_solver.KeptFactorization``."""
+    Newton's weighted norm (``WeightedGmres``). Same ``solve`` protocol and counters as
+    ``linear_solver.KeptFactorization``."""
 
     def __init__(self, symmetric=False, *, tol=1e-8, budget=20):
         self.symmetric, self.tol, self.budget = symmetric, tol, int(max(1, budget))
         self.krylov_iterations = self.krylov_failures = self.factorizations = 0
-        self._factorization = self._current = self._ksp = self._generation = self._weighted = None
+        self._factorization = self._current = self._gmres = self._generation = None
 
     name = "GMRES preconditioned by a kept MUMPS factorisation of an earlier Jacobian (PETSc)"
 
     def _setup(self, matrix, freedofs):
-        PETSc, _ = load()
         self._factorization = MumpsFactorization(matrix, freedofs, self.symmetric)
         self._current = PetscMatrix(matrix, freedofs)
-        comm = self._current.mat.getComm()
-        self._ksp = PETSc.KSP().create(comm=comm)
-        self._ksp.setType("gmres")
-        self._ksp.setOperators(self._current.mat)
-        pc = self._ksp.getPC()
-        pc.setType("python")
-        pc.setPythonContext(_ScaledSolve(self))
-        self._b, self._x = self._current.mat.createVecs()[::-1]
-        self._scale, self._inverse_scale, self._t = self._x.duplicate(), self._x.duplicate(), self._x.duplicate()
+        self._gmres = WeightedGmres(self._current, lambda x, y: self._factorization.pc.apply(x, y))
         self.factorizations += 1
-
-    def _weights(self, r, weights):
-        """S = diag(weights)^½ and S⁻¹ as PETSc vectors (ones without weights); made again
-        only for new weights (Newton's norm keeps its array within a step)."""
-        if weights is self._weighted and weights is not None:
-            return
-        self._weighted = weights
-        if weights is None:
-            self._scale.set(1.0)
-        else:
-            cumulated = r.CreateVector()
-            cumulated.FV().NumPy()[:] = np.sqrt(weights)
-            if hasattr(cumulated, "SetParallelStatus"):
-                cumulated.SetParallelStatus(ngs.la.PARALLEL_STATUS.CUMULATED)
-            self._current.vectors.petscVec(cumulated, self._scale)
-        self._inverse_scale.set(1.0)
-        self._inverse_scale.pointwiseDivide(self._inverse_scale, self._scale)
 
     def solve(self, matrix, freedofs, r, w, generation=None, timer=None, weights=None, tol=None, changing=None):
         """w = A⁻¹ r (``changing`` is not used)."""
@@ -264,26 +329,17 @@ class KeptMumps:
             self._current.refill()
             fresh = False
         self._generation = generation
-        self._current.vectors.petscVec(r, self._b)
         if not fresh:                                    # GMRES with the kept factorisation
-            self._weights(r, weights)
-            self._current.mat.diagonalScale(self._scale, self._inverse_scale)   # S A S⁻¹
-            self._b.pointwiseMult(self._b, self._scale)                      # S r
-            self._ksp.setOperators(self._current.mat)
-            self._ksp.setTolerances(rtol=tol, atol=0.0, max_it=self.budget)
             with timer("solve"):
-                self._ksp.solve(self._b, self._x)
-            self.krylov_iterations += self._ksp.getIterationNumber()
-            self._x.pointwiseMult(self._x, self._inverse_scale)               # x = S⁻¹ y
-            if self._ksp.getConvergedReason() <= 0:      # a factorisation pays: make it
+                converged, iterations, _ = self._gmres.solve(r, w, weights, tol, self.budget)
+            self.krylov_iterations += iterations
+            if not converged:                            # a factorisation pays: make it
                 self.krylov_failures += 1
-                self._b.pointwiseMult(self._b, self._inverse_scale)
                 self._refactor(timer)
                 fresh = True
         if fresh:                                        # the factorisation of A itself: exact
             with timer("solve"):
-                self._factorization.pc.apply(self._b, self._x)
-        self._current.vectors.ngsVec(self._x, w)
+                self._gmres.apply(r, w)
 
     def _refactor(self, timer):
         """Factorise the current Jacobian (``_current`` is refilled before its next use)."""
@@ -298,16 +354,3 @@ class KeptMumps:
 
     def __repr__(self):
         return f"KeptMumps(symmetric={self.symmetric})"
-
-
-class _ScaledSolve:
-    """The PETSc python PC S M⁻¹ S⁻¹ of ``KeptMumps`` (M the kept MUMPS factorisation)."""
-
-    def __init__(self, kept):
-        self.kept = kept
-
-    def apply(self, pc, x, y):
-        kept = self.kept
-        kept._t.pointwiseMult(x, kept._inverse_scale)
-        kept._factorization.pc.apply(kept._t, y)
-        y.pointwiseMult(y, kept._scale)

@@ -20,15 +20,22 @@ from .linear_solver import NAMES, PARALLEL_NAMES, DirectSolver, KeptFactorizatio
 from .meshes import refinements
 from .parallel import oversubscribed
 from .multigrid import MultigridSolver, needs_nested_mesh
+from .petsc_iterative import GamgSolver
 
 ITERATIVE_FROM = 100_000
 """DOFs from which 3D simulations on nested meshes solve iteratively by default (docs/scale.md)."""
 
 
-def iterative_by_default(body, condense):
-    """The default of ``iterative``: 3D, ≥ ITERATIVE_FROM DOFs, nested meshes for P1, no condensation."""
+def iterative_by_default(body, condense, distributed=False):
+    """The default of ``iterative``: in 3D from ITERATIVE_FROM DOFs without condensation,
+    "multigrid" serially on nested meshes (for P1), "gamg" on a distributed mesh where PETSc is
+    installed; else False (a factorisation)."""
+    if body.dim != 3 or body.ndof < ITERATIVE_FROM or condense:
+        return False
+    if distributed:
+        return "gamg" if petsc_solver.available() else False
     nested = (refinements(body.mesh) or 0) >= 1 or not needs_nested_mesh(body)
-    return body.dim == 3 and body.ndof >= ITERATIVE_FROM and nested and not condense
+    return "multigrid" if nested else False
 
 
 def choose(body, contact, system, space, *, inverse, reuse_factorization, iterative, electric, condense,
@@ -40,9 +47,22 @@ def choose(body, contact, system, space, *, inverse, reuse_factorization, iterat
     names = NAMES + (PARALLEL_NAMES if distributed else ())
     if inverse is not None and inverse not in names:
         raise ValueError(f"inverse must be one of {', '.join(map(repr, names))} or None, got {inverse!r}")
-    if iterative not in (None, True, False):
-        raise ValueError(f"iterative must be None (automatic), True or False, got {iterative!r}")
+    if iterative not in (None, True, False, "multigrid", "gamg"):
+        raise ValueError(f"iterative must be None (automatic), True, False, 'multigrid' or 'gamg', got {iterative!r}")
     symmetric = (contact is None or contact.symmetric) and body.tensors.linear   # a law's Nitsche term: not
+    if iterative is None:
+        iterative = inverse is None and iterative_by_default(body, condense, distributed)
+    if iterative is True:
+        iterative = "gamg" if distributed else "multigrid"
+    if iterative:
+        if inverse is not None:
+            raise ValueError(f"iterative={iterative!r} solves by GMRES; it takes no inverse= (got {inverse!r})")
+        if condense:
+            raise ValueError(f"iterative={iterative!r} needs condense=False (its preconditioner acts on all DOFs)")
+        layer = space.GetDofs(body.region("contact_side")) if contact is not None else None
+        if iterative == "gamg":                  # PETSc; distributed or serial
+            return (GamgSolver(body, system, layer, realcompile=realcompile),
+                    GamgSolver(body, system, layer, realcompile=realcompile))
     if distributed:                              # what cannot run there raised in parallel.check_simulation
         name = inverse or ("mumps" if petsc_solver.available() else PARALLEL_NAMES[0])
         sym = symmetric and name == "mumps"
@@ -50,18 +70,11 @@ def choose(body, contact, system, space, *, inverse, reuse_factorization, iterat
             return (petsc_solver.KeptMumps(sym, budget=factorization_worth(body.ndof, body.dim)),
                     DirectSolver(name, symmetric=sym))
         return DirectSolver(name, symmetric=sym), DirectSolver(name, symmetric=sym)
-    if iterative is None:
-        iterative = inverse is None and iterative_by_default(body, condense)
-    if iterative:
-        if inverse is not None:
-            raise ValueError(f"iterative=True solves by GMRES with multigrid; it takes no inverse= (got {inverse!r})")
-        if condense:
-            raise ValueError("iterative=True needs condense=False (the multigrid preconditioner acts on all DOFs)")
+    if iterative:                                # "multigrid": NGSolve's, on nested meshes
         if needs_nested_mesh(body) and refinements(body.mesh) is None:
-            raise ValueError("iterative=True needs nested meshes: make the mesh with "
-                             "ngcontact.meshes.nested_mesh(ngmesh, refine) (ngcontact.geometries do)")
-        layer = space.GetDofs(body.region("contact_side")) if contact is not None else None
-
+            raise ValueError("iterative='multigrid' needs nested meshes: make the mesh with "
+                             "ngcontact.meshes.nested_mesh(ngmesh, refine) (ngcontact.geometries do), or "
+                             "use iterative='gamg' (PETSc)")
         newton = MultigridSolver(body, system, layer, electric=electric, realcompile=realcompile)
         potential = MultigridSolver(body, system, layer, electric=True, realcompile=realcompile, displacement=False)
         return newton, potential

@@ -106,6 +106,11 @@ def _normal_axis(mesh, names, tol=1e-10):
     return None, 1.0
 
 
+def weak_regions(mesh, supports):
+    """The boundary regions of the weak normal supports among ``supports`` (Nitsche terms)."""
+    return [mesh.Boundaries("|".join(s.names)) for s in supports if s.normal]
+
+
 def dirichlet_flags(clamped, supports, dim):
     """Keyword arguments of ``VectorH1``: ``dirichlet`` (all components: Γ1 and the "all"
     supports) and ``dirichletx`` ... for the per-axis ones."""

@@ -36,7 +36,7 @@ from .loads import as_cf
 from .matrices import csr, matching_positions
 from .law_terms import LawTerms
 from .machine_code import compiled
-from .supports import SLIP_GAMMA0
+from .supports import SLIP_GAMMA0, weak_regions
 
 
 def has_interior_dofs(space):
@@ -101,7 +101,7 @@ class StepSystem:
                 self.K_A += viscous * dx
         self.laws = None                 # N(x): (2.16)-(2.17), on Ω and on the weak supports
         if not T.linear:
-            self.laws = LawTerms(T, X, coefficients, self._weak_support_regions(), body.order, SLIP_GAMMA0)
+            self.laws = LawTerms(T, X, coefficients, weak_regions(self.body.mesh, self.body.supports), body.order, SLIP_GAMMA0)
         for form in (self.K_el, self.K_A):
             if form is not None:
                 form.Assemble()
@@ -136,16 +136,12 @@ class StepSystem:
         self._clamped = ~np.array(list(clamped.FreeDofs()), dtype=bool)
 
     # ----------------------------------------------------------------------- building
-    def _weak_support_regions(self):
-        """The boundary regions of the weak normal supports."""
-        return [self.body.mesh.Boundaries("|".join(s.names)) for s in self.body.supports if s.normal]
-
     def _weak_supports(self, trial, test):
         """(elastic, viscous, dx) of the Nitsche terms of each weak normal support
         (``forms.weak_normal_support``; with laws their linear part, the rest in N(x)), on the
         element boundaries at the support."""
         terms = []
-        for region in self._weak_support_regions():
+        for region in weak_regions(self.body.mesh, self.body.supports):
             dx, indicator = element_boundary_layer(self.body.mesh, region)
             elastic, viscous = forms.weak_normal_support(self.body.tensors, self.body.order, trial, test,
                                                          SLIP_GAMMA0)

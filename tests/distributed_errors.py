@@ -13,7 +13,7 @@ from ngcontact.geometries import plate
 from ngcontact.scenes import reference
 from ngcontact.starts import Approach
 
-cases = {"active_set": dict(contact=reference.contact(method="active_set")), "iterative": dict(iterative=True),
+cases = {"active_set": dict(contact=reference.contact(method="active_set")), "iterative": dict(iterative="multigrid"),
          "inverse": dict(inverse="umfpack"), "condense": dict(condense=True)}
 try:                                     # a script's own serial mesh: every rank would solve it whole
     ngc.Body(plate(maxh=0.02, comm=False), ngc.pzt5a(), clamped="left", grounded="top")

@@ -1,5 +1,6 @@
 """Run by tests/test_petsc.py and tests/test_parallel.py, serially or under mpiexec: a scene
-over a load history with ``inverse`` = argv[2] ("default" for None); rank 0 writes per step
+over a load history with ``inverse`` = argv[2] ("default" for None, "gamg" for
+``iterative="gamg"``); rank 0 writes per step
 the contact force, the charge flux into the foundation, the reactions of the supports, u and φ
 at a probe point (where the scene has one) and the Newton iterations, and the solver used, as
 JSON to argv[3]. The environment variable RELAXATION sets MUMPS's first workspace relaxation
@@ -28,31 +29,34 @@ from ngcontact.obstacles import Sphere
 from ngcontact.scenes import reference
 
 
-def indenter3d(inverse):
+def indenter3d(options):
     L, H, R, depth = 0.01, 0.004, 0.01, 1e-4
     body = ngc.Body(block(L, L, H, maxh=0.0007), ngc.pzt5a(), grounded="bottom", contact_side="top",
                     supports={"bottom": "z", "left": "normal", "front": "normal"})
     t = ngs.Parameter(0.0)
     sphere = Sphere(center=(0.0, 0.0, H + R - depth * t), radius=R)
     return ngc.Simulation(body, ngc.Loads(), contact=ngc.Contact(obstacle=sphere, gamma0=10.0), time=t,
-                          keep_states=False, inverse=inverse), 1.0, 4, (0.0, 0.0, H / 2)
+                          keep_states=False, **options), 1.0, 4, (0.0, 0.0, H / 2)
 
 
 scene, inverse, out = sys.argv[1], None if sys.argv[2] == "default" else sys.argv[2], sys.argv[3]
+options = dict(inverse=inverse)
+if inverse == "gamg":                      # the iterative solver on PETSc instead of a factorisation
+    options = dict(iterative="gamg")
 if "RELAXATION" in os.environ:             # MUMPS's first workspace relaxation ICNTL(14), %
     from ngcontact import petsc_solver
     petsc_solver.WORKSPACE_RELAXATION = int(os.environ["RELAXATION"])
 T, probe = reference.LOAD_HISTORY[-1][0], None
 if scene == "reference":
-    sim, steps = reference.simulation(2, 0.01, keep_states=False, inverse=inverse), 20
+    sim, steps = reference.simulation(2, 0.01, keep_states=False, **options), 20
 elif scene == "block":
-    sim, steps = reference.simulation(1, 0.02, dim=3, keep_states=False, inverse=inverse), 10
+    sim, steps = reference.simulation(1, 0.02, dim=3, keep_states=False, **options), 10
 elif scene == "reference-law":
     material = ngc.pzt5a(relaxation_time=reference.RELAXATION_TIME).with_elasticity(
         laws.ProjectionLaw(5e10, laws.VonMisesBall(1e-5)))
-    sim, steps, T = reference.simulation(1, 0.005, material=material, keep_states=False, inverse=inverse), 10, 0.1
+    sim, steps, T = reference.simulation(1, 0.005, material=material, keep_states=False, **options), 10, 0.1
 elif scene == "indenter3d":
-    sim, T, steps, probe = indenter3d(inverse)
+    sim, T, steps, probe = indenter3d(options)
 else:
     raise SystemExit(f"unknown scene {scene!r}")
 probes = []                               # (u, φ) at the probe point after each step
@@ -63,7 +67,9 @@ h = sim.history
 summary = dict(force=h.contact_column("force").tolist(), charge=h.contact_column("charge_flux").tolist(),
                reactions={name: [r.boundary_reaction[name].tolist() for r in h[1:]]
                           for name in h[-1].boundary_reaction},
-               probe_u=[u for u, _ in probes], probe_phi=[phi for _, phi in probes], newton=h.newton_iterations.tolist(), solver=repr(sim.newton.solver),
+               probe_u=[u for u, _ in probes], probe_phi=[phi for _, phi in probes],
+               newton=h.newton_iterations.tolist(), krylov_failures=sum(r.krylov_failures for r in h),
+               solver=repr(sim.newton.solver),
                ranks=parallel.world().size if parallel.world() else 1,
                relaxation=getattr(sim.newton.solver, "relaxation", None))
 if parallel.rank() == 0:

@@ -98,8 +98,10 @@ def test_bad_input_names_the_parameter():
 
     def make(**options):
         return ngc.Simulation(body, scene.loads(t, 3), contact=scene.contact(), time=t, **options)
-    with pytest.raises(TypeError, match="iterative must be True, False or None"):
+    with pytest.raises(ValueError, match="iterative must be True, False, None or one of 'multigrid', 'gamg', got 'yes'"):
         make(iterative="yes")
+    with pytest.raises(TypeError, match="iterative must be True, False or None"):
+        make(iterative=1.5)
     with pytest.raises(ValueError, match="takes no inverse"):
         make(iterative=True, inverse="umfpack")
     with pytest.raises(ValueError, match="condense=False"):

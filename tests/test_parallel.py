@@ -115,7 +115,7 @@ def test_what_does_not_run_distributed_says_so(tmp_path):
     assert lines["serial mesh"].startswith("mesh: a serial mesh under mpiexec with 3 ranks (every rank would "
                                           "solve the whole problem); distribute it")
     assert "'active_set'" in lines["active_set"] and "distributed mesh" in lines["active_set"]
-    assert "iterative=True" in lines["iterative"] and "nested meshes" in lines["iterative"]
+    assert "iterative='multigrid'" in lines["iterative"] and "nested meshes" in lines["iterative"]
     assert "inverse='umfpack'" in lines["inverse"]
     assert "condense=True" in lines["condense"]
     assert "distributed" in lines["out"]

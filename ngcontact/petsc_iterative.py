@@ -1,0 +1,247 @@
+"""Newton's corrections by PETSc's GMRES preconditioned with Γ3 solves around block algebraic
+multigrid: the iterative solver of large steps on PETSc, serial or distributed (issue 27).
+
+The step Jacobian J (``system``; non-symmetric, indefinite: ``multigrid`` has the blocks) is
+solved by GMRES in Newton's weighted norm (``petsc_solver.WeightedGmres``) with the
+preconditioner of ``multigrid`` built from PETSc's parts instead of nested meshes:
+
+  S: MUMPS's LU of J on the free DOFs of the Γ3 facets (a surface problem, ~n^(2/3) DOFs,
+     factorised at every Newton iteration: it carries the stiff Γ3 terms that change there);
+  B: diag(GAMG_u, −GAMG_φ), PETSc's smoothed-aggregation algebraic multigrid (``PCGAMG``) of
+     the SPD forms of ``forms.preconditioner_forms`` (u: the piezo-stiffened elasticity plus
+     c times the viscosity; φ: the permittivity), u with the rigid-body motions as its near
+     null space (without them GAMG needed 117 instead of 28 CG iterations on the 3D block's
+     u form at 15 315 DOFs);
+
+  y = S r;  y += B (r − J y);  y += S (r − J y).
+
+No nested meshes are needed (NGSolve cannot refine a distributed mesh, so its multigrid does
+not run there), and every part runs on every rank. B is built anew when the rate
+coefficient c changes (``system.generation``), S at every solve. A GMRES that does not reach
+its tolerance within ``maxiter`` iterations is counted (``krylov_failures``, in the step's
+record) and the correction is solved by a fresh MUMPS factorisation of J instead
+(``petsc_solver.MumpsFactorization``, counted in ``factorizations``); if that fails too, the
+error names both reasons.
+
+PETSc options reach the parts through the prefixes ``ngcontact_u_`` and ``ngcontact_phi_``
+(the GAMG preconditioners, e.g. ``-ngcontact_u_pc_gamg_threshold 0.01``) and
+``ngcontact_gamma3_`` (the Γ3 factorisation).
+"""
+from contextlib import nullcontext
+
+import ngsolve as ngs
+import numpy as np
+
+from . import forms
+from .machine_code import compiled
+from .petsc_solver import MumpsFactorization, PetscMatrix, WeightedGmres, load
+
+
+class GamgSolver:
+    """w = J⁻¹ r by GMRES with the preconditioner of the module: the linear solver protocol of
+    ``linear_solver`` (``solve(matrix, freedofs, r, w, generation, timer, weights, tol)``,
+    counters ``factorizations`` (the Γ3 factorisations, the fallbacks), ``krylov_iterations``,
+    ``krylov_failures``).
+
+    Parameters
+    ----------
+    body : the Body.
+    system : the StepSystem (its ``coefficients.rate``, 1/s, read when ``generation`` changes).
+    layer : BitArray of the DOFs on the Γ3 facets, or None (no contact).
+    tol : GMRES's relative reduction of the preconditioned residual (Newton asks for less
+        where that suffices: ``margin``).
+    maxiter : GMRES iterations before a solve counts as failed.
+    realcompile : compile the preconditioner forms' integrands to machine code.
+    """
+
+    margin = 0.1
+
+    def __init__(self, body, system, layer=None, *, tol=1e-8, maxiter=300, realcompile=False):
+        load("iterative='gamg'")
+        self.body, self.system, self.layer = body, system, layer
+        self.tol, self.maxiter, self.realcompile = tol, int(maxiter), realcompile
+        self.factorizations = self.krylov_iterations = self.krylov_failures = 0
+        self._key = self._generation = None
+        self._bulk = None
+
+    name = "GMRES preconditioned by Γ3 MUMPS solves around block GAMG (PETSc)"
+
+    def _setup(self, matrix, freedofs):
+        """J as a PETSc matrix, the index sets of u, φ and the Γ3 DOFs in it, GMRES."""
+        PETSc, _ = load()
+        self.J = PetscMatrix(matrix, freedofs)
+        self.gmres = WeightedGmres(self.J, self._apply)
+        mapping, template = self.J.vectors, matrix.CreateColVector()
+        n_u = self.body.V.ndof
+        u_part = np.zeros(matrix.height)
+        u_part[:n_u] = 1.0
+        self.fields = [_index_set(PETSc, mapping, template, u_part, 1.0), _index_set(PETSc, mapping, template,
+                                                                                      u_part, 0.0)]
+        layer = np.zeros(matrix.height)
+        if self.layer is not None:
+            layer[np.array(list(self.layer), dtype=bool)] = 1.0
+        self.surface_rows = _index_set(PETSc, mapping, template, layer, 1.0)
+        self._surface = self._surface_matrix = None
+        self._x, self._y, self._d = (self.J.mat.createVecRight() for _ in range(3))
+        self._key, self._generation = (matrix, freedofs), None
+
+    def _preconditioners(self, freedofs):
+        """B: GAMG of the u and φ preconditioner forms at the current rate coefficient."""
+        PETSc, _ = load()
+        X, rate = self.system.X, self.system.coefficients.rate.Get()
+        (u, phi), (v, xi) = X.TnT()
+        form = ngs.BilinearForm(X, symmetric=True)
+        u_integrand, phi_integrand = forms.preconditioner_forms(self.body, u, v, phi, xi, rate)
+        form += compiled(u_integrand + phi_integrand, self.realcompile) * ngs.dx
+        form.Assemble()
+        P = PetscMatrix(form.mat, freedofs).mat
+        blocks = []
+        for name, rows in zip(("u", "phi"), self.fields):
+            if rows.getSize() == 0:
+                blocks.append(None)
+                continue
+            block = P.createSubMatrix(rows, rows)
+            if name == "u":
+                block.setNearNullSpace(self._rigid_motions(PETSc, rows, block))
+            pc = PETSc.PC().create(comm=block.getComm())
+            pc.setOptionsPrefix(f"ngcontact_{name}_")
+            pc.setOperators(block)
+            pc.setType("gamg")
+            pc.setFromOptions()
+            pc.setUp()
+            x, y = block.createVecs()
+            blocks.append((pc, x, y))
+        self._bulk = blocks
+
+    def _rigid_motions(self, PETSc, rows, block):
+        """The rigid-body motions of u (translations, rotations about the axes), restricted to
+        the free u DOFs and orthonormalised, as GAMG's near null space."""
+        gf = ngs.GridFunction(self.system.X)
+        x, y, z = ngs.x, ngs.y, ngs.z
+        motions = [(1, 0), (0, 1), (-y, x)] if self.body.dim == 2 else \
+            [(1, 0, 0), (0, 1, 0), (0, 0, 1), (-y, x, 0), (0, -z, y), (z, 0, -x)]
+        vectors = []
+        for motion in motions:
+            gf.vec[:] = 0.0
+            gf.components[0].Set(ngs.CF(motion))
+            full = self.J.vectors.petscVec(gf.vec)
+            part = block.createVecRight()
+            full.getSubVector(rows, part)
+            vector = part.copy()
+            full.restoreSubVector(rows, part)
+            for earlier in vectors:
+                vector.axpy(-vector.dot(earlier), earlier)
+            vector.normalize()
+            vectors.append(vector)
+        return PETSc.NullSpace().create(vectors=vectors, comm=block.getComm())
+
+    def _factor_surface(self):
+        """S: the MUMPS LU of J on the Γ3 DOFs (its pattern analysed once, refactorised)."""
+        PETSc, _ = load()
+        if self.surface_rows.getSize() == 0:
+            self._surface = None
+            return
+        if self._surface is None:
+            self._surface_matrix = self.J.mat.createSubMatrix(self.surface_rows, self.surface_rows)
+            self._surface = PETSc.PC().create(comm=self._surface_matrix.getComm())
+            self._surface.setOptionsPrefix("ngcontact_gamma3_")
+            self._surface.setOperators(self._surface_matrix)
+            self._surface.setType("lu")
+            self._surface.setFactorSolverType("mumps")
+            self._surface.setFromOptions()
+            self._sx, self._sy = self._surface_matrix.createVecs()
+        else:
+            self.J.mat.createSubMatrix(self.surface_rows, self.surface_rows, submat=self._surface_matrix)
+            self._surface.setOperators(self._surface_matrix)
+        self._surface.setUp()
+        if self._surface.getFailedReason():
+            raise ArithmeticError(f"the MUMPS factorisation of the Γ3 block failed (PETSc's reason "
+                                  f"{self._surface.getFailedReason()})")
+        self.factorizations += 1
+
+    def _add_surface(self, r, y):
+        """y += S r."""
+        rows, x = self.surface_rows, self._sx
+        part = r.getSubVector(rows)
+        part.copy(x)
+        r.restoreSubVector(rows, part)
+        self._surface.apply(x, self._sy)
+        part = y.getSubVector(rows)
+        part.axpy(1.0, self._sy)
+        y.restoreSubVector(rows, part)
+
+    def _add_bulk(self, r, y):
+        """y += diag(GAMG_u, −GAMG_φ) r."""
+        for sign, rows, block in zip((1.0, -1.0), self.fields, self._bulk):
+            if block is None:
+                continue
+            pc, x, z = block
+            part = r.getSubVector(rows)
+            part.copy(x)
+            r.restoreSubVector(rows, part)
+            pc.apply(x, z)
+            part = y.getSubVector(rows)
+            part.axpy(sign, z)
+            y.restoreSubVector(rows, part)
+
+    def _apply(self, r, y):
+        """y = M r (module docstring), on J's PETSc vectors."""
+        y.set(0.0)
+        if self._surface is None:
+            self._add_bulk(r, y)
+            return
+        d = self._d
+        self._add_surface(r, y)
+        self.J.mat.mult(y, d)
+        d.aypx(-1.0, r)                      # d = r − J y
+        self._add_bulk(d, y)
+        self.J.mat.mult(y, d)
+        d.aypx(-1.0, r)
+        self._add_surface(d, y)
+
+    def solve(self, matrix, freedofs, r, w, generation=None, timer=None, weights=None, tol=None, changing=None):
+        """w = J⁻¹ r to the relative accuracy ``tol`` (default the solver's) in the ``weights``
+        norm of the preconditioned residual (``changing`` is not used)."""
+        timer = timer or (lambda phase: nullcontext())
+        with timer("factorization"):
+            if self._key is None or self._key[0] is not matrix or self._key[1] is not freedofs:
+                self._setup(matrix, freedofs)
+            else:
+                self.J.refill()
+            if generation != self._generation or self._bulk is None:
+                self._preconditioners(freedofs)
+                self._generation = generation
+            self._factor_surface()
+        with timer("solve"):
+            converged, iterations, reason = self.gmres.solve(r, w, weights, self.tol if tol is None else tol,
+                                                             self.maxiter)
+        self.krylov_iterations += iterations
+        if not converged:                      # a fresh factorisation of J solves instead
+            self.krylov_failures += 1
+            with timer("factorization"):
+                try:
+                    exact = MumpsFactorization(matrix, freedofs)
+                except ArithmeticError as error:
+                    PETSc, _ = load()
+                    names = {v: k for k, v in vars(PETSc.KSP.ConvergedReason).items() if not k.startswith("_")}
+                    raise ArithmeticError(f"GMRES did not converge in {iterations} iterations (PETSc's reason "
+                                          f"{names.get(reason, reason)}) and {error}") from None
+                self.factorizations += 1
+            with timer("solve"):
+                w.data = exact * r
+
+    def __repr__(self):
+        return f"GamgSolver(tol={self.tol}, maxiter={self.maxiter})"
+
+
+def _index_set(PETSc, mapping, template, indicator, value):
+    """The PETSc index set of the rows of J (free DOFs, ``mapping``'s layout) whose
+    ``indicator`` (numpy over the DOFs of ``template``'s space) equals ``value``."""
+    vec = template.CreateVector()
+    vec.FV().NumPy()[:] = indicator == value
+    if vec.GetParallelStatus() != ngs.la.PARALLEL_STATUS.NOT_PARALLEL:
+        vec.SetParallelStatus(ngs.la.PARALLEL_STATUS.CUMULATED)
+    marked = mapping.petscVec(vec)
+    start, _ = marked.getOwnershipRange()
+    rows = start + np.flatnonzero(marked.getArray() > 0.5)
+    return PETSc.IS().createGeneral(rows.astype(PETSc.IntType), comm=marked.getComm())
