@@ -48,7 +48,7 @@ def test_distributed_demo_equals_the_serial_run(serial, tmp_path, ranks):
     """``mpiexec -n N python -m ngcontact demo --dim 3``: per step the contact force, the tip
     displacement (a probe point), the charge flux, the peak pressure, the contact area and
     min β (push, hold, pull: β falls to ~0.007; Newton iterations ±1) equal the serial run to 1e-8 relative; rank
-    0 alone writes the summary and charts, every computing rank its VTK part."""
+    0 alone writes the summary and charts, every computing rank its part of each step in the stream (run/)."""
     launch(ranks, *DEMO, "--out", str(tmp_path))
     distributed = json.loads((tmp_path / "summary.json").read_text())
     assert distributed["ranks"] == ranks and serial["ranks"] == 1
@@ -60,8 +60,38 @@ def test_distributed_demo_equals_the_serial_run(serial, tmp_path, ranks):
     assert np.abs(np.subtract(serial["newton_iterations"], distributed["newton_iterations"])).max() <= 1
     assert min(serial["beta_min"], distributed["beta_min"]) < 0.05
     assert abs(serial["beta_min"] - distributed["beta_min"]) <= 1e-8
-    assert (tmp_path / "history.png").exists() and (tmp_path / "fields.pvd").exists()
-    assert len(list(tmp_path.glob("fields_proc*_step00001.vtu"))) == ranks - 1
+    assert (tmp_path / "history.png").exists() and (tmp_path / "run" / "fields.pvd").exists()
+    assert len(list(tmp_path.glob("run/vtk/fields_000001_proc*.vtu"))) == ranks - 1
+    assert len(list(tmp_path.glob("run/steps/000001.rank*.npz"))) == ranks
+
+
+def test_the_demo_resumes_distributed(tmp_path):
+    """``mpiexec -n 3 python -m ngcontact demo --resume`` (2D, 10 steps and a cut-back: 11 steps)
+    continues a run whose steps 6 to 11 were lost (their archives deleted, their rank parts
+    left, as by a kill between the parts and the archive) to the summary of the whole run,
+    the tip deflection of the steps on disk from each rank's kept states; under ``-n 2`` it
+    is refused before meshing, naming both numbers of ranks, and nothing is written."""
+    command = ["-m", "ngcontact", "demo", "--steps", "10", "--maxh", "0.01", "--out", str(tmp_path)]
+    launch(3, *command)
+    whole = json.loads((tmp_path / "summary.json").read_text())
+    assert len(whole["times"]) == 11 and min(whole["tip_deflection"]) < -1e-6
+    (tmp_path / "summary.json").unlink()
+    for n in range(6, 12):
+        (tmp_path / "run" / "steps" / f"{n:06d}.npz").unlink()
+    written = {p: p.stat().st_mtime_ns for p in (tmp_path / "run").rglob("*")}
+    done = subprocess.run([mpiexec(), "-n", "2", sys.executable, *command, "--resume"], capture_output=True,
+                          text=True, timeout=120, env=dict(os.environ, PYTHONWARNINGS="ignore"), cwd=HERE.parent)
+    assert done.returncode == 2 and done.stdout == ""
+    assert done.stderr == (f"ngcontact demo: error: resume: {str(tmp_path / 'run')!r} was written on 3 MPI ranks "
+                           "(mpiexec -n 3), this simulation runs on 2 MPI ranks (mpiexec -n 2): every rank reads back "
+                           "its own part of each step; resume it under mpiexec -n 3, or run again into a new "
+                           "directory\n")
+    assert {p: p.stat().st_mtime_ns for p in (tmp_path / "run").rglob("*")} == written
+    assert "resumed at step 5, t = 0.2000 s" in launch(3, *command, "--resume")
+    resumed = json.loads((tmp_path / "summary.json").read_text())
+    for key in ("times", "newton_iterations", "contact_length", "tip_deflection", "charge_flux", "contact_force_y",
+                "beta_min"):
+        assert np.allclose(resumed[key], whole[key], rtol=1e-12, atol=1e-20), key
 
 
 @pytest.fixture(scope="module")
