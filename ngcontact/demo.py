@@ -10,7 +10,7 @@ import numpy as np
 from matplotlib import ticker, tri
 from matplotlib.figure import Figure
 
-from . import checks, parallel, results
+from . import checks, parallel, run_directory
 from .progress import write
 from .scenes import reference
 from .studies.bench import THREADS_FROM
@@ -140,7 +140,7 @@ def _check_resumable(directory, settings):
     the scene itself)."""
     if not (directory / "run.json").exists():
         raise ValueError(f"resume: {str(directory)!r} holds no run to continue; run without --resume")
-    results.check_ranks(directory, parallel.size())
+    run_directory.check_ranks(run_directory.run_info(directory), parallel.size(), directory, "resume")
     try:
         stored = json.loads((directory / "demo.json").read_text())
     except (OSError, ValueError):
