@@ -186,8 +186,8 @@ def test_streamed_results_resume_distributed(tmp_path):
     assert np.abs(np.array([r.contact.force for r in history]) - expected).max() <= 1e-8 * scale
     # ParaView: both computing ranks' files of every step
     entries = ElementTree.parse(run_dir / "fields.pvd").getroot().findall("Collection/DataSet")
-    assert [(float(e.get("timestep")), e.get("part")) for e in entries] == pytest.approx(
-        [(r.time, part) for r in history for part in ("1", "2")])
+    assert [e.get("part") for e in entries] == ["1", "2"] * len(history)
+    assert [float(e.get("timestep")) for e in entries] == pytest.approx([r.time for r in history for _ in "12"])
     for entry in entries:
         text = (run_dir / entry.get("file")).read_text(errors="replace")
         assert entry.get("file").endswith(f"_proc{entry.get('part')}.vtu")
