@@ -8,7 +8,8 @@ contact on). Rank 0 writes JSON to the last argument.
   ``STOP`` (an ``on_step`` that raises, once the step is on disk), a new Simulation resumed
   from DIR and run to the end; an uninterrupted run without ``out``; the contact forces of
   both; then the messages of what is refused: a stream into SERIAL (a serial run's directory)
-  and a resume from it, and a resume from a copy of DIR without rank 2's part of the last step.
+  and a resume from it, a resume from a copy of DIR without rank 2's part of the last step, and
+  resumes from DIR with another γ0, another time scheme and another u0.
 * ``resume DIR OUT``: a resume from DIR; the message of every rank.
 """
 import json
@@ -16,6 +17,7 @@ import pathlib
 import shutil
 import sys
 
+import ngsolve as ngs
 
 from ngcontact import parallel
 from ngcontact.scenes import reference
@@ -28,8 +30,8 @@ class Interrupted(Exception):
     """Raised by an on_step after step STOP: the run stops as if killed there."""
 
 
-def simulation():
-    return reference.simulation(1, 0.01)
+def simulation(**options):
+    return reference.simulation(1, 0.01, **options)
 
 
 def refusal(attempt):
@@ -77,6 +79,9 @@ elif mode == "run":
         (copy / "steps" / f"{STEPS:06d}.rank2.npz").unlink()
     parallel.barrier(sim.body.mesh)
     found["missing_part"] = refusal(lambda: simulation().resume(copy))
+    found["scene"] = refusal(lambda: simulation(contact=reference.contact(gamma0=100.0)).resume(directory))
+    found["scheme"] = refusal(lambda: simulation(scheme="bdf2").resume(directory))
+    found["start"] = refusal(lambda: simulation(u0=ngs.CF((0, -1e-7 * ngs.x / reference.L1))).resume(directory))
 else:
     found["resume"] = refusal(lambda: simulation().resume(directory))
 if parallel.rank() == 0:

@@ -164,7 +164,7 @@ def test_streamed_results_resume_distributed(tmp_path):
     to facet, and the gathered order is not the serial one). Refused with a message naming
     both numbers of ranks, on every rank: a resume on 2 ranks, a serial resume, a stream or
     resume on 3 ranks from a serial run's directory; a missing rank part of the last step
-    names the file."""
+    names the file; another γ0, time scheme or u0 is named as serially, on every rank."""
     from ngcontact import results
     from ngcontact.scenes import reference
     script = str(HERE / "distributed_streaming.py")
@@ -226,6 +226,15 @@ def test_streamed_results_resume_distributed(tmp_path):
     assert run["missing_part"] == 3 * [f"{str(part)!r} is missing: step 10 is incomplete (its archive "
                                        "steps/000010.npz is on disk, the part of rank 2 is not); delete "
                                        "steps/000010.npz to resume from step 9"]
+    # the checks of the scene, the scheme and the start, on every rank
+    assert run["scene"] == 3 * [f"resume: {str(run_dir)!r} was computed with contact.gamma0 = 10.0; this "
+                                "simulation has contact.gamma0 = 100.0: not the same scene"]
+    assert run["scheme"] == 3 * [f"resume: {str(run_dir)!r} holds a run of the time scheme 'backward_euler', this "
+                                 "simulation's scheme is 'bdf2': build it with Simulation(scheme='backward_euler'), "
+                                 "or write to a new directory"]
+    assert len(set(run["start"])) == 1 and re.fullmatch(
+        rf"resume: {re.escape(repr(str(run_dir)))} starts from another state at t = 0: u differs from this "
+        r"simulation's by up to 1e-07 m \(of .* m; another u0\?\): not the same scene", run["start"][0])
 
 
 def test_what_does_not_run_distributed_says_so(tmp_path):
