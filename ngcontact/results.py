@@ -184,8 +184,8 @@ class Stream:
         self._times = {m: t for m, t in self._times.items() if m < n}     # a redone step replaces
         self._times[n] = record.time
         for name, ext in (("fields", "vtu"), ("gamma3", "vtp")):
-            entries = "".join(f'<DataSet timestep="{t!r}"{part} file="vtk/{file}"/>\n'
-                              for m, t in sorted(self._times.items()) for part, file in self._pieces(name, m, ext)
+            entries = "".join(f'<DataSet timestep="{t!r}"{piece} file="vtk/{file}"/>\n'
+                              for m, t in sorted(self._times.items()) for piece, file in self._pieces(name, m, ext)
                               if (vtk / file).exists())
             if entries:
                 _atomic_write(self.dir / f"{name}.pvd", lambda p, e=entries: p.write_text(

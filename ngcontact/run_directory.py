@@ -89,16 +89,20 @@ def _rerun(ranks):
     return f"under mpiexec -n {ranks}" if ranks > 1 else "serially (without mpiexec)"
 
 
+def _instead(who):
+    """The other way out of a refusal to ``who`` ("resume" or "out")."""
+    return "run again into a new directory" if who == "resume" else "write to a new directory"
+
+
 def check_ranks(info, ranks, directory, who):
     """Raise unless the run ``info`` was written by ``ranks`` MPI ranks (1: serially; a
     run.json without ``ranks`` is serial)."""
     stored = info.get("ranks", 1)
     if stored != ranks:
         what = "resume it" if who == "resume" else "continue it (resume, then run)"
-        other = "run again into a new directory" if who == "resume" else "write to a new directory"
         raise ValueError(f"{who}: {str(directory)!r} was written {_written(stored)}, this simulation runs "
                          f"{_written(ranks)}: every rank reads back its own part of each step; {what} "
-                         f"{_rerun(stored)}, or {other}")
+                         f"{_rerun(stored)}, or {_instead(who)}")
 
 
 def check_partition(info, layout, directory, who):
@@ -112,7 +116,7 @@ def check_partition(info, layout, directory, who):
                      f"{info.get('ndof')} DOFs, this simulation's rank {r} holds {now[r]['ndof']} and "
                      f"{now[r]['facets']} (hash {now[r]['hash']}) of {layout['ndof']}: another "
                      f"mesh or order, or another partition of it (METIS); use the mesh of the run {_rerun(len(now))}, "
-                     "or write to a new directory")
+                     f"or {_instead(who)}")
 
 
 def check_scheme(info, scheme, directory, who):

@@ -8,8 +8,9 @@ contact on). Rank 0 writes JSON to the last argument.
   ``STOP`` (an ``on_step`` that raises, once the step is on disk), a new Simulation resumed
   from DIR and run to the end; an uninterrupted run without ``out``; the contact forces of
   both; then the messages of what is refused: a stream into SERIAL (a serial run's directory)
-  and a resume from it, a resume from a copy of DIR without rank 2's part of the last step, and
-  resumes from DIR with another γ0, another time scheme and another u0.
+  and a resume from it, a resume from a copy of DIR without rank 2's part of the last step, and with
+  another partition in its run.json, and resumes from DIR with another γ0, another time scheme
+  and another u0.
 * ``resume DIR OUT``: a resume from DIR; the message of every rank.
 """
 import json
@@ -79,6 +80,13 @@ elif mode == "run":
         (copy / "steps" / f"{STEPS:06d}.rank2.npz").unlink()
     parallel.barrier(sim.body.mesh)
     found["missing_part"] = refusal(lambda: simulation().resume(copy))
+    info = json.loads((copy / "run.json").read_text())
+    info["partition"][1]["ndof"] += 1                  # as if rank 1 had held another part of the mesh
+    parallel.barrier(sim.body.mesh)
+    if parallel.rank() == 0:
+        (copy / "run.json").write_text(json.dumps(info))
+    parallel.barrier(sim.body.mesh)
+    found["partition"] = refusal(lambda: simulation().resume(copy))
     found["scene"] = refusal(lambda: simulation(contact=reference.contact(gamma0=100.0)).resume(directory))
     found["scheme"] = refusal(lambda: simulation(scheme="bdf2").resume(directory))
     found["start"] = refusal(lambda: simulation(u0=ngs.CF((0, -1e-7 * ngs.x / reference.L1))).resume(directory))

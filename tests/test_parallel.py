@@ -164,7 +164,8 @@ def test_streamed_results_resume_distributed(tmp_path):
     to facet, and the gathered order is not the serial one). Refused with a message naming
     both numbers of ranks, on every rank: a resume on 2 ranks, a serial resume, a stream or
     resume on 3 ranks from a serial run's directory; a missing rank part of the last step
-    names the file; another γ0, time scheme or u0 is named as serially, on every rank."""
+    names the file, another partition in run.json names the rank; another γ0, time scheme or
+    u0 is named as serially, on every rank."""
     from ngcontact import results
     from ngcontact.scenes import reference
     script = str(HERE / "distributed_streaming.py")
@@ -226,6 +227,13 @@ def test_streamed_results_resume_distributed(tmp_path):
     assert run["missing_part"] == 3 * [f"{str(part)!r} is missing: step 10 is incomplete (its archive "
                                        "steps/000010.npz is on disk, the part of rank 2 is not); delete "
                                        "steps/000010.npz to resume from step 9"]
+    assert len(set(run["partition"])) == 1 and re.fullmatch(
+        rf"resume: {re.escape(repr(str(tmp_path / 'incomplete')))} was written with its mesh distributed otherwise: "
+        r"rank 1 held (\d+) DOFs and (\d+) facets of Γ3 \(hash \w+\) of 186 DOFs, this simulation's rank 1 holds "
+        r"(\d+) and \2 \(hash \w+\) of 186: another mesh or order, or another partition of it \(METIS\); use the "
+        r"mesh of the run under mpiexec -n 3, or run again into a new directory", run["partition"][0])
+    held, holds = (int(g) for g in re.fullmatch(r".*held (\d+) DOFs.*holds (\d+) and.*", run["partition"][0]).groups())
+    assert held == holds + 1
     # the checks of the scene, the scheme and the start, on every rank
     assert run["scene"] == 3 * [f"resume: {str(run_dir)!r} was computed with contact.gamma0 = 10.0; this "
                                 "simulation has contact.gamma0 = 100.0: not the same scene"]
