@@ -106,8 +106,8 @@ def callback(on_step):
 
 def run(sim, dt, T, max_cutbacks, progress, vtk, on_step, out):
     """The arguments of ``Simulation.run``: (dt, T, max_cutbacks, progress) checked, the
-    directories of ``vtk`` and ``out`` writable (``out`` on a serial mesh: a distributed one
-    refuses it in ``results``), at most MAX_STEPS steps."""
+    directories of ``vtk`` and ``out`` writable (``out`` on every rank of a distributed mesh),
+    at most MAX_STEPS steps."""
     dt, T = number("time step dt", dt, 0, low_open=True, unit="s"), later("final time T", T, sim.t)
     max_cutbacks, progress = cutbacks(max_cutbacks), flag("progress", progress)
     callback(on_step)
@@ -115,8 +115,8 @@ def run(sim, dt, T, max_cutbacks, progress, vtk, on_step, out):
         if not isinstance(vtk, (str, os.PathLike)) or not str(vtk):
             raise TypeError(f"vtk must be a file name stem (str or pathlib.Path) or None, got {vtk!r}")
         writable_directory(pathlib.Path(vtk).parent, "vtk: the directory")
-    if out is not None and not parallel.is_distributed(sim.body.mesh):
-        writable_directory(out, "out: the directory")
+    if out is not None:
+        parallel.together(sim.body.mesh, writable_directory, out, "out: the directory")
     if (T - sim.t) / dt > MAX_STEPS:
         raise ValueError(f"time step dt = {dt:g} s gives {(T - sim.t) / dt:.3g} steps to T = {T:g} s; at "
                          f"most {MAX_STEPS:,} steps per run (a larger dt, or several runs)")

@@ -60,7 +60,8 @@ def parser():
                       help="choose the time steps by this local error target (with --scheme bdf2; the first step "
                            "0.5 s / STEPS)")
     demo.add_argument("--resume", action="store_true",
-                      help="continue the run interrupted in OUT/run (same settings) instead of starting again")
+                      help="continue the run interrupted in OUT/run (same settings, under mpiexec the same "
+                           "number of ranks) instead of starting again")
 
     conv = commands.add_parser("convergence", parents=[common], help="order-convergence study against (4.12): "
                                "errors.csv and charts")
@@ -189,8 +190,6 @@ def _newton_line(err, args):
     where = f"step {err.step} (t = {err.time:.6g} s), " if err.step is not None else ""
     last = ", ".join(f"{r:.3e}" for r in err.residuals[-3:])
     kept = KEPT[args.command].format(out=args.out)
-    if args.command == "demo" and ngcontact.parallel.world() is not None:
-        kept = "memory only (not streamed under mpiexec)"
     tried = ", ".join(f"{dt:.3g}" for dt in err.tried)
     return (f"Newton {err.reason} at {where}iteration {err.iteration} (last residuals {last}"
             + (f"; dt = {tried} s tried" if tried else "") + f"); the steps before it are kept in {kept}"

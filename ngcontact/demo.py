@@ -10,7 +10,7 @@ import numpy as np
 from matplotlib import ticker, tri
 from matplotlib.figure import Figure
 
-from . import checks, parallel
+from . import checks, parallel, run_directory
 from .progress import write
 from .scenes import reference
 from .studies.bench import THREADS_FROM
@@ -28,10 +28,11 @@ def run(order=1, out="results", maxh=None, steps=200, theta=1, gamma0=10.0, resu
         scheme="backward_euler", rtol=None):
     """Run the reference scene (``scenes.reference``) over its load history in ``steps``
     time steps, print a line per step, write summary.json and charts into ``out``. Every
-    step is streamed into ``out/run`` as it is computed (``ngcontact.results``), with these
-    settings in ``out/run/demo.json``; ``resume`` continues a run interrupted there instead of
-    starting again: other settings are refused before meshing, naming them, and
-    ``Simulation.resume`` checks the scene itself.
+    step is streamed into ``out/run`` as it is computed (``ngcontact.results``; under mpiexec
+    each rank writes its part), with these settings in ``out/run/demo.json``; ``resume``
+    continues a run interrupted there instead of starting again: other settings, and another
+    number of MPI ranks, are refused before meshing, naming them, and ``Simulation.resume``
+    checks the scene itself.
 
     Parameters
     ----------
@@ -83,36 +84,29 @@ def run(order=1, out="results", maxh=None, steps=200, theta=1, gamma0=10.0, resu
     tip = [(reference.L1, 0.0) if dim == 2 else (reference.L1, reference.WIDTH / 2, 0.0)]
     deflection = {}                                  # step -> vertical displacement at the tip
     say(f"{body}, solver {sim.solver}" + "".join(f"\n{note}" for note in sim.parallel_notes) + f"\n{header(dim)}")
-    if distributed:                                  # each rank holds part of the state: no stream
-        if resume:
-            raise ValueError("resume does not run on a distributed mesh (mpiexec): the stream of results "
-                             "is written by serial runs only")
-        fields = ngs.VTKOutput(mesh, coefs=[sim.u, sim.phi], names=["u", "phi"], filename=str(out / "fields"),
-                               legacy=False)
-        every = max(1, steps // 20)
-    elif resume:
+    if resume:
         sim.resume(out / "run")
         say(f"resumed at step {len(sim.history) - 1}, t = {sim.t:.4f} s")
     else:
-        if (out / "run").exists():
-            shutil.rmtree(out / "run")               # a new run replaces the old one
-        (out / "run").mkdir()
-        (out / "run" / "demo.json").write_text(json.dumps(settings, indent=1))
+        if lead:
+            if (out / "run").exists():
+                shutil.rmtree(out / "run")           # a new run replaces the old one
+            (out / "run").mkdir()
+            (out / "run" / "demo.json").write_text(json.dumps(settings, indent=1))
+        parallel.barrier(mesh)
 
     area = 1e3 if dim == 2 else 1e6                  # m -> mm, m² -> mm²
 
     def report(rec):
         c = rec.contact
         deflection[rec.step] = parallel.point_values(mesh, sim.u, tip)[0, dim - 1]
-        if distributed and rec.step % every == 0:
-            fields.Do(time=rec.time)                 # ParaView: fields.pvd, one file per rank and time
         if lead:
             write(f"{rec.step:5d} {rec.time:7.4f} {rec.newton_iterations:6d} {area * c.contact_area:13.3f} "
               f"{1e-6 * max(c.pressure.max(), 0.0):11.3f} {c.beta.min():8.4f} {c.charge_flux:+17.4e}")
     start = wallclock.perf_counter()
     T = reference.LOAD_HISTORY[-1][0]
     with ngs.TaskManager() if body.ndof >= THREADS_FROM else nullcontext():
-        history = sim.run(T / steps, T, on_step=report, out=None if distributed else out / "run", rtol=rtol)
+        history = sim.run(T / steps, T, on_step=report, out=out / "run", rtol=rtol)
     wall = wallclock.perf_counter() - start
     for n in range(1, len(history)):                 # steps of a resumed run: from their kept states
         if n not in deflection and sim.keep_states:
@@ -142,9 +136,11 @@ def run(order=1, out="results", maxh=None, steps=200, theta=1, gamma0=10.0, resu
 
 def _check_resumable(directory, settings):
     """Raise unless ``directory`` holds a demo run to continue with these ``settings`` (its
-    ``demo.json``; ``Simulation.resume`` then checks the scene itself)."""
+    ``demo.json``) on as many MPI ranks as it was written by (``Simulation.resume`` then checks
+    the scene itself)."""
     if not (directory / "run.json").exists():
         raise ValueError(f"resume: {str(directory)!r} holds no run to continue; run without --resume")
+    run_directory.check_ranks(run_directory.run_info(directory), parallel.size(), directory, "resume")
     try:
         stored = json.loads((directory / "demo.json").read_text())
     except (OSError, ValueError):

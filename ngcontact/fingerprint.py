@@ -25,6 +25,12 @@ over the region and the mean over all its element centres (which a local change 
 law r ↦ CoefficientFunction (``Contact.compliance``, ``Contact.conductance``) is sampled at
 the arguments ``LAW_ARGUMENTS`` × the body's size. A number and a sampled field are compared
 by broadcasting, so ``gap=2e-5`` and ``gap=CF(2e-5)`` are the same scene.
+
+On a distributed mesh the fingerprint is the same on every rank: the counts are global, the
+mesh hash is the hash of the ranks' hashes of their parts in rank order, and the element
+centres are taken in rank order (the mean over all of them summed over the ranks). The same
+mesh on the same number of ranks is distributed alike, so it is the same fingerprint there;
+on another number of ranks it is another (``results`` refuses that first, by the numbers).
 """
 import dataclasses
 import hashlib
@@ -33,6 +39,7 @@ import numbers
 import ngsolve as ngs
 import numpy as np
 
+from . import parallel
 from .contact import Contact
 from .loads import Loads
 from .materials import Material
@@ -55,7 +62,7 @@ def fingerprint(sim, T):
     ``SAMPLE_TIMES`` times in [0, T] (T in s, the final time of the run)."""
     body, mesh = sim.body, sim.body.mesh
     sample = _Sampler(sim, np.linspace(0.0, float(T), SAMPLE_TIMES))
-    found = {"sample times": sample.times.tolist(), **_mesh(mesh, body.size), "space.ndof": sim.X.ndof,
+    found = {"sample times": sample.times.tolist(), **_mesh(mesh, body.size), "space.ndof": sim.X.ndofglobal,
              "body.order": body.order, "body.order_phi": body.order_phi}
     found.update({f"body.{part}": list(names) for part, names in body.boundaries.items()})
     found["body.supports"] = [repr(s) for s in body.supports]
@@ -141,14 +148,20 @@ def _contact(contact, body, sample):
 
 
 def _mesh(mesh, size):
-    """The ``mesh.*`` fields."""
+    """The ``mesh.*`` fields. On a distributed mesh: the global counts, and the hash of the
+    ranks' hashes of their parts in rank order (the same mesh on the same number of ranks is
+    distributed alike)."""
     ngmesh = mesh.ngmesh
     digest = hashlib.sha256(np.round(ngmesh.Coordinates() / size, 9) + 0.0)      # + 0.0: no -0.0
     for elements in (ngmesh.Elements1D(), ngmesh.Elements2D(), ngmesh.Elements3D()):
         table = elements.NumPy()
         digest.update(np.ascontiguousarray(table["nodes"]))
         digest.update(np.ascontiguousarray(table["index"]))
-    return {"mesh.dim": mesh.dim, "mesh.vertices": mesh.nv, "mesh.elements": mesh.ne,
+    vertices, elements = mesh.nv, mesh.ne
+    if parallel.is_distributed(mesh):
+        digest = hashlib.sha256("".join(parallel.every(mesh, digest.hexdigest())).encode())
+        vertices, elements = ngs.H1(mesh, order=1).ndofglobal, parallel.sum(mesh, mesh.ne)
+    return {"mesh.dim": mesh.dim, "mesh.vertices": vertices, "mesh.elements": elements,
             "mesh.boundaries": list(mesh.GetBoundaries()), "mesh.curve order": mesh.GetCurveOrder(),
             "mesh.hash": digest.hexdigest()[:32]}
 
@@ -169,14 +182,18 @@ class _Sampler:
         return _plain(value)
 
     def law(self, law, region, size):
-        """The law r ↦ CF at r = ``LAW_ARGUMENTS`` × size (m), at the region's first centre."""
+        """The law r ↦ CF at r = ``LAW_ARGUMENTS`` × size (m), at the region's first centre
+        (distributed: of the first rank that holds part of the region)."""
         r = ngs.Parameter(0.0)
-        cf, point = law(r), self.points(region)[:1]
-        values = []
-        for a in LAW_ARGUMENTS:
-            r.Set(a * size)
-            values.append(np.ravel(cf(point) if isinstance(cf, ngs.CoefficientFunction) else cf).tolist())
-        return values
+        points = self.points(region)
+        first = parallel.offset(self.mesh, len(points))[0] == 0 and len(points) > 0
+        cf, values = law(r), None
+        if first:
+            values = []
+            for a in LAW_ARGUMENTS:
+                r.Set(a * size)
+                values.append(np.ravel(cf(points[:1]) if isinstance(cf, ngs.CoefficientFunction) else cf).tolist())
+        return next(v for v in parallel.every(self.mesh, values) if v is not None)
 
     def points(self, region):
         """The element centres of ``region`` (a Region or ngsolve.VOL), located once."""
@@ -187,14 +204,18 @@ class _Sampler:
 
     def _sampled(self, evaluate, region):
         """[time][point][component]: ``SAMPLE_POINTS`` centres spread over the region, then the
-        mean over all its centres."""
+        mean over all its centres (distributed: spread over the centres of all ranks in rank
+        order, gathered on every rank)."""
         points = self.points(region)
-        kept = np.unique(np.linspace(0, len(points) - 1, SAMPLE_POINTS).round().astype(int))
+        before, count = parallel.offset(self.mesh, len(points))     # distributed: the centres in rank order
+        kept = np.unique(np.linspace(0, count - 1, SAMPLE_POINTS).round().astype(int)) - before
+        kept = kept[(kept >= 0) & (kept < len(points))]
         values = []
         for t in self.times:
             with self.at(t):
                 v = evaluate(points)
-            values.append(np.vstack([v[kept], v.mean(axis=0)]).tolist())
+            values.append(np.vstack([parallel.gather(self.mesh, v[kept]),
+                                     parallel.sum(self.mesh, v.sum(axis=0)) / count]).tolist())
         return values
 
 

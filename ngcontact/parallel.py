@@ -112,13 +112,59 @@ def any_rank(mesh, flag):
     return bool(_reduce(mesh, bool(flag), "LOR"))
 
 
+def size(mesh=None):
+    """The number of ranks ``mesh`` is distributed over (1 for a serial mesh); without a mesh,
+    the number of MPI ranks of this run (1 without mpiexec)."""
+    if mesh is None:
+        comm = world()
+        return 1 if comm is None else comm.size
+    return mesh.comm.size
+
+
+def every(mesh, value):
+    """[value of rank 0, value of rank 1, ...] for any picklable ``value``, on every rank
+    ([value] when serial)."""
+    comm = comm_of(mesh)
+    return [value] if comm is None else comm.allgather(value)
+
+
 def gather(mesh, values):
     """The numpy arrays of all ranks, concatenated in rank order along the first axis
     (``values`` itself when serial): per-facet arrays of Γ3 as one array on every rank."""
+    if comm_of(mesh) is None:
+        return values
+    return np.concatenate(every(mesh, np.asarray(values)), axis=0)
+
+
+def offset(mesh, count):
+    """(the items on the ranks before this one, the items on all ranks) for ``count`` items
+    on this rank: where its items start in an array gathered in rank order (``gather``)."""
+    counts = every(mesh, int(count))
+    return int(np.sum(counts[:mesh.comm.rank])), int(np.sum(counts))
+
+
+def barrier(mesh):
+    """Wait until every rank of ``mesh`` is here (nothing when serial)."""
+    comm = comm_of(mesh)
+    if comm is not None:
+        comm.Barrier()
+
+
+def together(mesh, check, *args):
+    """``check(*args)`` on every rank, its result returned; a ValueError raised on some ranks
+    is raised on every rank (the lowest such rank's message), so that no rank goes on into a
+    collective operation the others have left. ``check`` itself must not communicate."""
     comm = comm_of(mesh)
     if comm is None:
-        return values
-    return np.concatenate(comm.allgather(np.asarray(values)), axis=0)
+        return check(*args)
+    try:
+        result, message = check(*args), None
+    except ValueError as err:
+        result, message = None, str(err)
+    failed = [m for m in comm.allgather(message) if m is not None]
+    if failed:
+        raise ValueError(failed[0]) from None
+    return result
 
 
 def cumulated(vec):

@@ -298,8 +298,9 @@ class Simulation:
         on_step : called with each new StepRecord, right after its step (cut-back steps
             included).
         out : a directory to stream every step into as it is computed (``results``: records,
-            restart state, ParaView series); after ``resume(out)``, the same dt and T continue
-            the interrupted run on its own nominal steps.
+            restart state, ParaView series; under mpiexec every rank writes its own part of
+            each step into it, a directory all ranks see); after ``resume(out)``, the same dt
+            and T continue the interrupted run on its own nominal steps.
         guess : Newton's start (``step``): "nested" or "p1" for every step, another guess for the first.
         If a step fails even at the smallest cut-back, the NewtonError is raised with
         ``error.history`` holding every step computed so far (also in ``history``).
@@ -343,7 +344,8 @@ class Simulation:
         """Continue a run streamed into ``directory`` (``run(..., out=directory)``) that was
         interrupted: its last step on disk becomes this simulation's state and history (the
         simulation must be freshly built, of the same scene and time scheme: ``results.restore``
-        checks it and the step archives; the scheme puts back its own restart state). Then
+        checks it and the step archives; the scheme puts back its own restart state). Under
+        mpiexec, on as many ranks as the run was written by, each rank reads its own part. Then
         ``run(dt, T, out=directory)`` with the run's dt and T computes the rest. Returns self."""
         info, history, restart = results.restore(self.results_source(), directory)
         self.scheme.load(restart)
@@ -355,7 +357,7 @@ class Simulation:
         """What ``results`` reads of this simulation (``results.Source``)."""
         body, X, side = self.body, self.X, self.gamma3.side if self.gamma3 is not None else None
         return results.Source(body.mesh, (self.u, self.phi), max(body.order, body.order_phi) - 1, side, self.history,
-                              dict(ndof=X.ndof, dim=body.dim, model=self.model, scheme=self.scheme.name),
+                              dict(ndof=X.ndofglobal, dim=body.dim, model=self.model, scheme=self.scheme.name),
                               partial(fingerprint, self), self.scheme.save,
                               (self.gfu.vec.FV().NumPy(), [X.Range(0), X.Range(1)]))
 

@@ -5,9 +5,11 @@ rank (the distributed code paths without shared DOFs), ``-n 3`` on two (shared D
 import json
 import os
 import pathlib
+import re
 import shutil
 import subprocess
 import sys
+import xml.etree.ElementTree as ElementTree
 
 import numpy as np
 import pytest
@@ -46,7 +48,7 @@ def test_distributed_demo_equals_the_serial_run(serial, tmp_path, ranks):
     """``mpiexec -n N python -m ngcontact demo --dim 3``: per step the contact force, the tip
     displacement (a probe point), the charge flux, the peak pressure, the contact area and
     min β (push, hold, pull: β falls to ~0.007; Newton iterations ±1) equal the serial run to 1e-8 relative; rank
-    0 alone writes the summary and charts, every computing rank its VTK part."""
+    0 alone writes the summary and charts, every computing rank its part of each step in the stream (run/)."""
     launch(ranks, *DEMO, "--out", str(tmp_path))
     distributed = json.loads((tmp_path / "summary.json").read_text())
     assert distributed["ranks"] == ranks and serial["ranks"] == 1
@@ -58,8 +60,38 @@ def test_distributed_demo_equals_the_serial_run(serial, tmp_path, ranks):
     assert np.abs(np.subtract(serial["newton_iterations"], distributed["newton_iterations"])).max() <= 1
     assert min(serial["beta_min"], distributed["beta_min"]) < 0.05
     assert abs(serial["beta_min"] - distributed["beta_min"]) <= 1e-8
-    assert (tmp_path / "history.png").exists() and (tmp_path / "fields.pvd").exists()
-    assert len(list(tmp_path.glob("fields_proc*_step00001.vtu"))) == ranks - 1
+    assert (tmp_path / "history.png").exists() and (tmp_path / "run" / "fields.pvd").exists()
+    assert len(list(tmp_path.glob("run/vtk/fields_000001_proc*.vtu"))) == ranks - 1
+    assert len(list(tmp_path.glob("run/steps/000001.rank*.npz"))) == ranks
+
+
+def test_the_demo_resumes_distributed(tmp_path):
+    """``mpiexec -n 3 python -m ngcontact demo --resume`` (2D, 10 steps and a cut-back: 11 steps)
+    continues a run whose steps 6 to 11 were lost (their archives deleted, their rank parts
+    left, as by a kill between the parts and the archive) to the summary of the whole run,
+    the tip deflection of the steps on disk from each rank's kept states; under ``-n 2`` it
+    is refused before meshing, naming both numbers of ranks, and nothing is written."""
+    command = ["-m", "ngcontact", "demo", "--steps", "10", "--maxh", "0.01", "--out", str(tmp_path)]
+    launch(3, *command)
+    whole = json.loads((tmp_path / "summary.json").read_text())
+    assert len(whole["times"]) == 11 and min(whole["tip_deflection"]) < -1e-6
+    (tmp_path / "summary.json").unlink()
+    for n in range(6, 12):
+        (tmp_path / "run" / "steps" / f"{n:06d}.npz").unlink()
+    written = {p: p.stat().st_mtime_ns for p in (tmp_path / "run").rglob("*")}
+    done = subprocess.run([mpiexec(), "-n", "2", sys.executable, *command, "--resume"], capture_output=True,
+                          text=True, timeout=120, env=dict(os.environ, PYTHONWARNINGS="ignore"), cwd=HERE.parent)
+    assert done.returncode == 2 and done.stdout == ""
+    assert done.stderr == (f"ngcontact demo: error: resume: {str(tmp_path / 'run')!r} was written on 3 MPI ranks "
+                           "(mpiexec -n 3), this simulation runs on 2 MPI ranks (mpiexec -n 2): every rank reads back "
+                           "its own part of each step; resume it under mpiexec -n 3, or run again into a new "
+                           "directory\n")
+    assert {p: p.stat().st_mtime_ns for p in (tmp_path / "run").rglob("*")} == written
+    assert "resumed at step 5, t = 0.2000 s" in launch(3, *command, "--resume")
+    resumed = json.loads((tmp_path / "summary.json").read_text())
+    for key in ("times", "newton_iterations", "contact_length", "tip_deflection", "charge_flux", "contact_force_y",
+                "beta_min"):
+        assert np.allclose(resumed[key], whole[key], rtol=1e-12, atol=1e-20), key
 
 
 @pytest.fixture(scope="module")
@@ -104,10 +136,119 @@ def test_distributed_scenes_equal_the_serial_run(serial_scenes, tmp_path, scene,
             assert np.abs(force + reactions).max() <= 1e-8 * np.abs(force).max()
 
 
+def run_script(*args):
+    """tests/distributed_streaming.py serially."""
+    done = subprocess.run([sys.executable, str(HERE / "distributed_streaming.py"), *map(str, args)],
+                          capture_output=True, text=True, cwd=HERE.parent, timeout=300)
+    assert done.returncode == 0, done.stderr[-3000:]
+
+
+def cells(path):
+    """The cells of a Γ3 .vtp (2D: lines) as (midpoints, {name: cell values})."""
+    piece = ElementTree.parse(path).getroot().find("PolyData/Piece")
+    values = {a.get("Name"): np.array(a.text.split(), dtype=float) for a in piece.find("CellData")}
+    points = np.array(piece.find("Points/DataArray").text.split(), dtype=float).reshape(-1, 3)
+    lines = np.array(piece.find("Lines/DataArray[@Name='connectivity']").text.split(), dtype=int).reshape(-1, 2)
+    assert int(piece.get("NumberOfLines")) == len(lines) and all(len(v) == len(lines) for v in values.values())
+    return points[lines].mean(axis=1)[:, :2], values
+
+
+def test_streamed_results_resume_distributed(tmp_path):
+    """``run(dt, T, out=DIR)`` and ``resume(DIR)`` under ``mpiexec -n 3`` (2D reference plate,
+    P1, 10 steps, ``tests/distributed_streaming.py``): interrupted after step 6 (on disk) and
+    resumed by a new Simulation, the contact force of every step equals an uninterrupted
+    distributed run (1e-12) and the serial run (1e-8 relative); every step has its archive and
+    one part per rank, ``read`` gives the records serially; fields.pvd lists both computing
+    ranks' .vtu of every step; the Γ3 .vtp of the last step has the gathered facets with the
+    serial run's values in the cells at the same midpoints (the potential differs from facet
+    to facet, and the gathered order is not the serial one). Refused with a message naming
+    both numbers of ranks, on every rank: a resume on 2 ranks, a serial resume, a stream or
+    resume on 3 ranks from a serial run's directory; a missing rank part of the last step
+    names the file, another partition in run.json names the rank; another γ0, time scheme or
+    u0 is named as serially, on every rank."""
+    from ngcontact import results
+    from ngcontact.scenes import reference
+    script = str(HERE / "distributed_streaming.py")
+    serial_dir, run_dir = tmp_path / "serial", tmp_path / "run"
+    run_script("serial", serial_dir, tmp_path / "serial.json")
+    launch(3, script, "run", run_dir, serial_dir, tmp_path / "run.json", timeout=300)
+    serial, run = (json.loads((tmp_path / f"{name}.json").read_text()) for name in ("serial", "run"))
+    assert (serial["ranks"], run["ranks"], run["resumed_at"]) == (1, 3, 6)
+    expected = np.array(serial["force"])
+    assert expected.shape == (11, 2) and np.abs(expected).max() > 1e4
+    scale = np.abs(expected).max()
+    assert np.abs(np.array(run["force"]) - run["uninterrupted"]).max() <= 1e-12 * scale
+    assert np.abs(np.array(run["force"]) - expected).max() <= 1e-8 * scale
+    steps = sorted(p.name for p in (run_dir / "steps").iterdir())
+    assert steps == [f"{n:06d}{part}.npz" for n in range(11) for part in ("", ".rank0", ".rank1", ".rank2")]
+    info, history = results.read(run_dir)                   # records only, in this serial process
+    assert (info["ranks"], len(info["partition"]), info["ndof"]) == (3, 3, 186)
+    assert all(record.state is None for record in history)
+    assert np.abs(np.array([r.contact.force for r in history]) - expected).max() <= 1e-8 * scale
+    # ParaView: both computing ranks' files of every step
+    entries = ElementTree.parse(run_dir / "fields.pvd").getroot().findall("Collection/DataSet")
+    assert [e.get("part") for e in entries] == ["1", "2"] * len(history)
+    assert [float(e.get("timestep")) for e in entries] == pytest.approx([r.time for r in history for _ in "12"])
+    for entry in entries:
+        text = (run_dir / entry.get("file")).read_text(errors="replace")
+        assert entry.get("file").endswith(f"_proc{entry.get('part')}.vtu")
+        assert 'Name="displacement"' in text and 'Name="potential"' in text
+    # Γ3: the gathered facets, each cell with the serial run's values at its midpoint
+    midpoints, values = cells(run_dir / "vtk" / "gamma3_000010.vtp")
+    serial_midpoints = np.array(serial["midpoints"])
+    distance = np.linalg.norm(midpoints[:, None] - serial_midpoints[None], axis=-1)
+    match = distance.argmin(axis=1)
+    assert len(midpoints) == len(serial_midpoints) == 20 and distance.min(axis=1).max() < 1e-12
+    assert sorted(match) == list(range(20)) and list(match) != list(range(20))
+    potential = history[-1].contact.potential
+    assert len(np.unique(np.round(potential, 6))) == 20 and np.abs(potential).max() > 10
+    for name in ("pressure", "beta", "potential"):
+        field = np.array(serial[name])
+        assert np.abs(values[name] - field[match]).max() <= 1e-8 * max(np.abs(field).max(), 1.0), name
+    assert np.abs(values["pressure"]).max() > 1e6
+    # refused: another number of ranks, on every rank, naming both; a missing part
+    launch(2, script, "resume", run_dir, tmp_path / "resume.json", timeout=300)
+    refused = json.loads((tmp_path / "resume.json").read_text())["resume"]
+    assert refused == 2 * [f"resume: {str(run_dir)!r} was written on 3 MPI ranks (mpiexec -n 3), this simulation "
+                           "runs on 2 MPI ranks (mpiexec -n 2): every rank reads back its own part of each step; "
+                           "resume it under mpiexec -n 3, or run again into a new directory"]
+    with pytest.raises(ValueError, match=re.escape(
+            f"resume: {str(run_dir)!r} was written on 3 MPI ranks (mpiexec -n 3), this simulation runs serially "
+            "(1 process): every rank reads back its own part of each step; resume it under mpiexec -n 3, or run "
+            "again into a new directory")):
+        reference.simulation(1, 0.01).resume(run_dir)
+    assert run["out_serial"] == 3 * [
+        f"out: {str(serial_dir)!r} was written serially (1 process), this simulation runs on 3 MPI ranks (mpiexec "
+        "-n 3): every rank reads back its own part of each step; continue it (resume, then run) serially (without "
+        "mpiexec), or write to a new directory"]
+    assert run["resume_serial"] == 3 * [run["out_serial"][0].replace("out: ", "resume: ").replace(
+        "continue it (resume, then run)", "resume it").replace("write to a new", "run again into a new")]
+    part = tmp_path / "incomplete" / "steps" / "000010.rank2.npz"
+    assert run["missing_part"] == 3 * [f"{str(part)!r} is missing: step 10 is incomplete (its archive "
+                                       "steps/000010.npz is on disk, the part of rank 2 is not); delete "
+                                       "steps/000010.npz to resume from step 9"]
+    assert len(set(run["partition"])) == 1 and re.fullmatch(
+        rf"resume: {re.escape(repr(str(tmp_path / 'incomplete')))} was written with its mesh distributed otherwise: "
+        r"rank 1 held (\d+) DOFs and (\d+) facets of Γ3 \(hash \w+\) of 186 DOFs, this simulation's rank 1 holds "
+        r"(\d+) and \2 \(hash \w+\) of 186: another mesh or order, or another partition of it \(METIS\); use the "
+        r"mesh of the run under mpiexec -n 3, or run again into a new directory", run["partition"][0])
+    held, holds = (int(g) for g in re.fullmatch(r".*held (\d+) DOFs.*holds (\d+) and.*", run["partition"][0]).groups())
+    assert held == holds + 1
+    # the checks of the scene, the scheme and the start, on every rank
+    assert run["scene"] == 3 * [f"resume: {str(run_dir)!r} was computed with contact.gamma0 = 10.0; this "
+                                "simulation has contact.gamma0 = 100.0: not the same scene"]
+    assert run["scheme"] == 3 * [f"resume: {str(run_dir)!r} holds a run of the time scheme 'backward_euler', this "
+                                 "simulation's scheme is 'bdf2': build it with Simulation(scheme='backward_euler'), "
+                                 "or write to a new directory"]
+    assert len(set(run["start"])) == 1 and re.fullmatch(
+        rf"resume: {re.escape(repr(str(run_dir)))} starts from another state at t = 0: u differs from this "
+        r"simulation's by up to 1e-07 m \(of .* m; another u0\?\): not the same scene", run["start"][0])
+
+
 def test_what_does_not_run_distributed_says_so(tmp_path):
     """A serial mesh given to Body, more computing ranks than elements, the nodal active set,
-    GMRES with multigrid, a serial inverse, static condensation, the stream of results and the guesses that need the whole mesh raise a ValueError naming the
-    feature under mpiexec; ``run(vtk=)``
+    GMRES with multigrid, a serial inverse, static condensation, the Jacobian as a scipy matrix and the guesses
+    that need the whole mesh raise a ValueError naming the feature under mpiexec; ``run(vtk=)``
     writes one ParaView file per computing rank and step (the initial state and 2 steps),
     with u and φ, collected by one .pvd."""
     lines = dict(line.split(": ", 1) for line in launch(3, str(HERE / "distributed_errors.py"), str(tmp_path))
@@ -118,7 +259,8 @@ def test_what_does_not_run_distributed_says_so(tmp_path):
     assert "iterative='multigrid'" in lines["iterative"] and "nested meshes" in lines["iterative"]
     assert "inverse='umfpack'" in lines["inverse"]
     assert "condense=True" in lines["condense"]
-    assert "distributed" in lines["out"]
+    assert lines["jacobian"].startswith("the Jacobian as a scipy matrix (Simulation.jacobian) does not run on a "
+                                        "distributed mesh (mpiexec with 3 ranks)")
     assert lines["nested"].startswith("guess='nested'") and lines["approach"].startswith(
         "guess=Approach(depth) without a direction does not run on a distributed mesh")
     assert lines["ranks"] == ("mpiexec -n 3: the mesh has 1 elements for 2 computing ranks (rank 0 keeps none); "
