@@ -35,7 +35,7 @@ from .contact_side import element_boundary_layer
 from .loads import as_cf
 from .matrices import csr, matching_positions
 from .law_terms import LawTerms
-from .machine_code import compiled
+from .gamma3_terms import Gamma3Terms
 from .supports import SLIP_GAMMA0, weak_regions
 
 
@@ -150,49 +150,23 @@ class StepSystem:
 
     def add_boundary_terms(self, terms, side, realcompile=False):
         """Add ∫_Γ3 terms(state, test) da to R (once): ``terms((u, φ), (v, ξ))`` is the
-        integrand (linear in the test functions) for the state (u, φ); ``side`` the ContactSide.
-
-        R_Γ3 comes from a LinearForm over ``side.ds`` (ds(skeleton=True)) in a copy of the
-        state; its Jacobian from a BilinearForm in the trial functions, interpreted
-        (``Compile()``) on ``side.ds``, or with ``realcompile`` (or after ``use_machine_code``)
-        compiled to machine code on the element boundaries of the volume elements at Γ3 only
-        (``side.dx_at``, the integrand times the Γ3 indicator). Interpreted, the integrand's
-        evaluation on all facets of those elements costs more than NGSolve's visit of every
-        facet (``machine_code`` has the measurements)."""
+        integrand (linear in the test functions) for the state (u, φ); ``side`` the ContactSide
+        (``gamma3_terms.Gamma3Terms``: interpreted, or with ``realcompile`` compiled to machine
+        code at once)."""
         if self.boundary is not None:
             raise RuntimeError("the Γ3 terms are added once")
-        self._gamma3 = terms, side
-        self._layer = np.zeros(self.X.ndof, dtype=bool)           # the DOFs of the volume elements at Γ3
-        for nr in np.flatnonzero(np.array(list(side.elements), dtype=bool)):
-            self._layer[[d for d in self.X.GetDofNrs(ngs.ElementId(ngs.VOL, int(nr))) if d >= 0]] = True
-        self.boundary = self._jacobian_form(realcompile)
-        self.machine_code = bool(realcompile)
-        self.state = ngs.GridFunction(self.X)
-        self._boundary_linear = ngs.LinearForm(self.X)
-        self._boundary_linear += terms(self.state.components, self.X.TestFunction()).Compile() * side.ds
+        self.boundary = Gamma3Terms(self.X, terms, side, realcompile)
 
-    machine_code = False
-    """Whether the Γ3 Jacobian's integrand is compiled to machine code."""
-
-    def _jacobian_form(self, realcompile):
-        terms, side = self._gamma3
-        form = ngs.BilinearForm(self.X, symmetric=False)
-        integrand = terms(self.X.TrialFunction(), self.X.TestFunction())
-        if realcompile:
-            form += compiled(side.indicator * integrand, True, maxderiv=1) * side.dx_at
-        else:
-            form += integrand.Compile() * side.ds
-        return form
+    @property
+    def machine_code(self):
+        """Whether the Γ3 Jacobian's integrand is compiled to machine code."""
+        return self.boundary is not None and self.boundary.machine_code
 
     def use_machine_code(self):
-        """From now on, assemble the Γ3 Jacobian with its integrand compiled to machine code
-        (NGSolve's realcompile, first derivatives only: 6–9 s once). The same matrix to round-off."""
-        if self.machine_code or self.boundary is None:
-            return
-        self.boundary = self._jacobian_form(True)
-        self.machine_code = True
-        self._positions.clear()                   # keyed by target; the new form's matrix has its own layout
-        self._linearized = False
+        """From now on, assemble the Γ3 terms compiled to machine code (``Gamma3Terms``)."""
+        if self.boundary is not None and self.boundary.use_machine_code():
+            self._positions.clear()               # keyed by target; the new form's matrix has its own layout
+            self._linearized = False
 
     # ----------------------------------------------------------------------- one step
     def begin_step(self, state):
@@ -265,9 +239,7 @@ class StepSystem:
             r.data += self.laws.apply(x)
         self._internal.data = r + self.f.vec
         if self.boundary is not None:
-            self.state.vec.data = x
-            self._boundary_linear.Assemble()
-            self.boundary_residual.data = self._boundary_linear.vec
+            self.boundary_residual.data = self.boundary.residual(x)
             r.data += self.boundary_residual
 
     def AssembleLinearization(self, x):
@@ -281,7 +253,7 @@ class StepSystem:
 
     def _linearize_boundary(self, x):
         if self.boundary is not None:
-            self.boundary.AssembleLinearization(x)
+            self.boundary.linearize(x)
             self._linearized = True
 
     def _assemble_full(self, x):
@@ -300,7 +272,7 @@ class StepSystem:
         target, boundary = parallel.local_matrix(target), parallel.local_matrix(self.boundary.mat)
         positions = self._positions.get(id(target))
         if positions is None:
-            positions = self._positions[id(target)] = matching_positions(boundary, target, self._layer)
+            positions = self._positions[id(target)] = matching_positions(boundary, target, self.boundary.layer)
         source, into = positions
         target.AsVector().FV().NumPy()[into] += boundary.AsVector().FV().NumPy()[source]
 

@@ -574,6 +574,8 @@ for option in ("keep_states", "predictor", "limit_steps", "reuse_factorization",
               option)
 for option in ("condense", "realcompile", "iterative", "electric"):
     for label, value, kind in AUTO_BAD:
+        if option == "iterative" and isinstance(value, str):    # it also takes a solver's name
+            kind = VE
         typed(f"Simulation({option}={label})", lambda ctx, o=option, v=value: built(simulation(**{o: v})), kind,
               option)
 for label, value, kind in NUMBER_BAD + [("0", 0.0, VE), ("-1", -1.0, VE), ("1", 1.0, VE), ("2", 2.0, VE)]:

@@ -126,9 +126,13 @@ def test_step_timings_split_the_wall_time():
     assert sum(rec.factorizations for rec in sim.history[1:]) < sum(rec.newton_iterations for rec in sim.history[1:])
 
 
-def test_realcompiled_contact_terms_agree():
+@pytest.mark.parametrize("residual", [False, True], ids=["jacobian", "jacobian and residual"])
+def test_realcompiled_contact_terms_agree(residual, monkeypatch):
     """The Γ3 Jacobian's integrand compiled to machine code in the middle of a run (as
-    ``machine_code`` decides) gives the same steps to round-off."""
+    ``machine_code`` decides), and with it the residual's on the elements at Γ3 (as on meshes of
+    ``COMPILED_RESIDUAL_FACETS`` facets), gives the same steps to round-off."""
+    from ngcontact import gamma3_terms
+    monkeypatch.setattr(gamma3_terms, "COMPILED_RESIDUAL_FACETS", 0 if residual else 10 ** 9)
     a = run_reference(steps=4)
     b = scene.simulation(1)
     b.run(2.5e-3, 2 * 2.5e-3)
