@@ -138,7 +138,6 @@ class Nested:
         if sim.body.order < 2:
             raise ValueError(f"guess='p1' starts a body of order >= 2 from P1 on its mesh; the body has order "
                              f"{sim.body.order} (guess='nested' starts from coarser meshes)")
-        parallel.serial_only(sim.body.mesh, "guess='p1'", "not yet tested on a distributed mesh")
         level = coarse_simulation(sim, sim.body.mesh, order=1)
         into = ngs.GridFunction(sim.body.V)
 

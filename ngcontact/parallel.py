@@ -249,12 +249,14 @@ def point_values(mesh, cf, points):
 def check_simulation(mesh, contact, inverse, condense, reuse_factorization, iterative=None):
     """What a Simulation on a distributed mesh cannot do raises a ValueError naming the
     feature: the nodal constraint (``method="active_set"``: scipy saddle point systems of one
-    rank), a serial ``inverse``, ``condense=True``, ``iterative="multigrid"`` (NGSolve's
+    rank), a serial ``inverse``, ``iterative="multigrid"`` (NGSolve's
     multigrid: NGSolve 6.2.2608 cannot refine a distributed mesh, so it has no nested meshes;
-    ``iterative=True`` is PETSc's GAMG there). Returns the serial-only defaults switched
-    off, with the reason (``Simulation.parallel_notes``; [] on a serial mesh): the corrections
-    are solved by NGSolve's "masterinverse" (the Jacobian gathered and factorised on rank 0)
-    at every Newton iteration, without static condensation."""
+    ``iterative=True`` is PETSc's GAMG there). Returns the serial defaults switched off,
+    with the reason (``Simulation.parallel_notes``; [] on a serial mesh): without PETSc the
+    corrections are solved by NGSolve's "masterinverse" (the Jacobian gathered and factorised
+    on rank 0) at every Newton iteration. Static condensation runs distributed as serially
+    (NGSolve condenses each rank's elements; the Schur complement is factorised by MUMPS or
+    masterinverse)."""
     if not is_distributed(mesh):
         return []
     if contact is not None and contact.method == "active_set":
@@ -263,13 +265,11 @@ def check_simulation(mesh, contact, inverse, condense, reuse_factorization, iter
     if inverse is not None and inverse not in ("mumps", "masterinverse"):
         serial_only(mesh, f"inverse={inverse!r}", "use inverse='mumps' (PETSc) or 'masterinverse', or leave "
                     "inverse=None (MUMPS where PETSc is installed, else NGSolve's 'masterinverse')")
-    if condense:
-        serial_only(mesh, "condense=True (static condensation)", "not implemented; pass condense=None or False")
     if iterative == "multigrid":
         serial_only(mesh, "iterative='multigrid' (GMRES with NGSolve's multigrid)", "a distributed mesh has no "
                     "nested meshes (NGSolve 6.2.2608 cannot refine it); use iterative=True or 'gamg' (PETSc's "
                     "algebraic multigrid)")
-    notes = ["static condensation: off (not implemented on a distributed mesh)"]
+    notes = []
     mumps = inverse == "mumps" or (inverse is None and petsc_solver.available())
     if reuse_factorization and not mumps:
         notes.append("reuse_factorization: off (its GMRES works on the rank's numpy arrays); "

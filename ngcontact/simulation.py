@@ -125,8 +125,7 @@ class Simulation:
         self.gfu = ngs.GridFunction(self.X, name="state")
         self.u, self.phi = self.gfu.components
         distributed = parallel.is_distributed(body.mesh)     # see parallel.check_simulation, parallel_notes
-        self.condense = (has_interior_dofs(self.X) and not distributed and body.tensors.linear) if condense is None \
-            else bool(condense)
+        self.condense = (has_interior_dofs(self.X) and body.tensors.linear) if condense is None else bool(condense)
         if contact is not None and not METHODS[contact.method].condensable:
             self.condense = False
         kept = body.region("contact_side") if contact is not None else None

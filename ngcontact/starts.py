@@ -114,8 +114,6 @@ class Starts:
     def __init__(self, sim):
         self.sim = sim
         self.floating = Floating(sim.body, sim.gamma3)
-        if self.floating and sim.gamma3 is not None:
-            parallel.serial_only(sim.body.mesh, "a body held only in part by its supports (force control)")
         self._nested, self._first_order, self._motions = None, None, None
         self.last = None
 
@@ -197,10 +195,12 @@ class Starts:
         opening = g.side.normal_displacement(u, g.sampled_normal).ravel() - g.side.sample(g.gap).ravel()
         return opening, normal_components(self.floating.fields, g.side, g.sampled_normal).T @ self.floating.basis
 
-    def _holds(self, points, components):
-        """Whether the sample points ``points`` (a mask) of Γ3 hold every free motion."""
-        gram = parallel.sum(self.sim.body.mesh, components[points].T @ components[points])
-        full = parallel.sum(self.sim.body.mesh, components.T @ components)
+    def _holds(self, points, components, gathered=False):
+        """Whether the sample points ``points`` (a mask) of Γ3 hold every free motion; the
+        rank's points, or with ``gathered`` every rank's (``parallel.gather``: no sum)."""
+        total = (lambda a: a) if gathered else (lambda a: parallel.sum(self.sim.body.mesh, a))
+        gram = total(components[points].T @ components[points])
+        full = total(components.T @ components)
         return np.linalg.eigvalsh(gram)[0] > 1e-6 * np.linalg.eigvalsh(full)[-1]
 
     def open(self, u):
@@ -220,14 +220,16 @@ class Starts:
         if not np.linalg.norm(force) > 0:
             return None
         direction = force / np.linalg.norm(force)
-        opening, components = self._components(u)
+        opening, components = self._components(u)            # every rank's points: the same search on each
+        opening, components = parallel.gather(body.mesh, opening), parallel.gather(body.mesh, components)
         towards = components @ direction                     # r·n of the motion at each point
         closing = np.where(towards > 1e-12, -opening / np.where(towards > 1e-12, towards, 1.0), np.inf)
         order = np.argsort(closing)
         if not np.isfinite(closing[order[0]]):
             return None
         count = 1
-        while count < len(order) and not self._holds(np.isin(np.arange(len(order)), order[:count]), components):
+        while count < len(order) and not self._holds(np.isin(np.arange(len(order)), order[:count]), components,
+                                                     gathered=True):
             count *= 2
         depth = closing[order[min(count, len(order)) - 1]]
         depth = max(depth, 0.0) * (1 + 1e-6) + 1e-12 * body.size

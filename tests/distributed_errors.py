@@ -14,7 +14,7 @@ from ngcontact.scenes import reference
 from ngcontact.starts import Approach
 
 cases = {"active_set": dict(contact=reference.contact(method="active_set")), "iterative": dict(iterative="multigrid"),
-         "inverse": dict(inverse="umfpack"), "condense": dict(condense=True)}
+         "inverse": dict(inverse="umfpack")}
 try:                                     # a script's own serial mesh: every rank would solve it whole
     ngc.Body(plate(maxh=0.02, comm=False), ngc.pzt5a(), clamped="left", grounded="top")
     message = "no error"
@@ -41,6 +41,19 @@ if parallel.rank() == 0:
 for name, guess in [("nested", "nested"), ("approach", Approach(1e-6))]:
     try:
         sim.step(2.5e-3, guess=guess)
+        message = "no error"
+    except ValueError as err:
+        message = str(err)
+    if parallel.rank() == 0:
+        print(f"{name}: {message}", flush=True)
+refused = {"rtol": lambda: reference.simulation(1, 0.02, dim=3, scheme="bdf2").run(2.5e-3, 5e-3, rtol=1e-4),
+           "estimator": lambda: __import__("ngcontact.estimators", fromlist=["x"]).EquilibratedEstimator(sim),
+           "adapt": lambda: __import__("ngcontact.adapt", fromlist=["x"]).step(None, sim.body.mesh, 2.5e-3),
+           "refined": lambda: __import__("ngcontact.meshes", fromlist=["x"]).refined(
+               sim.body.mesh, __import__("numpy").zeros(sim.body.mesh.ne, dtype=bool))}
+for name, call in refused.items():
+    try:
+        call()
         message = "no error"
     except ValueError as err:
         message = str(err)

@@ -10,6 +10,11 @@ argv[1]:
 
 * "reference": the 2D reference plate, P2, maxh 10 mm, 20 steps over the push-hold-pull history;
 * "block": the 3D reference block, P1, maxh 20 mm, 10 steps;
+* "reference-p3": the 2D reference plate, P3 with static condensation, maxh 10 mm, 20 steps;
+* "reference-p1start": the 2D reference plate, P2, maxh 10 mm, 8 steps of 25 ms, each started
+  from P1 on the same mesh (``guess="p1"``);
+* "hertz-force": the 2D Hertz half-disk (P1) under force control, one step: held only tangentially
+  on its top, its vertical motion held by the contact alone (``starts``' "touch" start);
 * "reference-law": the 2D reference plate, P1, maxh 5 mm, with the projection law
   F(ε) = ℰε + ζ(ε − P_K ε) (ζ = 5e10 Pa, K the von Mises ball of radius 1e-5), 10 steps of the push;
 * "indenter3d": a PZT-5A block 10 × 10 × 4 mm (maxh 0.7 mm, P1) on rollers (its "bottom" held
@@ -51,6 +56,17 @@ if scene == "reference":
     sim, steps = reference.simulation(2, 0.01, keep_states=False, **options), 20
 elif scene == "block":
     sim, steps = reference.simulation(1, 0.02, dim=3, keep_states=False, **options), 10
+elif scene == "reference-p3":                 # static condensation (the default at P3 in 2D)
+    sim, steps = reference.simulation(3, 0.01, keep_states=False, **options), 20
+    assert sim.condense
+elif scene == "reference-p1start":            # P2, each step's Newton started from P1 on the same mesh
+    sim, steps, T = reference.simulation(2, 0.01, keep_states=False, **options), 8, 0.2
+elif scene == "hertz-force":                  # held only in part by its supports: the "touch" start
+    from ngcontact.scenes import hertz
+    comm = parallel.world()
+    mesh = parallel.distributed_mesh(lambda: hertz.mesh(2).ngmesh, 0, comm) if comm else hertz.mesh(2)
+    sim, steps, T, probe = hertz.simulation(1, control="force", mesh=mesh, keep_states=False, **options), 1, 1.0, \
+        (0.0, 0.5)
 elif scene == "reference-law":
     material = ngc.pzt5a(relaxation_time=reference.RELAXATION_TIME).with_elasticity(
         laws.ProjectionLaw(5e10, laws.VonMisesBall(1e-5)))
@@ -60,7 +76,7 @@ elif scene == "indenter3d":
 else:
     raise SystemExit(f"unknown scene {scene!r}")
 probes = []                               # (u, φ) at the probe point after each step
-sim.run(T / steps, T, on_step=lambda record: probes.append(
+sim.run(T / steps, T, guess="p1" if scene == "reference-p1start" else None, on_step=lambda record: probes.append(
     [parallel.point_values(sim.body.mesh, field, [probe]).ravel().tolist() for field in (sim.u, sim.phi)])
     if probe else None)
 h = sim.history

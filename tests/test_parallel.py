@@ -106,7 +106,7 @@ def serial_scenes(tmp_path_factory):
     return runs
 
 
-SCENES = ("reference-law", "indenter3d")
+SCENES = ("reference-law", "reference-p3", "reference-p1start", "hertz-force", "indenter3d")
 
 
 @pytest.mark.parametrize("ranks", [2, 3])
@@ -114,21 +114,26 @@ SCENES = ("reference-law", "indenter3d")
 def test_distributed_scenes_equal_the_serial_run(serial_scenes, tmp_path, scene, ranks):
     """``mpiexec -n 2|3`` with the default distributed solver (MUMPS where PETSc is installed,
     else "masterinverse"): the 2D reference plate with a nonlinear elasticity (the projection
-    law, issue 26) and a 3D block on rollers and two symmetry planes indented by a moving rigid
-    sphere (``tests/distributed_scenes.py``): per step the contact force (every component),
+    law, issue 26), the plate at P3 with static condensation, at P2 started from P1 at every
+    step (``guess="p1"``), the Hertz half-disk under force control (held by the contact alone:
+    the "touch" start), and a 3D block on rollers and two symmetry planes indented by a
+    moving rigid sphere (``tests/distributed_scenes.py``): per step the contact force (every component),
     the charge flux (the plate; the block has no conduction: u and φ at a probe under the
     indenter instead) and the supports' reactions equal the serial run to 1e-8 of their largest
     values, Newton's iterations to ±1; the indenter's force balances the reactions (1e-8)."""
     launch(ranks, str(HERE / "distributed_scenes.py"), scene, "default", str(tmp_path / "run.json"), timeout=900)
     distributed, serial = json.loads((tmp_path / "run.json").read_text()), serial_scenes[scene]
     assert distributed["ranks"] == ranks
-    keys = ("force", "charge") if scene == "reference-law" else ("force", "probe_u", "probe_phi")   # no conduction
+    conducts = scene.startswith("reference")          # the others: u and φ at a probe instead of the charge
+    keys = ("force", "charge") if conducts else ("force", "probe_u") + (("probe_phi",) if scene == "indenter3d" else ())
     pairs = [(key, serial[key], distributed[key]) for key in keys]
     pairs += [(name, serial["reactions"][name], distributed["reactions"][name]) for name in serial["reactions"]]
-    for key, a, b in pairs:
+    force = np.abs(serial["force"]).max()
+    for key, a, b in pairs:                       # a reaction is measured against the contact force too
         a, b = np.array(a), np.array(b)
-        assert a.shape == b.shape and np.abs(a).max() > 0, key
-        assert np.abs(a - b).max() <= 1e-8 * np.abs(a).max(), (key, np.abs(a - b).max() / np.abs(a).max())
+        size = np.abs(a).max() if key in keys else max(np.abs(a).max(), force)
+        assert a.shape == b.shape and size > 0, key
+        assert np.abs(a - b).max() <= 1e-8 * size, (key, np.abs(a - b).max() / size)
     assert np.abs(np.subtract(serial["newton"], distributed["newton"])).max() <= 1
     if scene == "indenter3d":
         for run in (serial, distributed):
@@ -247,8 +252,9 @@ def test_streamed_results_resume_distributed(tmp_path):
 
 def test_what_does_not_run_distributed_says_so(tmp_path):
     """A serial mesh given to Body, more computing ranks than elements, the nodal active set,
-    GMRES with multigrid, a serial inverse, static condensation, the Jacobian as a scipy matrix and the guesses
-    that need the whole mesh raise a ValueError naming the feature under mpiexec; ``run(vtk=)``
+    GMRES with NGSolve's multigrid, a serial inverse, the Jacobian as a scipy matrix, the
+    guesses that need the whole mesh, error-controlled steps, the error estimator, adaptive
+    refinement and refining a mesh raise a ValueError naming the feature under mpiexec; ``run(vtk=)``
     writes one ParaView file per computing rank and step (the initial state and 2 steps),
     with u and φ, collected by one .pvd."""
     lines = dict(line.split(": ", 1) for line in launch(3, str(HERE / "distributed_errors.py"), str(tmp_path))
@@ -258,13 +264,16 @@ def test_what_does_not_run_distributed_says_so(tmp_path):
     assert "'active_set'" in lines["active_set"] and "distributed mesh" in lines["active_set"]
     assert "iterative='multigrid'" in lines["iterative"] and "nested meshes" in lines["iterative"]
     assert "inverse='umfpack'" in lines["inverse"]
-    assert "condense=True" in lines["condense"]
     assert lines["jacobian"].startswith("the Jacobian as a scipy matrix (Simulation.jacobian) does not run on a "
                                         "distributed mesh (mpiexec with 3 ranks)")
     assert lines["nested"].startswith("guess='nested'") and lines["approach"].startswith(
         "guess=Approach(depth) without a direction does not run on a distributed mesh")
     assert lines["ranks"] == ("mpiexec -n 3: the mesh has 1 elements for 2 computing ranks (rank 0 keeps none); "
                               "run on at most 2 ranks or refine the mesh")
+    assert lines["rtol"].startswith("run(rtol=...): error-controlled steps does not run on a distributed mesh")
+    assert lines["estimator"].startswith("the equilibrated error estimator does not run on a distributed mesh")
+    assert lines["adapt"].startswith("adapt.step: adaptive refinement does not run on a distributed mesh")
+    assert lines["refined"] == "refined: a distributed mesh cannot be refined (NGSolve refines serial meshes only)"
     assert lines["vtk"] == "2 steps"
     parts = sorted(path.name for path in tmp_path.glob("fields_proc*.vtu"))
     assert len(parts) == 2 * 3, parts                # 2 computing ranks × (initial state + 2 steps)

@@ -44,7 +44,7 @@ from dataclasses import dataclass, field
 import ngsolve as ngs
 import numpy as np
 
-from .. import forms
+from .. import forms, parallel
 from ..loads import as_cf
 from .equilibration import Equilibration, Patches
 
@@ -114,6 +114,8 @@ class EquilibratedEstimator:
 
     def __init__(self, sim):
         body = sim.body
+        parallel.serial_only(body.mesh, "the equilibrated error estimator", "its vertex patches cross the ranks' "
+                             "parts and are solved as one scipy system of one process")
         if not body.tensors.linear:
             raise ValueError("the equilibrated estimator needs linear tensors: with a nonlinear law "
                              f"({(body.tensors.F_law or body.tensors.A_law).name}) its energy norm is not defined")

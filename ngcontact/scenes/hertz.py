@@ -27,6 +27,7 @@ from netgen.meshing import MeshingParameters
 from netgen.occ import Box, Circle, OCCGeometry, Pnt, Rectangle, Sphere, Y, Z
 
 import ngcontact as ngc
+from ngcontact import parallel
 from ngcontact.meshes import nested_mesh
 from ngcontact.obstacles import Plane
 from ngcontact.starts import Approach
@@ -96,7 +97,7 @@ def simulation(order=1, h_contact=None, refine=0, dim=2, depth=None, normal="obs
     else:
         force = (0.01 if dim == 2 else 0.003) if force is None else ngc.checks.number("force", force, low=0.0, low_open=True, unit=" N (N/m in 2D)")
         supports = {"top": "xy"[:dim - 1]}
-        area = ngs.Integrate(ngs.CF(1.0) * ngs.ds(m.Boundaries("top")), m)      # of the mesh: the resultant is F
+        area = parallel.sum(m, ngs.Integrate(ngs.CF(1.0) * ngs.ds(m.Boundaries("top")), m))   # the resultant is F
         loads = ngc.Loads(f2={"top": tuple([0.0] * (dim - 1) + [-force / area * t])})
     body = ngc.Body(m, material(), grounded="top", supports=supports, contact_side="contact", order=order)
     up = tuple([0.0] * (dim - 1) + [1.0])
