@@ -22,6 +22,7 @@ if _mpi_launch.launched():                      # before NGSolve loads, if it ha
                        "may start one OpenMP thread per core, which made the solves 8x slower on 2 cores; "
                        "export OMP_NUM_THREADS=1 (docs/cluster.md)", RuntimeWarning, stacklevel=2)
     _mpi_launch.one_thread_per_rank()
+    _mpi_launch.yield_when_oversubscribed()
 
 from . import adapt, checks, contact_laws, estimators, laws, meshes, parallel, schemes  # noqa: E402
 from .admissible import PhysicsWarning

@@ -297,3 +297,21 @@ def test_serial_commands_are_refused_under_mpiexec(command, tmp_path):
     assert done.stderr.strip() == (f"ngcontact {command}: error: {command} runs serially only: under mpiexec with 2 "
                                    "ranks every rank would run the whole serial problem; run it without mpiexec")
     assert not (tmp_path / "out").exists()
+
+
+def test_mpich_waits_yield_when_there_are_more_ranks_than_cores(monkeypatch):
+    """With more ranks than cores (``mpi_launch.size`` from mpiexec's environment), MPICH's
+    waits sleep instead of spinning (``mpi_launch.YIELDING``), unless the user set them; with as
+    many ranks as cores nothing is set."""
+    from ngcontact import mpi_launch
+    for name in mpi_launch.YIELDING:
+        monkeypatch.delenv(name, raising=False)
+    monkeypatch.setattr(mpi_launch.os, "cpu_count", lambda: 2)
+    monkeypatch.setenv("PMI_SIZE", "2")
+    mpi_launch.yield_when_oversubscribed()
+    assert not any(name in os.environ for name in mpi_launch.YIELDING)
+    monkeypatch.setenv("PMI_SIZE", "3")
+    monkeypatch.setenv("MPIR_CVAR_CH4_PROGRESS_THROTTLE_NO_PROGRESS_COUNT", "64")
+    mpi_launch.yield_when_oversubscribed()
+    assert os.environ["MPIR_CVAR_CH4_PROGRESS_THROTTLE"] == "1"
+    assert os.environ["MPIR_CVAR_CH4_PROGRESS_THROTTLE_NO_PROGRESS_COUNT"] == "64"
