@@ -284,7 +284,7 @@ def test_what_does_not_run_distributed_says_so(tmp_path):
         assert 'Name="displacement"' in text and 'Name="potential"' in text
 
 
-@pytest.mark.parametrize("command", ["hertz", "convergence", "stability"])
+@pytest.mark.parametrize("command", ["hertz", "convergence", "stability", "adapt", "timesteps", "timeorder"])
 def test_serial_commands_are_refused_under_mpiexec(command, tmp_path):
     """``mpiexec -n 2 python -m ngcontact hertz|convergence|stability``: one line, printed by
     rank 0 only, exit status 2 on every rank, nothing written (each rank ran the whole serial

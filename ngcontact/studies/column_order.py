@@ -255,7 +255,7 @@ def main(out, histories=tuple(HISTORIES), steps=STEPS, long_steps=LONG_STEPS, pr
     """Run the study into the directory ``out``: column_order.csv, column_order.png, and a table
     on stdout. Returns the rows."""
     from ngcontact import parallel
-    parallel.refuse_under_mpiexec("column order")
+    parallel.refuse_under_mpiexec("timeorder")
     histories, steps, long_steps, progress = _arguments(histories, steps, long_steps, progress)
     out = checks.writable_directory(out)
     rows = study(histories, steps, long_steps, progress=progress)
