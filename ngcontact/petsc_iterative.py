@@ -24,7 +24,8 @@ record) and the correction is solved by a fresh MUMPS factorisation of J instead
 error names both reasons.
 
 PETSc options reach the parts through the prefixes ``ngcontact_u_`` and ``ngcontact_phi_``
-(the GAMG preconditioners, e.g. ``-ngcontact_u_pc_gamg_threshold 0.01``) and
+(the GAMG preconditioners, e.g. ``-ngcontact_u_pc_gamg_threshold 0.02``; ``GAMG_OPTIONS`` are
+the defaults) and
 ``ngcontact_gamma3_`` (the Γ3 factorisation).
 """
 from contextlib import nullcontext
@@ -35,6 +36,13 @@ import numpy as np
 from . import forms
 from .machine_code import compiled
 from .petsc_solver import MumpsFactorization, PetscMatrix, WeightedGmres, load
+
+
+GAMG_OPTIONS = {"pc_gamg_threshold": 0.01}
+"""PETSc options of both GAMG preconditioners unless given (``PETSC_OPTIONS``): dropping the
+graph's weak couplings below 0.01 (PETSc's default: none) coarsens less aggressively and takes
+fewer GMRES iterations (3D block P1, 142 404 DOFs, 3 first-contact steps, one thread: 49.3
+against 67.3 GMRES iterations per Newton iteration, 30.9 against 32.7 s per step)."""
 
 
 class GamgSolver:
@@ -104,9 +112,14 @@ class GamgSolver:
             if name == "u":
                 block.setNearNullSpace(self._rigid_motions(PETSc, rows, block))
             pc = PETSc.PC().create(comm=block.getComm())
-            pc.setOptionsPrefix(f"ngcontact_{name}_")
+            prefix = f"ngcontact_{name}_"
+            pc.setOptionsPrefix(prefix)
             pc.setOperators(block)
             pc.setType("gamg")
+            options = PETSc.Options()
+            for key, value in GAMG_OPTIONS.items():          # the defaults, where PETSC_OPTIONS says nothing
+                if not options.hasName(prefix + key):
+                    options.setValue(prefix + key, value)
             pc.setFromOptions()
             pc.setUp()
             x, y = block.createVecs()
