@@ -20,7 +20,9 @@ not run there), and every part runs on every rank. B is built anew when the rate
 coefficient c changes (``system.generation``), S at every solve. A GMRES that does not reach
 its tolerance within ``maxiter`` iterations is counted (``krylov_failures``, in the step's
 record) and the correction is solved by a fresh MUMPS factorisation of J instead
-(``petsc_solver.MumpsFactorization``, counted in ``factorizations``); if that fails too, the
+(``petsc_solver.MumpsFactorization``, counted in ``factorizations``) where that is expected to
+fit in memory (``factorisation_fits``; else GMRES's last iterate stands, counted in
+``oversized``, and Newton goes on or the step is cut back); if the factorisation fails, the
 error names both reasons.
 
 PETSc options reach the parts through the prefixes ``ngcontact_u_`` and ``ngcontact_phi_``
@@ -33,7 +35,7 @@ from contextlib import nullcontext
 import ngsolve as ngs
 import numpy as np
 
-from . import forms
+from . import forms, parallel
 from .machine_code import compiled
 from .petsc_solver import MumpsFactorization, PetscMatrix, WeightedGmres, load
 
@@ -68,7 +70,7 @@ class GamgSolver:
         load("iterative='gamg'")
         self.body, self.system, self.layer = body, system, layer
         self.tol, self.maxiter, self.realcompile = tol, int(maxiter), realcompile
-        self.factorizations = self.krylov_iterations = self.krylov_failures = 0
+        self.factorizations = self.krylov_iterations = self.krylov_failures = self.oversized = 0
         self._key = self._generation = None
         self._bulk = None
 
@@ -229,8 +231,11 @@ class GamgSolver:
             converged, iterations, reason = self.gmres.solve(r, w, weights, self.tol if tol is None else tol,
                                                              self.maxiter)
         self.krylov_iterations += iterations
-        if not converged:                      # a fresh factorisation of J solves instead
+        if not converged:                      # a fresh factorisation of J solves instead, where it fits
             self.krylov_failures += 1
+            if not factorisation_fits(self.body.ndof, self.body.dim, self.body.mesh):
+                self.oversized += 1            # GMRES's last iterate stands: Newton goes on, or cuts back
+                return
             with timer("factorization"):
                 try:
                     exact = MumpsFactorization(matrix, freedofs)
@@ -245,6 +250,38 @@ class GamgSolver:
 
     def __repr__(self):
         return f"GamgSolver(tol={self.tol}, maxiter={self.maxiter})"
+
+
+FACTOR_BYTES = {2: 320.0, 3: 210.0}
+"""Bytes of a MUMPS LU factorisation of the step Jacobian per n·log(n) DOFs in 2D and per
+n^(4/3) in 3D (nested dissection's fill), from the process peaks measured here: 2D reference
+plate P2, 30 879 DOFs, serial MUMPS 444 MB against 359 MB with the sparse Cholesky of the
+symmetric part; 3D block P1, 142 404 DOFs, serial factorisations ~1.5 GB (docs/cluster.md)."""
+FACTOR_SHARE = 0.5
+"""The share of the memory available now that a fallback factorisation may take."""
+
+
+def factorisation_fits(ndof, dim, mesh):
+    """Whether a MUMPS LU of a step Jacobian of ``ndof`` DOFs in ``dim`` D is expected
+    (``FACTOR_BYTES``) to fit in ``FACTOR_SHARE`` of the memory available now (MemAvailable of
+    /proc/meminfo, per node: every rank's share of its node's is compared with its share of the
+    factorisation); True where that cannot be read. A 3D P1 Jacobian of 1.06·10⁶ DOFs (~20 GB)
+    does not fit on this 24 GB machine: its factorisation, the fallback of a GMRES that had not
+    converged, was killed for lack of memory at 24 GB."""
+    need = FACTOR_BYTES[dim] * (ndof ** (4 / 3) if dim == 3 else ndof * np.log(max(ndof, 2)))
+    try:
+        with open("/proc/meminfo") as info:
+            available = next(int(line.split()[1]) * 1024 for line in info if line.startswith("MemAvailable:"))
+    except (OSError, StopIteration, ValueError):
+        return True
+    comm = parallel.comm_of(mesh)
+    if comm is None:
+        return need <= FACTOR_SHARE * available
+    from mpi4py import MPI
+    local = comm.Split_type(MPI.COMM_TYPE_SHARED)                 # the ranks of this node
+    share = available / local.size
+    local.Free()
+    return bool(comm.allreduce(need / max(1, comm.size - 1) <= FACTOR_SHARE * share, op=MPI.LAND))
 
 
 def _index_set(PETSc, mapping, template, indicator, value):

@@ -251,3 +251,21 @@ def test_distributed_gamg_equals_the_serial_run(serial_runs, serial_indenter, tm
     assert distributed["krylov_failures"] == 0 or scene == "block"
     a, b = np.array(serial["force"]), np.array(distributed["force"])
     assert np.abs(a - b).max() <= 1e-8 * np.abs(a).max(), np.abs(a - b).max() / np.abs(a).max()
+
+
+@needs_petsc
+def test_a_fallback_factorisation_that_would_not_fit_is_not_made(block_direct, monkeypatch):
+    """Where a factorisation of J is not expected to fit in memory (``factorisation_fits``: a 3D
+    Jacobian of 10⁷ DOFs never does here, one of 10⁴ does), a GMRES held to 15 iterations
+    leaves its last iterate as the correction (``oversized`` counts them, the records count the
+    failures), and Newton still reaches the factorised run's states to 1e-8."""
+    from ngcontact import petsc_iterative
+    mesh = block_direct.body.mesh
+    assert petsc_iterative.factorisation_fits(10 ** 4, 3, mesh) and not petsc_iterative.factorisation_fits(10 ** 7, 3, mesh)
+    monkeypatch.setattr(petsc_iterative, "factorisation_fits", lambda ndof, dim, mesh: False)
+    monkeypatch.setattr(petsc_iterative.GamgSolver, "__init__", _with_maxiter(petsc_iterative.GamgSolver.__init__, 15))
+    gamg = _block("gamg")
+    assert gamg.newton.solver.oversized == sum(r.krylov_failures for r in gamg.history) > 0
+    assert gamg.newton.solver.factorizations == sum(r.newton_iterations for r in gamg.history)   # Γ3 blocks only
+    a, b = block_direct.gfu.vec.FV().NumPy(), gamg.gfu.vec.FV().NumPy()
+    assert np.abs(a - b).max() <= 1e-8 * np.abs(a).max()
