@@ -51,7 +51,8 @@ class GamgSolver:
     """w = J⁻¹ r by GMRES with the preconditioner of the module: the linear solver protocol of
     ``linear_solver`` (``solve(matrix, freedofs, r, w, generation, timer, weights, tol)``,
     counters ``factorizations`` (the Γ3 factorisations, the fallbacks), ``krylov_iterations``,
-    ``krylov_failures``).
+    ``krylov_failures``, and ``oversized``: the failures left to GMRES's last iterate because
+    a factorisation would not fit in memory).
 
     Parameters
     ----------
@@ -92,7 +93,7 @@ class GamgSolver:
             layer[np.array(list(self.layer), dtype=bool)] = 1.0
         self.surface_rows = _index_set(PETSc, mapping, template, layer, 1.0)
         self._surface = self._surface_matrix = None
-        self._x, self._y, self._d = (self.J.mat.createVecRight() for _ in range(3))
+        self._d = self.J.mat.createVecRight()
         self._key, self._generation = (matrix, freedofs), None
 
     def _preconditioners(self, freedofs):

@@ -165,3 +165,16 @@ def test_an_estimate_that_the_step_does_not_reduce_is_accepted_and_flagged(monke
     assert floored and all(r.error_estimate == pytest.approx(3.0) for r in floored)
     assert all(r.rejected <= 4 for r in h[1:])                       # 0.9 · 3^(−1/3) = 0.62 a rejection
     assert sum("stayed at" in f for f in sim.flags) == 1
+
+
+def test_equal_nominal_steps_are_one_step_size():
+    """``run(0.005, 0.1)``: the steps are differences of target times (t_n − t_{n−1}), whose
+    round-off made 1/k differ in the last bits; the rate coefficient keeps its value through
+    them (``schemes.coefficients.SAME_RATE``), so the system changes its bulk matrix once (the
+    start's c = 1/s, then 200/s: generation 2; without it 14) and the kept factorisation is made
+    2 times instead of 13."""
+    from ngcontact.scenes import reference
+    sim = reference.simulation(1, 0.01, keep_states=False)
+    sim.run(0.005, 0.1)
+    assert sim.system.generation == 2 and sim.scheme.coefficients.rate.Get() == 200.0
+    assert sum(r.factorizations for r in sim.history[1:]) <= 3
