@@ -262,13 +262,14 @@ def _dispatch(args):
         adaptivity.main(args.out, scenes=tuple(args.scene), orders=tuple(args.orders), stop_newton=args.stop_newton)
     elif args.command == "cluster":
         from .studies import cluster
+        rounds = dict(repeat=args.repeat) if args.repeat is not None else {}     # the defaults: 3 and 1
         if args.factorisations:
-            cluster.factorisations(args.out, scene=args.scene, orders=args.orders, levels=args.levels,
-                                   repeat=args.repeat or 3, dt=args.dt, resume=args.resume)
+            cluster.factorisations(args.out, scene=args.scene, orders=args.orders, levels=args.levels, dt=args.dt,
+                                   resume=args.resume, **rounds)
         else:
             cluster.run(args.out, scene=args.scene, orders=args.orders, levels=args.levels, ranks=args.ranks,
-                        solvers=args.solvers, steps=args.steps, dt=args.dt, repeat=args.repeat or 1,
-                        threads=choice[args.threads], realcompile=choice[args.realcompile], resume=args.resume)
+                        solvers=args.solvers, steps=args.steps, dt=args.dt, threads=choice[args.threads],
+                        realcompile=choice[args.realcompile], resume=args.resume, **rounds)
     elif args.merge:
         from .studies import bench
         bench.merge(args.merge, args.out)
