@@ -188,7 +188,9 @@ def _cluster_parser(commands, common):
                               "are skipped with a note")
     cluster.add_argument("--steps", metavar="N", type=int, default=4,
                          help="time steps from t = 0 (default 4: first contact and its spreading)")
-    cluster.add_argument("--dt", metavar="DT", type=float, default=5e-3, help="time step, s (default 0.005)")
+    cluster.add_argument("--dt", metavar="DT", type=float, default=2.0 ** -8,
+                         help="time step, s (default 2^-8 = 0.00390625: binary-exact, so that every step has the same "
+                              "1/dt and no solver is rebuilt by round-off)")
     cluster.add_argument("--repeat", metavar="K", type=int,
                          help="rounds of all configurations, interleaved (default 1; --factorisations: 3)")
     cluster.add_argument("--threads", choices=("auto", "yes", "no"), default="auto",

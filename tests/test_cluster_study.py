@@ -25,7 +25,7 @@ def read(path):
 def test_the_command_compares_serial_and_distributed_runs(tmp_path, capsys):
     """``python -m ngcontact cluster``: the plate P1 at levels 0 and 1 (576 and 2 088 DOFs),
     serial and on ``mpiexec -n 2``, the default solver and masterinverse (skipped serially,
-    with a note), 2 steps of 5 ms (contact at the second), not compiled (quicker): runs.csv has its columns and a row
+    with a note), 2 steps of 2^-8 s (contact at the second), not compiled (quicker): runs.csv has its columns and a row
     per run; the distributed runs' contact forces equal the serial run's to 1e-8 (the
     command's own column); every memory column is positive; masterinverse's ratio to its own
     rank 0 is 1; model.json has finite coefficients for each configuration; the charts and
