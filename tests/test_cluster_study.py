@@ -63,6 +63,19 @@ def test_the_command_compares_serial_and_distributed_runs(tmp_path, capsys):
     assert len(list((tmp_path / "runs").glob("*.json"))) == 6
 
 
+def test_a_failed_run_is_a_row(tmp_path, monkeypatch):
+    """A worker that fails (here: a module that does not exist) is a row of runs.csv with its
+    last line of output, counted in summary.csv's ``failed``; the study goes on and fits
+    nothing to it."""
+    monkeypatch.setattr(cluster, "WORKER", "ngcontact.no_such_worker")
+    summary = cluster.run(tmp_path, levels=[0], ranks=[1], steps=1, realcompile=False, progress=False)
+    (run,) = read(tmp_path / "runs.csv")
+    assert run["status"].startswith("failed: exit status 1: ") and "no_such_worker" in run["status"]
+    assert [(s["runs"], s["failed"]) for s in summary] == [(0, 1)]
+    assert json.loads((tmp_path / "model.json").read_text())["groups"] == []
+    assert "no_such_worker" in (tmp_path / "logs" / "plate_p1_l0_n1_default_tauto_r1.log").read_text()
+
+
 def test_the_fits_recover_known_exponents():
     """Synthetic data: t = 3 (n/p)^1.3 p^0.2 over three p and m = 250 + 0.01 x^1.1 are
     recovered to 1e-6; without the p term the fit is another; the leave-one-out errors of an

@@ -109,16 +109,17 @@ def plan(ranks, solvers):
     return configurations, notes
 
 
-def run(out, *, scene="plate", orders=(1,), levels=(0,), ranks=(1, 2, 3), solvers=("default",), steps=4,
+def run(out, *, scene="plate", orders=(1,), levels=(1,), ranks=(1, 2, 3), solvers=("default",), steps=4,
         dt=DT, repeat=1, threads=None, realcompile=True, resume=False, progress=True):
     """Measure every size × configuration ``repeat`` times (module docstring); returns the
     summary rows. Arguments: ``scene`` "plate" or "block"; ``orders`` in [1, 10]; ``levels``
     (refinements) in [0, 10]; ``ranks`` the MPI ranks N of each configuration (1: serial);
     ``solvers`` names of ``cluster_case.SOLVERS``; ``steps`` time steps of ``dt`` s from t = 0
-    (the defaults reach first contact at the second step, the third on the block at level 0); ``threads``
-    a serial run's steps under TaskManager (None: from 3·10⁴ DOFs); ``realcompile`` Simulation's
-    (True: compiled as it is built, not inside the steps; None: automatic); all checked before
-    any run. Refused under mpiexec (it launches mpiexec itself)."""
+    (``DT``; the defaults reach first contact at the second step, the third on the block at
+    level 0); ``threads`` a serial run's steps under TaskManager (None: from 3·10⁴ DOFs);
+    ``realcompile`` Simulation's (True: compiled as it is built, not inside the steps; None:
+    automatic); all checked before any run. Refused under mpiexec (it launches mpiexec
+    itself)."""
     parallel.refuse_under_mpiexec("python -m ngcontact cluster")
     sizes = _sizes(scene, orders, levels)
     ranks = _integers("ranks", ranks, 1, MAX_RANKS)
@@ -156,7 +157,8 @@ def run(out, *, scene="plate", orders=(1,), levels=(0,), ranks=(1, 2, 3), solver
                     shown.update()
             summary = cluster_report.write(out)
     print(common.table(summary, cluster_report.SHOWN))
-    print((out / "summary.md").read_text().split("## Scaling model")[-1].strip())
+    text = (out / "summary.md").read_text()
+    print(text[text.index("## Scaling model"):].strip())
     return summary
 
 

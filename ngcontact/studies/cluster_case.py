@@ -65,7 +65,7 @@ def dim_of(scene):
 def run_case(scene, order, level, solver, steps, dt, threads=None, realcompile=True):
     """One run (``kind="run"``; module docstring) as a dict. ``threads``: a serial run's steps
     under NGSolve's TaskManager (None: from ``bench.THREADS_FROM`` DOFs, as the bench; its
-    build always); under mpiexec one thread per rank. ``realcompile`` goes to Simulation (True:
+    build unless False); under mpiexec one thread per rank. ``realcompile`` goes to Simulation (True:
     the Γ3 integrand compiled to machine code as the simulation is built, so that the steps do
     not include it; None: when the run pays for it, ``machine_code``)."""
     from .bench import MAXH, THREADS_FROM, peak_mib      # not at import: the CLI's parser reads SOLVERS
@@ -73,7 +73,7 @@ def run_case(scene, order, level, solver, steps, dt, threads=None, realcompile=T
     if solver in NEEDS_PETSC:
         petsc_solver.load(f"the solver configuration {solver!r}")       # ImportError before any work
     start = wallclock.perf_counter()
-    with ngs.TaskManager() if serial else nullcontext():
+    with ngs.TaskManager() if serial and threads is not False else nullcontext():
         sim = reference.simulation(order, MAXH[dim], level, dim, keep_states=False, realcompile=realcompile,
                                    **SOLVERS[solver])
     build_s = wallclock.perf_counter() - start

@@ -176,7 +176,10 @@ def markdown(groups, predictions):
              "Fitted per configuration to the medians of `summary.csv` by least squares in log space (n: DOFs, "
              "p: computing ranks, N − 1 under `mpiexec -n N`, 1 serially); residuals: on the runs fitted, "
              "largest |relative|; LOO: each run predicted by the fit to the others, largest |relative| "
-             "(— where the others do not determine a fit). `model.json` has every value.", "",
+             "(— where the others do not determine a fit). `model.json` has every value, and the solver "
+             "actually used at each point (a configuration's name may stand for several: `default` is GAMG "
+             "from 1e5 DOFs in 3D under mpiexec, MUMPS below; MUMPS is kept across Newton iterations on `-n 2`, "
+             "factorised at each on `-n 3`, oversubscribed).", "",
              "| scene | P | solver | kind | points | time per step [s] | residual | LOO | memory per rank [MiB] | "
              "residual | LOO | rank 0 [MiB] | Krylov/Newton ∝ n^κ | Newton/step ∝ n^ν |",
              "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]

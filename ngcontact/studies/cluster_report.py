@@ -144,7 +144,7 @@ def model(summary):
             points.setdefault((s["scene"], s["order"], s["solver"], kind), []).append(dict(
                 n=s["ndof"], p=s["p"], ranks=s["ranks"], step_s=s["step_s"], peak_mib=s["peak_mib_computing"],
                 rank0_mib=s["peak_mib_rank0"] if kind == "mpiexec" else None,
-                krylov_per_newton=s["krylov_per_newton"], newton_mean=s["newton_mean"]))
+                krylov_per_newton=s["krylov_per_newton"], newton_mean=s["newton_mean"], solver_used=s["solver_used"]))
     groups = {key: cluster_model.fit_group(p) for key, p in points.items()}
     predictions = {key: cluster_model.predict(g) for key, g in groups.items()
                    if key[0] == "block" and key[1] == 1 and key[3] == "mpiexec"}
@@ -182,8 +182,8 @@ def write(out):
 
 
 def _plot(out, summary, groups):
-    """time_per_step.png and memory_per_rank.png: per configuration against the DOFs, the
-    model's fit dashed."""
+    """time_per_step.png and memory_per_rank.png: per configuration against the DOFs (colour:
+    the solver, marker: the ranks), the model's fit dashed."""
     scenes = {(s["scene"], s["order"]) for s in summary}
     for name, column, fitted, at, label in (
             ("time_per_step.png", "step_s", "time", cluster_model.time_at, "median wall time per step [s]"),
@@ -197,12 +197,13 @@ def _plot(out, summary, groups):
                           == (scene, order, ranks, solver) and s["runs"]), key=lambda s: s["ndof"])
             n = np.array([s["ndof"] for s in sel])
             where = f"{scene} P{order}, " if len(scenes) > 1 else ""
-            line, = ax.loglog(n, [s[column] for s in sel], "o-", label=f"{where}{solver}, "
-                              + ("serial" if ranks == 1 else f"-n {ranks}"))
+            color, marker = f"C{list(SOLVERS).index(solver)}", "osv^D"[min(ranks, 5) - 1]     # solver, ranks
+            ax.loglog(n, [s[column] for s in sel], "-", marker=marker, color=color,
+                      label=f"{where}{solver}, " + ("serial" if ranks == 1 else f"-n {ranks}"))
             fit = groups.get((scene, order, solver, "serial" if ranks == 1 else "mpiexec"), {}).get(fitted)
             if fit and len(n) > 1:
                 grid = np.geomspace(n[0], n[-1], 20)
-                ax.loglog(grid, at(fit, grid, sel[0]["p"]), "--", color=line.get_color(), lw=0.8)
+                ax.loglog(grid, at(fit, grid, sel[0]["p"]), "--", color=color, lw=0.8)
         ax.set(xlabel="DOFs", ylabel=label, title=f"{label.split(' [')[0]} (dashed: the model's fit)")
         ax.grid(True, which="both", alpha=0.3)
         if configurations:
