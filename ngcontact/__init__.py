@@ -5,10 +5,12 @@ The public API is the names below; ``ngcontact.geometries`` (meshes with named
 boundaries), ``ngcontact.scenes`` (ready scenes and manufactured solutions) and
 ``ngcontact.contact_laws`` (the laws p, R_ν, φ_L, ψ), ``ngcontact.parallel`` (runs under
 mpiexec on a distributed mesh) and ``ngcontact.checks`` (checks of user input: ranges,
-booleans, sizes against the machine's memory), ``ngcontact.meshes`` (nested meshes: a mesh refined
-with its coarse mesh kept; a copy refined where marked), ``ngcontact.schemes`` (the time schemes),
-``ngcontact.estimators`` (a posteriori error estimates of a step), ``ngcontact.adapt``
-(adaptive meshes) and ``ngcontact.laws`` (nonlinear F and A) are public modules too.
+booleans, sizes against the machine's memory), ``ngcontact.petsc_solver`` (MUMPS through
+PETSc: ``MumpsFactorization`` of an NGSolve matrix, ``available()``), ``ngcontact.meshes``
+(nested meshes: a mesh refined with its coarse mesh kept; a copy refined where marked),
+``ngcontact.schemes`` (the time schemes), ``ngcontact.estimators`` (a posteriori error
+estimates of a step), ``ngcontact.adapt`` (adaptive meshes) and ``ngcontact.laws``
+(nonlinear F and A) are public modules too.
 """
 import os as _os
 import sys as _sys
@@ -24,7 +26,7 @@ if _mpi_launch.launched():                      # before NGSolve loads, if it ha
     _mpi_launch.one_thread_per_rank()
     _mpi_launch.yield_when_oversubscribed()
 
-from . import adapt, checks, contact_laws, estimators, laws, meshes, parallel, schemes  # noqa: E402
+from . import adapt, checks, contact_laws, estimators, laws, meshes, parallel, petsc_solver, schemes  # noqa: E402
 from .admissible import PhysicsWarning
 from .body import Body
 from .contact import Contact
@@ -39,4 +41,4 @@ from .webgui import save_html
 
 __all__ = ["Body", "Contact", "Loads", "Material", "Simulation", "History", "StepRecord", "ContactRecord",
            "NewtonError", "PhysicsWarning", "AccuracyWarning", "METHODS", "EPS0", "academic", "pzt5a", "batio3", "save_html", "contact_laws",
-           "parallel", "checks", "meshes", "schemes", "adapt", "estimators", "laws"]
+           "parallel", "checks", "meshes", "schemes", "adapt", "estimators", "laws", "petsc_solver"]

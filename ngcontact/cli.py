@@ -1,5 +1,5 @@
-"""Command line interface: ``python -m ngcontact demo | convergence | stability | hertz | bench | timesteps |
-timeorder | adapt``.
+"""Command line interface: ``python -m ngcontact demo | convergence | stability | hertz | bench | cluster |
+timesteps | timeorder | adapt``.
 
 It parses the arguments and calls ``demo.run`` or a study's command; bad input and a failed
 Newton solve end in one line on stderr and exit status 2 (``main``).
@@ -13,6 +13,7 @@ import ngcontact
 
 KEPT = dict(demo="{out}/run (continue with --resume)", convergence="{out}/cases (--resume skips them)",
             hertz="{out}/cases.json (--resume skips them)", bench="{out}/bench.json (--resume skips them)",
+            cluster="{out}/runs (--resume skips them)",
             stability="{out}/<study>.csv of the finished studies (--resume skips them)",
             timesteps="nothing (the study runs again whole)", timeorder="nothing (the study runs again whole)",
             adapt="nothing (the study runs again whole)")
@@ -136,6 +137,7 @@ def parser():
                        help="keep the cases already in OUT/bench.json (same dim, steps, dt) and measure the rest")
     bench.add_argument("--merge", metavar="DIR", nargs="+",
                        help="join the tables of earlier runs into --out instead of running")
+    _cluster_parser(commands, common)
     steps = commands.add_parser("timesteps", parents=[common], help="work–precision of the time schemes "
                                 "(fixed-k backward Euler and BDF2, error-controlled BDF2) on the reference plate "
                                 "(Nitsche, and the nodal constraint) and the debonding column: time_steps.csv, "
@@ -163,6 +165,43 @@ def parser():
                        help="adaptive stopping: Newton stops once its correction is below F times the "
                             "estimate (0 < F <= 1; default: the fixed tolerances)")
     return main_parser
+
+
+def _cluster_parser(commands, common):
+    """The options of ``python -m ngcontact cluster``."""
+    from .studies import cluster_case
+    cluster = commands.add_parser("cluster", parents=[common], help="issue 27's measurements, each run launched as its "
+                                  "own process (python or mpiexec -n N): time per step, memory per rank and contact "
+                                  "forces per solver and number of ranks, a scaling model (runs.csv, summary.md, "
+                                  "model.json, charts); --factorisations: UMFPACK against MUMPS; not under mpiexec")
+    cluster.add_argument("--out", metavar="DIR", default="cluster", help="output directory (default cluster)")
+    cluster.add_argument("--scene", choices=("plate", "block"), default="plate",
+                         help="the reference scene: the 2D plate (default) or the 3D block")
+    cluster.add_argument("--orders", metavar="P", type=int, nargs="+", default=[1],
+                         help="polynomial orders (default 1)")
+    cluster.add_argument("--levels", metavar="L", type=int, nargs="+", default=[1],
+                         help="refinements of the scene's mesh (plate maxh 5 mm, block 10 mm; default 1)")
+    cluster.add_argument("--ranks", metavar="N", type=int, nargs="+", default=[1, 2, 3],
+                         help="MPI ranks per run, 1: serial; N ranks compute on N - 1 (default 1 2 3)")
+    cluster.add_argument("--solvers", nargs="+", choices=tuple(cluster_case.SOLVERS), default=["default"],
+                         help="solver configurations (default: default); those that cannot run on a number of ranks "
+                              "are skipped with a note")
+    cluster.add_argument("--steps", metavar="N", type=int, default=4,
+                         help="time steps from t = 0 (default 4: first contact and its spreading)")
+    cluster.add_argument("--dt", metavar="DT", type=float, default=2.0 ** -8,
+                         help="time step, s (default 2^-8 = 0.00390625: binary-exact, so that every step has the same "
+                              "1/dt and no solver is rebuilt by round-off)")
+    cluster.add_argument("--repeat", metavar="K", type=int,
+                         help="rounds of all configurations, interleaved (default 1; --factorisations: 3)")
+    cluster.add_argument("--threads", choices=("auto", "yes", "no"), default="auto",
+                         help="serial runs' steps under TaskManager (auto: from 30 000 DOFs); mpiexec: one per rank")
+    cluster.add_argument("--realcompile", choices=("auto", "yes", "no"), default="yes",
+                         help="compile the Γ3 integrand to machine code as each simulation is built (yes, the "
+                              "default: the steps do not include it), when the run pays for it (auto), or not")
+    cluster.add_argument("--resume", action="store_true", help="keep the runs already in OUT/runs")
+    cluster.add_argument("--factorisations", action="store_true",
+                         help="instead: the serial step Jacobian factorised by UMFPACK, MUMPS and MUMPS with its "
+                              "analysis kept, interleaved (factorisations.csv, factorisations.md)")
 
 
 def main(argv=None):
@@ -223,6 +262,16 @@ def _dispatch(args):
     elif args.command == "adapt":
         from .studies import adaptivity
         adaptivity.main(args.out, scenes=tuple(args.scene), orders=tuple(args.orders), stop_newton=args.stop_newton)
+    elif args.command == "cluster":
+        from .studies import cluster
+        rounds = dict(repeat=args.repeat) if args.repeat is not None else {}     # the defaults: 3 and 1
+        if args.factorisations:
+            cluster.factorisations(args.out, scene=args.scene, orders=args.orders, levels=args.levels, dt=args.dt,
+                                   resume=args.resume, **rounds)
+        else:
+            cluster.run(args.out, scene=args.scene, orders=args.orders, levels=args.levels, ranks=args.ranks,
+                        solvers=args.solvers, steps=args.steps, dt=args.dt, threads=choice[args.threads],
+                        realcompile=choice[args.realcompile], resume=args.resume, **rounds)
     elif args.merge:
         from .studies import bench
         bench.merge(args.merge, args.out)

@@ -1101,7 +1101,7 @@ output("stability.command('/proc/hostile')", lambda ctx: ngcontact.studies.stabi
 
 CHEAP = {"demo": ["--steps", "2", "--maxh", "0.02"], "convergence": ["--orders", "1", "--levels", "1"],
          "hertz": ["--orders", "1", "--levels", "1"], "bench": ["--orders", "1", "--max-ndof", "1e3", "--steps", "1"],
-         "stability": ["--quick"]}
+         "stability": ["--quick"], "cluster": ["--levels", "0", "--ranks", "1", "--steps", "1"]}
 """Options added to a CLI case (before its own, which win) so that a case not refused costs little."""
 
 
@@ -1191,6 +1191,12 @@ CLI_CASES = [
     ("bench --threads bogus", "threads"), ("bench --path bogus", "path"), ("bench --solver bogus", "solver"),
     ("bench --merge /nonexistent-hostile", "merge|/nonexistent-hostile"),
     ("bench --out /proc/hostile", "/proc/hostile"),
+    ("cluster --scene cube", "scene"), ("cluster --orders 0", "orders?"), ("cluster --levels 20", "levels"),
+    ("cluster --levels -1", "levels"), ("cluster --ranks 0", "ranks"), ("cluster --ranks x", "ranks"),
+    ("cluster --solvers bogus", "solvers"), ("cluster --steps 0", "steps"), ("cluster --dt nan", "dt"),
+    ("cluster --dt -1", "dt"), ("cluster --repeat 0", "repeat"), ("cluster --threads 2", "threads"),
+    ("cluster --realcompile maybe", "realcompile"), ("cluster --scene block --levels 9", "level|DOFs"),
+    ("cluster --out /proc/hostile", "/proc/hostile"),
 ]
 for arguments, words in CLI_CASES:
     cli(arguments, words)
