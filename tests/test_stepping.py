@@ -169,8 +169,8 @@ def test_an_estimate_that_the_step_does_not_reduce_is_accepted_and_flagged(monke
 
 def test_equal_nominal_steps_are_one_step_size():
     """``run(0.005, 0.1)``: the steps are differences of target times (t_n − t_{n−1}), whose
-    round-off made 1/k differ in the last bits; the rate coefficient keeps its value through
-    them (``schemes.coefficients.SAME_RATE``), so the system changes its bulk matrix once (the
+    round-off made 1/k differ in the last bits; the rate coefficient is rounded to 12 digits
+    (``schemes.coefficients.RATE_DIGITS``), so the system changes its bulk matrix once (the
     start's c = 1/s, then 200/s: generation 2; without it 14) and the kept factorisation is made
     2 times instead of 13."""
     from ngcontact.scenes import reference
