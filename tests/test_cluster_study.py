@@ -165,7 +165,8 @@ def test_runs_of_another_window_are_not_mixed(tmp_path):
 
 def test_factorisations_compare_umfpack_and_mumps(tmp_path, capsys):
     """``--factorisations``: the 3D block P1 at level 0, 2 rounds: positive times, MUMPS's
-    solutions equal UMFPACK's to 1e-10; without PETSc the case is reported skipped."""
+    solutions equal UMFPACK's to 1e-10; a P2 case measured after it joins its tables; without
+    PETSc the case is reported skipped."""
     rows = cluster.factorisations(tmp_path, scene="block", orders=[1], levels=[0], repeat=2, progress=False)
     if importlib.util.find_spec("petsc4py") is None:
         assert rows == [] and "skipped: P1 level 0" in capsys.readouterr().out
@@ -175,3 +176,8 @@ def test_factorisations_compare_umfpack_and_mumps(tmp_path, capsys):
     assert min(row["umfpack_s"], row["mumps_s"], row["update_s"]) > 0
     assert row["mumps_diff"] < 1e-10 and row["update_diff"] < 1e-10
     assert list(read(tmp_path / "factorisations.csv")[0]) == list(cluster.FACTORISATION_COLUMNS)
+    # a second case measured into the same directory joins the tables (it overwrote them)
+    rows = cluster.factorisations(tmp_path, scene="block", orders=[2], levels=[0], repeat=1, progress=False)
+    assert [(row["order"], row["rounds"]) for row in rows] == [(1, 2), (2, 1)]
+    assert [row["order"] for row in read(tmp_path / "factorisations.csv")] == ["1", "2"]
+    assert (tmp_path / "factorisations.md").read_text().count("| block |") == 2

@@ -217,7 +217,8 @@ def factorisations(out, *, scene="block", orders=(1,), levels=(3,), repeat=3, dt
     of ``dt`` s factorised ``repeat`` times each by UMFPACK, by MUMPS and by MUMPS with its
     analysis kept, interleaved (``cluster_case.factorisations``); writes ``factorisations/``,
     ``factorisations.csv`` and ``factorisations.md`` into ``out``, prints the table and returns
-    its rows. Needs PETSc (a case without it is reported skipped)."""
+    its rows: every case measured into ``out``, this call's and earlier ones'. Needs PETSc (a
+    case without it is reported skipped)."""
     parallel.refuse_under_mpiexec("python -m ngcontact cluster --factorisations")
     sizes = _sizes(scene, orders, levels)
     repeat = checks.integer("repeat", repeat, 1, 1000)
@@ -226,7 +227,6 @@ def factorisations(out, *, scene="block", orders=(1,), levels=(3,), repeat=3, dt
     out = checks.writable_directory(out)
     for folder in ("factorisations", "logs"):
         (out / folder).mkdir(exist_ok=True)
-    rows = []
     with bar(len(sizes), "factorisations", progress, unit="case") as shown:
         say = shown.write if progress else print
         for order, level in sizes:
@@ -237,17 +237,24 @@ def factorisations(out, *, scene="block", orders=(1,), levels=(3,), repeat=3, dt
                 launch(spec, 1, path, out / "logs" / f"factorisations_{stem}.log")
             if not path.exists():
                 say(f"failed: P{order} level {level}, see logs/factorisations_{stem}.log")
-            elif "skipped" in (result := json.loads(path.read_text())):
-                say(f"skipped: P{order} level {level}: {result['skipped']}")
-            else:
-                rows.append(_factorisation_row(result))
+            elif "skipped" in json.loads(path.read_text()):
+                say(f"skipped: P{order} level {level}: {json.loads(path.read_text())['skipped']}")
             shown.update()
+    rows = _factorisation_rows(out)
     if rows:
         common.write_csv(rows, out / "factorisations.csv", FACTORISATION_COLUMNS)
         (out / "factorisations.md").write_text("# UMFPACK against MUMPS, the serial step Jacobian\n\n"
                                                + cluster_report.markdown_table(rows, FACTORISATION_COLUMNS) + "\n")
         print(common.table(rows, FACTORISATION_COLUMNS))
     return rows
+
+
+def _factorisation_rows(out):
+    """The rows of every case measured in ``out`` (this call's and earlier calls' into the same
+    directory, e.g. P1 and P2 measured one after the other), by scene, order, level, rounds."""
+    results = [json.loads(path.read_text()) for path in (out / "factorisations").glob("*.json")]
+    rows = [_factorisation_row(result) for result in results if "skipped" not in result]
+    return sorted(rows, key=lambda row: (row["scene"], row["order"], row["level"], row["rounds"]))
 
 
 def _factorisation_row(result):
