@@ -79,7 +79,8 @@ def test_a_failed_run_is_a_row(tmp_path, monkeypatch):
 def test_the_fits_recover_known_exponents():
     """Synthetic data: t = 3 (n/p)^1.3 p^0.2 over three p and m = 250 + 0.01 x^1.1 are
     recovered to 1e-6; without the p term the fit is another; the leave-one-out errors of an
-    exact model vanish; fit_group takes p^γ where it predicts the left-out points better."""
+    exact model vanish; fit_group takes p^γ where it predicts the left-out points better, and
+    leaves the oversubscribed runs out of the time fit."""
     n, p = np.array([1e3, 1e4, 1e5, 1e6] * 3), np.repeat([1, 2, 4], 4)
     t = 3.0 * (n / p) ** 1.3 * p ** 0.2
     fit = cluster_model.fit_time(n, p, t, with_p=True)
@@ -98,11 +99,19 @@ def test_the_fits_recover_known_exponents():
     group = cluster_model.fit_group(points)
     assert abs(group["time"]["gamma"] - 0.2) < 1e-6 and abs(group["kappa"] - 0.1) < 1e-9
     assert max(abs(e) for e in group["time"]["loo"] + group["memory"]["loo"]) < 1e-6
+    # runs with more processes than cores (10x slower than the law): left out of the time fit
+    crowded = [dict(pt, p=8, step_s=10 * 3.0 * (pt["n"] / 8) ** 1.3 * 8 ** 0.2, oversubscribed=True)
+               for pt in points[:4]]
+    group = cluster_model.fit_group(points + crowded)
+    assert group["time_points"] == len(points) and abs(group["time"]["gamma"] - 0.2) < 1e-6
+    unflagged = cluster_model.fit_group(points + [dict(pt, oversubscribed=False) for pt in crowded])
+    assert unflagged["time_points"] == len(points) + 4 and abs(unflagged["time"]["gamma"] - 0.2) > 0.1
 
 
 def test_the_prediction_finds_the_smallest_p_that_fits():
     """predict: the memory per rank at the smallest p that fits the limit is within it, at one
-    rank fewer it is not; too few points for a fit give None, not an error."""
+    rank fewer it is not; too few points for a fit give None, not an error; the Krylov growth
+    n^κ scales the time where κ > 0 only."""
     x = np.array([1e3, 1e4, 1e5, 1e6])
     points = [dict(n=2 * v, p=2, step_s=1e-4 * v, peak_mib=200 + 0.01 * v ** 1.1, rank0_mib=300 + 1e-3 * v,
                    krylov_per_newton=0.0, newton_mean=4.0) for v in x]
@@ -112,6 +121,13 @@ def test_the_prediction_finds_the_smallest_p_that_fits():
     assert at(p) <= 4096 < at(p - 1)
     assert [r["p"] for r in pred["rows"]] == [8, 64] and math.isnan(pred["rows"][0]["step_s_iterations"])
     assert cluster_model.fit_time([1e3], [1], [1.0]) is None and cluster_model.fit_memory([1e3, 1e3], [1, 2]) is None
+    # Krylov iterations growing as n^0.2 scale the time by (p / 2)^0.2; a falling count is not extrapolated
+    for sign in (1, -1):
+        grown = cluster_model.predict(cluster_model.fit_group([dict(pt, krylov_per_newton=10 * pt["n"] ** (0.2 * sign))
+                                                               for pt in points]), n=1e7, ranks=(8, 64))
+        for r in grown["rows"]:
+            assert (r["step_s_iterations"] == pytest.approx(r["step_s"] * (r["p"] / 2) ** 0.2, rel=1e-9) if sign > 0
+                    else math.isnan(r["step_s_iterations"]))
 
 
 def test_refused_under_mpiexec(tmp_path):

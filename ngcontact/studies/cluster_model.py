@@ -6,7 +6,10 @@ Per solver configuration (scene, order, solver name, serial or under mpiexec), o
 sizes and ranks (the medians of ``summary.csv``), by least squares in log space:
 
 * time per step ≈ a·(n/p)^α, or a·(n/p)^α·p^γ where the data warrant it: at least four
-  points over two or more p, and a smaller leave-one-out error than without γ;
+  points over two or more p, and a smaller leave-one-out error than without γ; fitted to the
+  runs with no more processes than cores only, where there are two sizes of them at least (an
+  oversubscribed run's time measures the sharing of the cores: on the 2-core machine the runs
+  under ``-n 3`` made γ ≈ 1.2–1.7, a time per step growing with the ranks);
 * memory per rank (the largest computing rank's peak) ≈ m₀ + b·(n/p)^β (m₀ = 0 with fewer
   than four points over three sizes); under mpiexec also rank 0's ≈ m₀ + b·n^β (rank 0 meshes
   the whole problem and holds it; "masterinverse" factorises there);
@@ -115,35 +118,43 @@ def _rms_log(errors):
 def fit_group(points):
     """The model of one configuration from its points (dicts with ``n``, ``p``, ``step_s``,
     ``peak_mib`` (the largest computing rank's), ``rank0_mib`` (None serially),
-    ``krylov_per_newton``, ``newton_mean``): the fits with residuals and leave-one-out errors."""
-    n, p = [pt["n"] for pt in points], [pt["p"] for pt in points]
-    t = [pt["step_s"] for pt in points]
+    ``krylov_per_newton``, ``newton_mean``, optionally ``oversubscribed``): the fits with
+    residuals and leave-one-out errors; ``time_points``, the points the time was fitted to."""
+    timing = [pt for pt in points if not pt.get("oversubscribed")]
+    if len({pt["n"] for pt in timing}) < 2:                # too few runs on their own cores: all of them
+        timing = points
+    n, p = [pt["n"] for pt in timing], [pt["p"] for pt in timing]
+    t = [pt["step_s"] for pt in timing]
     plain = _checked(fit_time, time_at, (n, p), t, fit_time(n, p, t))
     timed = plain
-    if len(set(p)) >= 2 and len(points) >= 4:            # p^γ only where it predicts the left-out runs better
+    if len(set(p)) >= 2 and len(timing) >= 4:            # p^γ only where it predicts the left-out runs better
         scaled = _checked(lambda *a: fit_time(*a, with_p=True), time_at, (n, p), t, fit_time(n, p, t, True))
         if scaled and plain and _rms_log(scaled["loo"]) < _rms_log(plain["loo"]):
             timed = scaled
+    n, p = [pt["n"] for pt in points], [pt["p"] for pt in points]
     x = [a / b for a, b in zip(n, p)]
     memory = _checked(fit_memory, memory_at, (x,), [pt["peak_mib"] for pt in points],
                       fit_memory(x, [pt["peak_mib"] for pt in points]))
     rank0 = [pt["rank0_mib"] for pt in points]
     zero = None if any(v is None for v in rank0) else _checked(fit_memory, memory_at, (n,), rank0,
                                                                 fit_memory(n, rank0))
-    return dict(points=points, time=timed, memory=memory, rank0_memory=zero,
+    return dict(points=points, time_points=len(timing), time=timed, memory=memory, rank0_memory=zero,
                 kappa=fitted_slope(n, [pt["krylov_per_newton"] for pt in points]),
                 nu=fitted_slope(n, [pt["newton_mean"] for pt in points]))
 
 
 def predict(model, n=TARGET_NDOF, ranks=TARGET_RANKS, limit=MEMORY_LIMIT_MIB):
     """The extrapolation of a distributed configuration's ``fit_group`` model to n DOFs: per
-    p in ``ranks`` the time per step (and, where κ was measured and the fit has no p term, times
+    p in ``ranks`` the time per step (and, where a growth κ > 0 was measured and the fit has no p term, times
     (p/p̄)^κ, p̄ the geometric mean of the fitted runs' p: the iterations grow with n, not
     n/p), the memory per computing rank; rank 0's memory; the smallest p whose memory per rank
     is at most ``limit`` MiB (None if none)."""
     timed, memory, zero = model["time"], model["memory"], model["rank0_memory"]
-    p_mean = float(np.exp(np.mean(np.log([pt["p"] for pt in model["points"]]))))
-    growth = model["kappa"] if timed and timed["gamma"] is None and np.isfinite(model["kappa"]) else None
+    timing = [pt for pt in model["points"] if not pt.get("oversubscribed")]
+    timing = timing if len(timing) == model["time_points"] else model["points"]
+    p_mean = float(np.exp(np.mean(np.log([pt["p"] for pt in timing]))))
+    growth = model["kappa"] if timed and timed["gamma"] is None and np.isfinite(model["kappa"]) \
+        and model["kappa"] > 0 else None          # a falling count (a kept factorisation made anew more often) is no law of n
     rows = [dict(p=p, n_per_rank=n / p, step_s=time_at(timed, n, p) if timed else math.nan,
                  step_s_iterations=time_at(timed, n, p) * (p / p_mean) ** growth if growth is not None else math.nan,
                  memory_mib=memory_at(memory, n / p) if memory else math.nan) for p in ranks]
@@ -180,15 +191,18 @@ def markdown(groups, predictions):
              "actually used at each point (a configuration's name may stand for several: `default` is GAMG "
              "from 1e5 DOFs in 3D under mpiexec, MUMPS below; MUMPS is kept across Newton iterations on `-n 2`, "
              "factorised at each on `-n 3`, oversubscribed).", "",
-             "| scene | P | solver | kind | points | time per step [s] | residual | LOO | memory per rank [MiB] | "
+             "Time is fitted to the runs with no more processes than cores (`time points`) where there are "
+             "two sizes of them: an oversubscribed run's time measures the sharing of the cores, not the "
+             "scaling; memory to every run.", "",
+             "| scene | P | solver | kind | points | time points | time per step [s] | residual | LOO | memory per rank [MiB] | "
              "residual | LOO | rank 0 [MiB] | Krylov/Newton ∝ n^κ | Newton/step ∝ n^ν |",
-             "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+             "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for key, model in groups.items():
         scene, order, solver, kind = key
         time, mem = _formula(model)
         zero = model["rank0_memory"]
         zero = "—" if not zero else f"{zero['m0']:.0f} + {zero['b']:.3g}·n^{zero['beta']:.3f}"
-        lines.append(f"| {scene} | {order} | {solver} | {kind} | {len(model['points'])} | {time} | "
+        lines.append(f"| {scene} | {order} | {solver} | {kind} | {len(model['points'])} | {model['time_points']} | {time} | "
                      f"{_worst(model['time'], 'residuals')} | {_worst(model['time'], 'loo')} | {mem} | "
                      f"{_worst(model['memory'], 'residuals')} | {_worst(model['memory'], 'loo')} | {zero} | "
                      f"{fmt(model['kappa'])} | {fmt(model['nu'])} |")
@@ -198,7 +212,7 @@ def markdown(groups, predictions):
               "Assumed: the same solver configuration at every size (the library's default changes with the "
               "size: GAMG from 1e5 DOFs in 3D under mpiexec); the time per step a function of the DOFs per rank "
               "n/p (weak scaling: as many DOFs per rank cost as much on any p), times p^γ where the fit has it; "
-              "the iterations growing with n as measured (κ, ν above): where the fit has no p term, the column "
+              "the iterations growing with n as measured (κ, ν above): where the fit has no p term and κ > 0, the column "
               "'with n^κ' multiplies by (p/p̄)^κ (p̄: the fitted runs' geometric mean p), since the Krylov "
               "iterations follow n, not n/p; the memory per computing rank a function of n/p; rank 0 holds "
               "the whole mesh (it meshes, refines and distributes it), so its memory grows with n whatever p.", ""]

@@ -144,7 +144,8 @@ def model(summary):
             points.setdefault((s["scene"], s["order"], s["solver"], kind), []).append(dict(
                 n=s["ndof"], p=s["p"], ranks=s["ranks"], step_s=s["step_s"], peak_mib=s["peak_mib_computing"],
                 rank0_mib=s["peak_mib_rank0"] if kind == "mpiexec" else None,
-                krylov_per_newton=s["krylov_per_newton"], newton_mean=s["newton_mean"], solver_used=s["solver_used"]))
+                krylov_per_newton=s["krylov_per_newton"], newton_mean=s["newton_mean"], solver_used=s["solver_used"],
+                oversubscribed=s["oversubscribed"] in (True, "yes", "True")))
     groups = {key: cluster_model.fit_group(p) for key, p in points.items()}
     predictions = {key: cluster_model.predict(g) for key, g in groups.items()
                    if key[0] == "block" and key[1] == 1 and key[3] == "mpiexec"}
