@@ -29,7 +29,8 @@ these tests check."""
 def interrupted(out, signum, after):
     """Start the run streaming into ``out`` in another process, send it ``signum`` once
     ``after`` steps are on disk, wait for it to end."""
-    code = (f"from ngcontact.scenes import reference; "
+    code = (f"import signal; signal.signal(signal.SIGINT, signal.default_int_handler); "  # as at a terminal, also when
+            f"from ngcontact.scenes import reference; "                                 # started where SIGINT is ignored
             f"reference.simulation(1, reuse_factorization=False).run({DT}, {T}, out={str(out)!r})")
     process = subprocess.Popen([sys.executable, "-c", code], stderr=subprocess.DEVNULL)
     steps = pathlib.Path(out) / "steps"
