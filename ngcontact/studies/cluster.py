@@ -237,8 +237,8 @@ def factorisations(out, *, scene="block", orders=(1,), levels=(3,), repeat=3, dt
                 launch(spec, 1, path, out / "logs" / f"factorisations_{stem}.log")
             if not path.exists():
                 say(f"failed: P{order} level {level}, see logs/factorisations_{stem}.log")
-            elif "skipped" in json.loads(path.read_text()):
-                say(f"skipped: P{order} level {level}: {json.loads(path.read_text())['skipped']}")
+            elif "skipped" in (result := json.loads(path.read_text())):
+                say(f"skipped: P{order} level {level}: {result['skipped']}")
             shown.update()
     rows = _factorisation_rows(out)
     if rows:

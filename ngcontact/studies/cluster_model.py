@@ -115,14 +115,19 @@ def _rms_log(errors):
         else math.inf
 
 
+def _timing_points(points):
+    """The points the time is fitted to: the runs with no more processes than cores, where
+    they are of two sizes at least; else all."""
+    timing = [pt for pt in points if not pt.get("oversubscribed")]
+    return timing if len({pt["n"] for pt in timing}) >= 2 else points
+
+
 def fit_group(points):
     """The model of one configuration from its points (dicts with ``n``, ``p``, ``step_s``,
     ``peak_mib`` (the largest computing rank's), ``rank0_mib`` (None serially),
     ``krylov_per_newton``, ``newton_mean``, optionally ``oversubscribed``): the fits with
     residuals and leave-one-out errors; ``time_points``, the points the time was fitted to."""
-    timing = [pt for pt in points if not pt.get("oversubscribed")]
-    if len({pt["n"] for pt in timing}) < 2:                # too few runs on their own cores: all of them
-        timing = points
+    timing = _timing_points(points)
     n, p = [pt["n"] for pt in timing], [pt["p"] for pt in timing]
     t = [pt["step_s"] for pt in timing]
     plain = _checked(fit_time, time_at, (n, p), t, fit_time(n, p, t))
@@ -150,8 +155,7 @@ def predict(model, n=TARGET_NDOF, ranks=TARGET_RANKS, limit=MEMORY_LIMIT_MIB):
     n/p), the memory per computing rank; rank 0's memory; the smallest p whose memory per rank
     is at most ``limit`` MiB (None if none)."""
     timed, memory, zero = model["time"], model["memory"], model["rank0_memory"]
-    timing = [pt for pt in model["points"] if not pt.get("oversubscribed")]
-    timing = timing if len(timing) == model["time_points"] else model["points"]
+    timing = _timing_points(model["points"])
     p_mean = float(np.exp(np.mean(np.log([pt["p"] for pt in timing]))))
     growth = model["kappa"] if timed and timed["gamma"] is None and np.isfinite(model["kappa"]) \
         and model["kappa"] > 0 else None          # a falling count (a kept factorisation made anew more often) is no law of n
