@@ -210,3 +210,46 @@ def test_bad_step_input():
     keepless = reference.simulation(1, 0.01, keep_states=False)
     with pytest.raises(ValueError, match="states were not kept"):
         keepless.state(0)
+
+
+def test_eisenstat_walker_forcing_asks_for_no_more_than_the_contraction_can_use():
+    """A linear solver with a ``forcing`` γ is asked, after the first correction, for the
+    looser of inexact Newton's margin × target / ‖r_k‖ and γ (‖r_k‖ / ‖r_{k−1}‖)², at most
+    1e-3 (Eisenstat–Walker's choice 2; ``newton.Newton``): checked against that formula at
+    every correction of the steps into first contact, where the contact set moves and Newton
+    contracts slowly; the states equal the run without forcing to Newton's accuracy."""
+    plain = reference.simulation(1, 0.01)
+    plain.run(DT, (FIRST_CONTACT + 2) * DT)
+    sim = reference.simulation(1, 0.01)
+    newton, solver = sim.newton, sim.newton.solver
+    solver.forcing = 0.9
+    asked, targets, residuals = [], [], []
+    solve, test = solver.solve, newton.test
+    newton.on_iteration = lambda it, value: residuals.append((it, value))
+
+    def recording_solve(*args, tol=None, **kwargs):
+        asked.append((residuals[-1], tol))
+        return solve(*args, tol=tol, **kwargs)
+
+    def recording_test(x, history, rtol):
+        verdict = test(x, history, rtol)
+        targets.append(verdict.target)
+        return verdict
+
+    solver.solve, newton.test = recording_solve, recording_test
+    sim.run(DT, (FIRST_CONTACT + 2) * DT)
+    values = dict(enumerate(v for _, v in residuals))
+    loosened = 0
+    for (it, value), tol in asked:
+        k = next(i for i, (j, v) in enumerate(residuals) if (j, v) == (it, value))
+        expected = solver.margin * targets[k] / value
+        if it > 0:
+            forcing = 0.9 * (value / values[k - 1]) ** 2
+            loosened += forcing > expected and forcing > 1e-12
+            expected = max(expected, forcing)
+        assert tol == pytest.approx(min(1e-3, max(1e-12, expected)), rel=1e-12)
+    assert loosened >= 3                        # the forcing term, not the margin, set those
+    a, b = plain.gfu.vec.FV().NumPy(), sim.gfu.vec.FV().NumPy()
+    n_u = sim.body.V.ndof
+    for part in (slice(0, n_u), slice(n_u, None)):
+        assert np.abs(a[part] - b[part]).max() <= 1e-8 * np.abs(a[part]).max()
