@@ -148,8 +148,8 @@ class Newton:
         UMFPACK) or ``KeptFactorization``; an iterative one is asked for ``margin`` (its
         attribute, default 0.1) × (the target residual / the current one), inexact Newton,
         and, if it has a ``forcing`` γ, for no more than Eisenstat and Walker's γ (‖r_k‖ /
-        ‖r_{k−1}‖)² after the first correction (S. C. Eisenstat, H. F. Walker, SIAM J. Sci.
-        Comput. 17 (1996) 16–32, choice 2); at most 1e-3 either way.
+        ‖r_{k−1}‖)² after a correction that made the residual fall (S. C. Eisenstat, H. F.
+        Walker, SIAM J. Sci. Comput. 17 (1996) 16–32, choice 2); at most 1e-3 either way.
     freedofs : BitArray of the unknowns (default: the space's free DOFs).
     rtol : the residual to reach, relative to the step's force scale (``stopping``).
     maxit : maximum number of linear solves per solve.
@@ -282,9 +282,10 @@ class Newton:
                 margin = getattr(self.solver, "margin", 0.1)
                 tol = margin * verdict.target / value
                 forcing = getattr(self.solver, "forcing", None)
-                if forcing is not None and it > 0:
+                if forcing is not None and it > 0 and value < residuals[-2]:
                     # Eisenstat–Walker (their choice 2): while Newton contracts slowly (the contact
-                    # set still moving) a tighter correction is wasted on the next linearisation
+                    # set still moving) a tighter correction is wasted on the next linearisation;
+                    # not after a residual that rose (then loose corrections cut steps back)
                     tol = max(tol, forcing * (value / residuals[-2]) ** 2)
                 if self.energy_target is not None and correction:
                     tol = max(tol, ALGEBRAIC * self.energy_target / correction)
