@@ -64,11 +64,13 @@ class GamgSolver:
     maxiter : GMRES iterations before a solve counts as failed.
     realcompile : compile the preconditioner forms' integrands to machine code.
 
-    ``forcing`` (0.01): after a correction that made the residual fall Newton asks for no
-    more than 0.01 (‖r_k‖ / ‖r_{k−1}‖)² (Eisenstat–Walker, ``newton.Newton``), so that
-    corrections while the contact set still moves are not solved to the step's final accuracy.
-    3D block P1, 142 404 DOFs, 4 steps into first contact: 17 Newton and 522 GMRES iterations
-    against 16 and 683 without (docs/speed.md, docs/scale.md).
+    ``forcing`` (0.01): after every correction but a step's first Newton asks for no more
+    than ``newton.forcing_term`` (0.01 (‖r_k‖ / ‖r_{k−1}‖)² after a fall, Eisenstat–Walker;
+    0.01 ‖r_{k−1}‖ / ‖r_k‖ after a rise), so that corrections while the contact set still
+    moves are not solved to the step's final accuracy. 3D block P1, 142 404 DOFs, 3 steps of
+    2⁻⁸ s into first contact (2 threads): 17 Newton and 395 GMRES iterations, 16.2 s per step,
+    against 16, 726 and 26.3 s with the forcing after falls only (the GMRES after one rise ran
+    to ``maxiter``) and 16, 683 without (docs/speed.md, docs/scale.md).
     """
 
     margin = 0.1
@@ -100,6 +102,7 @@ class GamgSolver:
             layer[np.array(list(self.layer), dtype=bool)] = 1.0
         self.surface_rows = _index_set(PETSc, mapping, template, layer, 1.0)
         self._surface = self._surface_matrix = None
+        self._near_null_space = None                  # GAMG's, for these rows: made once
         self._d = self.J.mat.createVecRight()
         self._key, self._generation = (matrix, freedofs), None
 
@@ -120,7 +123,9 @@ class GamgSolver:
                 continue
             block = P.createSubMatrix(rows, rows)
             if name == "u":
-                block.setNearNullSpace(self._rigid_motions(PETSc, rows, block))
+                if self._near_null_space is None:
+                    self._near_null_space = self._rigid_motions(PETSc, rows, block)
+                block.setNearNullSpace(self._near_null_space)
             pc = PETSc.PC().create(comm=block.getComm())
             prefix = f"ngcontact_{name}_"
             pc.setOptionsPrefix(prefix)
@@ -138,15 +143,14 @@ class GamgSolver:
 
     def _rigid_motions(self, PETSc, rows, block):
         """The rigid-body motions of u (translations, rotations about the axes), restricted to
-        the free u DOFs and orthonormalised, as GAMG's near null space."""
+        the free u DOFs and orthonormalised, as GAMG's near null space; made once per pattern
+        (``_setup``), not per rate coefficient."""
         gf = ngs.GridFunction(self.system.X)
-        x, y, z = ngs.x, ngs.y, ngs.z
-        motions = [(1, 0), (0, 1), (-y, x)] if self.body.dim == 2 else \
-            [(1, 0, 0), (0, 1, 0), (0, 0, 1), (-y, x, 0), (0, -z, y), (z, 0, -x)]
         vectors = []
-        for motion in motions:
-            gf.vec[:] = 0.0
-            gf.components[0].Set(ngs.CF(motion))
+        for values in rigid_motion_values(self.body, self.system.X):
+            gf.vec.FV().NumPy()[:] = values
+            if gf.vec.GetParallelStatus() != ngs.la.PARALLEL_STATUS.NOT_PARALLEL:
+                gf.vec.SetParallelStatus(ngs.la.PARALLEL_STATUS.CUMULATED)
             full = self.J.vectors.petscVec(gf.vec)
             part = block.createVecRight()
             full.getSubVector(rows, part)
@@ -290,6 +294,40 @@ def factorisation_fits(ndof, dim, mesh):
     share = available / local.size
     local.Free()
     return bool(comm.allreduce(need / max(1, comm.size - 1) <= FACTOR_SHARE * share, op=MPI.LAND))
+
+
+def rigid_motion_values(body, X):
+    """The rigid-body motions of u (2D: the translations and the rotation about z; 3D: the
+    translations and the rotations about x, y, z) as arrays over the DOFs of the product space
+    ``X`` (u first; φ 0), on this process's part of the mesh.
+
+    With NGSolve's hierarchical H1 basis a linear function is its vertex values (DOF v of each
+    component is vertex v, the higher-order DOFs are 0; on a straight-sided mesh exactly what
+    ``GridFunction.Set`` gives, to round-off): read from the vertex coordinates instead of 6
+    ``Set`` calls, which took 29 s at 1.06·10⁶ DOFs (3D P1, one thread)."""
+    dim, V = body.dim, body.V
+    if body.mesh.ne == 0:                                 # rank 0 of a distributed mesh: no elements
+        for _ in range(3 if dim == 2 else 6):
+            yield np.zeros(X.ndof)
+        return
+    scalar = V.ndof // dim                                # VectorH1: one H1 space per component
+    points = np.array(body.mesh.ngmesh.Coordinates())[:, :dim]
+    if V.ndof != dim * scalar or len(points) != body.mesh.nv or scalar < body.mesh.nv:
+        raise ValueError(f"rigid motions need u in a VectorH1 space ({V.ndof} DOFs, {body.mesh.nv} vertices)")
+    x, y = points[:, 0], points[:, 1]
+    one, zero = np.ones_like(x), np.zeros_like(x)
+    if dim == 2:
+        motions = [(one, zero), (zero, one), (-y, x)]
+    else:
+        z = points[:, 2]
+        motions = [(one, zero, zero), (zero, one, zero), (zero, zero, one), (-y, x, zero), (zero, -z, y),
+                   (z, zero, -x)]
+    nv = len(points)
+    for motion in motions:
+        values = np.zeros(X.ndof)
+        for component, part in enumerate(motion):
+            values[component * scalar:component * scalar + nv] = part
+        yield values
 
 
 def _index_set(PETSc, mapping, template, indicator, value):

@@ -226,6 +226,36 @@ def _with_maxiter(init, maxiter):
     return patched
 
 
+@pytest.mark.parametrize("order, dim", [(1, 2), (3, 2), (1, 3), (2, 3)])
+def test_rigid_motions_from_the_vertices_are_the_interpolated_motions(order, dim):
+    """GAMG's near null space, read from the vertex coordinates (``rigid_motion_values``),
+    equals ``GridFunction.Set`` of the translations and rotations on the product space to
+    round-off (the higher-order DOFs 0), and the elastic bulk form K_el maps each rotation
+    to a force 10⁻¹⁰ of its size on a stretch (a rigid motion has no strain; the vertex values
+    of a wrong component or a DOF offset would not)."""
+    import ngsolve as ngs
+    from ngcontact.petsc_iterative import rigid_motion_values
+    sim = reference.simulation(order, 0.02 if dim == 3 else 0.01, 0, dim, keep_states=False)
+    X = sim.system.X
+    x, y, z = ngs.x, ngs.y, ngs.z
+    motions = [(1, 0), (0, 1), (-y, x)] if dim == 2 else \
+        [(1, 0, 0), (0, 1, 0), (0, 0, 1), (-y, x, 0), (0, -z, y), (z, 0, -x)]
+    values = list(rigid_motion_values(sim.body, X))
+    assert len(values) == len(motions)
+    gf, force = ngs.GridFunction(X), sim.system.K_el.mat.CreateColVector()
+    stretch = ngs.GridFunction(X)
+    stretch.components[0].Set(ngs.CF((x,) + (0,) * (dim - 1)))
+    force.data = sim.system.K_el.mat * stretch.vec
+    scale = np.abs(force.FV().NumPy()[:sim.body.V.ndof]).max()
+    for motion, vector in zip(motions, values):
+        gf.vec[:] = 0.0
+        gf.components[0].Set(ngs.CF(motion))
+        assert np.abs(gf.vec.FV().NumPy() - vector).max() <= 1e-12
+        gf.vec.FV().NumPy()[:] = vector
+        force.data = sim.system.K_el.mat * gf.vec
+        assert np.abs(force.FV().NumPy()[:sim.body.V.ndof]).max() <= 1e-10 * scale
+
+
 def test_gamg_without_petsc_says_how_to_install_it(monkeypatch):
     """``iterative='gamg'`` without PETSc: an ImportError naming it and the install line."""
     monkeypatch.setattr(petsc_solver, "_modules", None)
@@ -240,15 +270,16 @@ def test_gamg_without_petsc_says_how_to_install_it(monkeypatch):
 def test_distributed_gamg_equals_the_serial_run(serial_runs, serial_indenter, tmp_path, scene, ranks):
     """``iterative="gamg"`` under ``mpiexec -n 2|3`` (GMRES, Γ3 MUMPS solves and GAMG on every
     rank): the 3D block over the push-hold-pull history and the 3D indentation (supports, a
-    moving obstacle) give the serial run's contact force per step to 1e-8; the indentation
-    without a GMRES failure (the block's first step, 50 ms into deep first contact, takes 13
-    Newton iterations after 50 discarded ones with every solver: there GMRES failed 1-2 times
-    and a factorisation solved, ``krylov_failures``)."""
+    moving obstacle) give the serial run's contact force per step to 1e-8, without a GMRES
+    failure (the block's first step, 50 ms into deep first contact, takes 13 Newton iterations
+    after 50 discarded ones with every solver; asked for the step's final accuracy after each
+    rise of the residual, GMRES failed there 1-2 times and a factorisation solved:
+    ``newton.forcing_term``, ``krylov_failures``)."""
     launch(ranks, str(HERE / "distributed_scenes.py"), scene, "gamg", str(tmp_path / "run.json"), timeout=900)
     distributed = json.loads((tmp_path / "run.json").read_text())
     serial = serial_runs[scene] if scene == "block" else serial_indenter
     assert distributed["solver"].startswith("GamgSolver(") and distributed["ranks"] == ranks
-    assert distributed["krylov_failures"] == 0 or scene == "block"
+    assert distributed["krylov_failures"] == 0
     a, b = np.array(serial["force"]), np.array(distributed["force"])
     assert np.abs(a - b).max() <= 1e-8 * np.abs(a).max(), np.abs(a - b).max() / np.abs(a).max()
 

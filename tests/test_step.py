@@ -212,18 +212,25 @@ def test_bad_step_input():
         keepless.state(0)
 
 
+GAMMA = 1e-4
+"""The forcing γ of the test below: small enough that both of ``forcing_term``'s cases stay
+under the cap 1e-3 (with γ = 0.9 both were capped after every rise, and the rule after a rise
+went untested)."""
+
+
 def test_eisenstat_walker_forcing_asks_for_no_more_than_the_contraction_can_use():
-    """A linear solver with a ``forcing`` γ is asked, after a correction that made the residual
-    fall, for the looser of inexact Newton's margin × target / ‖r_k‖ and γ (‖r_k‖ / ‖r_{k−1}‖)²,
-    at most 1e-3 (Eisenstat–Walker's choice 2; ``newton.Newton``), else for the margin's
-    accuracy: checked against that formula at every correction of the steps into first contact,
-    where the contact set moves and Newton contracts slowly; the states equal the run without
+    """A linear solver with a ``forcing`` γ is asked, after every correction but a step's first,
+    for the looser of inexact Newton's margin × target / ‖r_k‖ and ``newton.forcing_term``: γ
+    (‖r_k‖ / ‖r_{k−1}‖)² after a fall (Eisenstat–Walker's choice 2), γ ‖r_{k−1}‖ / ‖r_k‖ after
+    a rise; at most 1e-3; at a step's first correction for the margin's accuracy: checked against
+    that formula at every correction of the steps into first contact, where the contact set moves
+    and Newton contracts slowly (both cases set some tolerances); the states equal the run without
     forcing to Newton's accuracy."""
     plain = reference.simulation(1, 0.01)
     plain.run(DT, (FIRST_CONTACT + 2) * DT)
     sim = reference.simulation(1, 0.01)
     newton, solver = sim.newton, sim.newton.solver
-    solver.forcing = 0.9
+    solver.forcing = GAMMA
     asked, targets, residuals = [], [], []
     solve, test = solver.solve, newton.test
     newton.on_iteration = lambda it, value: residuals.append((it, value))
@@ -239,16 +246,17 @@ def test_eisenstat_walker_forcing_asks_for_no_more_than_the_contraction_can_use(
 
     solver.solve, newton.test = recording_solve, recording_test
     sim.run(DT, (FIRST_CONTACT + 2) * DT)
-    loosened = 0
+    loosened = {False: 0, True: 0}                  # after a fall, after a rise
     for k, tol in asked:
         (it, value), previous = residuals[k], residuals[k - 1][1]
         expected = solver.margin * targets[k] / value
-        if it > 0 and value < previous:
-            forcing = 0.9 * (value / previous) ** 2
-            loosened += forcing > expected and forcing > 1e-12
+        if it > 0:
+            ratio = value / previous
+            forcing = GAMMA * (ratio ** 2 if ratio <= 1 else 1 / ratio)
+            loosened[ratio > 1] += forcing > expected and forcing > 1e-12
             expected = max(expected, forcing)
         assert tol == pytest.approx(min(1e-3, max(1e-12, expected)), rel=1e-12)
-    assert loosened >= 3                        # the forcing term, not the margin, set those
+    assert loosened[False] >= 3 and loosened[True] >= 1   # the forcing term, not the margin, set those
     a, b = plain.gfu.vec.FV().NumPy(), sim.gfu.vec.FV().NumPy()
     n_u = sim.body.V.ndof
     for part in (slice(0, n_u), slice(n_u, None)):
