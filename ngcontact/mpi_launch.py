@@ -15,7 +15,11 @@ YIELDING = {"MPIR_CVAR_CH4_PROGRESS_THROTTLE": "1", "MPIR_CVAR_CH4_PROGRESS_THRO
 """MPICH's waits sleep (usleep(1)) after 16 polls without progress instead of spinning: with 3
 ranks on 2 cores (2D reference plate P2, 30 879 DOFs, 59 Newton iterations, MUMPS) 21.1 -> 16.3 s
 with the kept factorisation and GMRES, 13.0 -> 11.7 s factorising at every iteration; on rank 0
-alone (which computes nothing) no gain (21.5 s). Other MPI libraries ignore the variables."""
+alone (which computes nothing) no gain (21.5 s). Other MPI libraries ignore the variables.
+Not used: MPIR_CVAR_ENABLE_HEAVY_YIELD=1 (waits sleep in nanosleep): rank 0's CPU time fell
+(25.7 -> 14.2 s per step) but GMRES waited on the sleeps (3D block P1, 142 404 DOFs, GAMG, 3
+ranks on 2 cores: 38.2 -> 53.8 s per step, GMRES 9.6 -> 29.0 s, also with 10⁵ polls before a
+sleep)."""
 
 
 def launched():
