@@ -145,7 +145,7 @@ class Simulation:
         solver, self._potential_solver = choose(body, contact, self.system, self.X, inverse=inverse,
                                                 reuse_factorization=reuse_factorization, iterative=iterative,
                                                 electric=self.electric, condense=self.condense,
-                                                realcompile=realcompile is True, distributed=distributed)
+                                                realcompile=realcompile, distributed=distributed)
         hook = self.gamma3.enforcement.newton_hook if contact is not None else None
         limit = None
         if contact is not None and hook is None and limit_steps:

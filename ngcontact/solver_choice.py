@@ -39,10 +39,11 @@ def iterative_by_default(body, condense, distributed=False):
 
 
 def choose(body, contact, system, space, *, inverse, reuse_factorization, iterative, electric, condense,
-           realcompile=False, distributed=False):
+           realcompile=None, distributed=False):
     """(the Newton corrections' solver, the solver of the potential at t = 0) for ``body``
     and ``contact`` on the StepSystem ``system`` of the product ``space`` (``realcompile``: of
-    the multigrid hierarchy's integrands). ``distributed`` (a mesh over several MPI ranks):
+    the preconditioner forms' integrands; None: GAMG's by the mesh size, the multigrid
+    hierarchy's not). ``distributed`` (a mesh over several MPI ranks):
     NGSolve's "masterinverse" at every iteration (``parallel.check_simulation``)."""
     names = NAMES + (PARALLEL_NAMES if distributed else ())
     if inverse is not None and inverse not in names:
@@ -75,8 +76,9 @@ def choose(body, contact, system, space, *, inverse, reuse_factorization, iterat
             raise ValueError("iterative='multigrid' needs nested meshes: make the mesh with "
                              "ngcontact.meshes.nested_mesh(ngmesh, refine) (ngcontact.geometries do), or "
                              "use iterative='gamg' (PETSc)")
-        newton = MultigridSolver(body, system, layer, electric=electric, realcompile=realcompile)
-        potential = MultigridSolver(body, system, layer, electric=True, realcompile=realcompile, displacement=False)
+        newton = MultigridSolver(body, system, layer, electric=electric, realcompile=realcompile is True)
+        potential = MultigridSolver(body, system, layer, electric=True, realcompile=realcompile is True,
+                                    displacement=False)
         return newton, potential
     name = inverse or ("sparsecholesky" if symmetric else "umfpack")
     skew = contact is not None and contact.method == "nitsche" and contact.theta == -1

@@ -259,6 +259,75 @@ def test_gamg_preconditioner_follows_the_rate_coefficient():
     assert stale.norm() > 1e-6 * expected.norm()       # the two rates' forms differ: the check can fail
 
 
+@needs_petsc
+def test_gamg_preconditioner_is_the_surface_bulk_surface_product():
+    """M r of ``GamgSolver._apply`` (J's strips J[:, Γ3] and J[Γ3, :] for J) is the module's
+    y = S r; y += B (r − J y); y += S (r − J y) written with all of J, to round-off, on the 3D
+    block in contact; and it is not B r alone (the check can fail)."""
+    sim = reference.simulation(1, 0.01, 1, dim=3, keep_states=False, iterative="gamg", realcompile=False)
+    sim.run(2.5e-3, 5 * 2.5e-3)
+    solver = sim.newton.solver
+    assert solver._surface is not None and solver.surface_rows.getSize() > 0
+    J, rows = solver.J.mat, solver.surface_rows
+    r = J.createVecLeft()
+    r.setArray(np.random.default_rng(3).standard_normal(r.getLocalSize()))
+    y = r.duplicate()
+    solver._apply(r, y)
+
+    def add_surface(source, target):
+        x, z = solver._surface_matrix.createVecs()
+        part = source.getSubVector(rows)
+        part.copy(x)
+        source.restoreSubVector(rows, part)
+        solver._surface.apply(x, z)
+        part = target.getSubVector(rows)
+        part.axpy(1.0, z)
+        target.restoreSubVector(rows, part)
+
+    expected, d = r.duplicate(), r.duplicate()
+    expected.set(0.0)
+    add_surface(r, expected)
+    J.mult(expected, d)
+    d.aypx(-1.0, r)
+    solver._add_bulk(d, expected)
+    J.mult(expected, d)
+    d.aypx(-1.0, r)
+    add_surface(d, expected)
+    bulk_only = r.duplicate()
+    bulk_only.set(0.0)
+    solver._add_bulk(r, bulk_only)
+    assert (y - expected).norm() <= 1e-12 * expected.norm()
+    assert (bulk_only - expected).norm() > 1e-3 * expected.norm()
+
+
+@needs_petsc
+def test_gamg_compiles_its_preconditioner_forms_on_large_meshes(monkeypatch):
+    """With ``realcompile=None`` the preconditioner forms' integrand is compiled to machine code
+    from ``machine_code.BULK_COMPILED_FROM`` elements of the mesh on, interpreted below; both
+    give u's GAMG operator to round-off."""
+    from ngcontact import machine_code, petsc_iterative
+    sim = reference.simulation(1, 0.01, 1, dim=3, keep_states=False, iterative="gamg", realcompile=False)
+    sim.step(2.5e-3)
+    solver = sim.newton.solver
+    interpreted = solver._bulk[0][0].getOperators()[0]
+    asked, original = [], petsc_iterative.compiled
+
+    def recording(cf, realcompile, **kwargs):
+        asked.append(realcompile)
+        return original(cf, realcompile, **kwargs)
+    monkeypatch.setattr(petsc_iterative, "compiled", recording)
+    solver.realcompile = None
+    for threshold in (sim.body.mesh.ne + 1, sim.body.mesh.ne):
+        monkeypatch.setattr(machine_code, "BULK_COMPILED_FROM", threshold)
+        solver._integrand = solver._bulk = None
+        solver._preconditioners(sim.newton.freedofs)
+    assert asked == [False, True]
+    used = solver._bulk[0][0].getOperators()[0]
+    difference = used.copy()
+    difference.axpy(-1.0, interpreted)
+    assert difference.norm() <= 1e-12 * interpreted.norm()
+
+
 @pytest.mark.parametrize("order, dim", [(1, 2), (3, 2), (1, 3), (2, 3)])
 def test_rigid_motions_from_the_vertices_are_the_interpolated_motions(order, dim):
     """GAMG's near null space, read from the vertex coordinates (``rigid_motion_values``),
