@@ -68,7 +68,8 @@ class Simulation:
     realcompile : compile the Γ3 Jacobian's integrand to machine code (needs a C++ compiler,
         takes 6–9 s once, assembles the Γ3 Jacobian 6–12× faster): True at once, False never,
         None (default) when the Newton iterations a run expects pay for it (``machine_code``);
-        ``realcompile`` says whether it is.
+        ``realcompile`` says whether it is. With ``iterative="gamg"`` the same choice for the
+        preconditioner forms' integrand (None: from ``machine_code.BULK_COMPILED_FROM`` elements).
     limit_steps : shorten Newton corrections that would carry open points of Γ3 deep into
         the foundation (``step_length``): Newton's iterations at first contact then no longer
         grow with the mesh. Nitsche and penalty (the nodal constraint makes its own
