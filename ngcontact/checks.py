@@ -99,16 +99,21 @@ def writable_directory(out, name="output directory"):
     return out
 
 
-def memory():
-    """The memory of the machine in bytes: its physical memory (``os.sysconf``, else
-    MemTotal of /proc/meminfo), times the ranks under mpiexec (each may hold a node's)."""
+def node_memory():
+    """The physical memory of this machine (node) in bytes (``os.sysconf``, else MemTotal of
+    /proc/meminfo): fixed, unlike the memory free at the moment."""
     try:
-        total = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
     except (ValueError, OSError, AttributeError):
         with open("/proc/meminfo") as info:
-            total = next(int(line.split()[1]) * 1024 for line in info if line.startswith("MemTotal:"))
+            return next(int(line.split()[1]) * 1024 for line in info if line.startswith("MemTotal:"))
+
+
+def memory():
+    """The memory of the machine in bytes: its physical memory (``node_memory``), times the
+    ranks under mpiexec (each may hold a node's)."""
     comm = parallel.world()
-    return total * (1 if comm is None else comm.size)
+    return node_memory() * (1 if comm is None else comm.size)
 
 
 def estimated_vertices(sides, maxh):

@@ -150,20 +150,24 @@ def barrier(mesh):
         comm.Barrier()
 
 
-def together(mesh, check, *args):
-    """``check(*args)`` on every rank, its result returned; a ValueError raised on some ranks
-    is raised on every rank (the lowest such rank's message), so that no rank goes on into a
-    collective operation the others have left. ``check`` itself must not communicate."""
+def together(mesh, check, *args, errors=(ValueError,)):
+    """``check(*args)`` on every rank, its result returned; an exception of the kinds
+    ``errors`` (default ValueError) raised on some ranks is raised on every rank, of the lowest
+    such rank's type with its message (an OSError's naming that rank), so that no rank goes on
+    into a collective operation the others have left, or waits for ever in one that a failed
+    rank never reaches. ``check`` itself must not communicate."""
     comm = comm_of(mesh)
     if comm is None:
         return check(*args)
     try:
-        result, message = check(*args), None
-    except ValueError as err:
-        result, message = None, str(err)
-    failed = [m for m in comm.allgather(message) if m is not None]
+        result, failure = check(*args), None
+    except errors as err:
+        message = f"rank {comm.rank}: {err}" if isinstance(err, OSError) else str(err)
+        result, failure = None, (type(err), message)
+    failed = [f for f in comm.allgather(failure) if f is not None]
     if failed:
-        raise ValueError(failed[0]) from None
+        kind, message = failed[0]
+        raise kind(message) from None
     return result
 
 

@@ -40,6 +40,7 @@ import ngsolve as ngs
 import numpy as np
 
 from . import forms, parallel
+from .checks import node_memory
 from .machine_code import compile_bulk, compiled
 from .petsc_solver import MumpsFactorization, PetscMatrix, WeightedGmres, load
 
@@ -298,28 +299,26 @@ n^(4/3) in 3D (nested dissection's fill), from the process peaks measured here: 
 plate P2, 30 879 DOFs, serial MUMPS 444 MB against 359 MB with the sparse Cholesky of the
 symmetric part; 3D block P1, 142 404 DOFs, serial factorisations ~1.5 GB (docs/cluster.md)."""
 FACTOR_SHARE = 0.5
-"""The share of the memory available now that a fallback factorisation may take."""
+"""The share of a node's physical memory that a fallback factorisation may take."""
 
 
 def factorisation_fits(ndof, dim, mesh):
     """Whether a MUMPS LU of a step Jacobian of ``ndof`` DOFs in ``dim`` D is expected
-    (``FACTOR_BYTES``) to fit in ``FACTOR_SHARE`` of the memory available now (MemAvailable of
-    /proc/meminfo, per node: every rank's share of its node's is compared with its share of the
-    factorisation); True where that cannot be read. A 3D P1 Jacobian of 1.06·10⁶ DOFs (~20 GB)
-    does not fit on this 24 GB machine: its factorisation, the fallback of a GMRES that had not
-    converged, was killed for lack of memory at 24 GB."""
+    (``FACTOR_BYTES``) to fit in ``FACTOR_SHARE`` of the node's physical memory
+    (``checks.node_memory``; under MPI every rank's share of its node's is compared with its
+    share of the factorisation). The machine's size, not the memory free at the moment: the
+    choice, and so the run, must not depend on what else the machine is doing (an earlier
+    version read MemAvailable). A 3D P1 Jacobian of 1.06·10⁶ DOFs (~20 GB) does not fit on this
+    24 GB machine: its factorisation, the fallback of a GMRES that had not converged, was
+    killed for lack of memory at 24 GB."""
     need = FACTOR_BYTES[dim] * (ndof ** (4 / 3) if dim == 3 else ndof * np.log(max(ndof, 2)))
-    try:
-        with open("/proc/meminfo") as info:
-            available = next(int(line.split()[1]) * 1024 for line in info if line.startswith("MemAvailable:"))
-    except (OSError, StopIteration, ValueError):
-        return True
+    total = node_memory()
     comm = parallel.comm_of(mesh)
     if comm is None:
-        return need <= FACTOR_SHARE * available
+        return need <= FACTOR_SHARE * total
     from mpi4py import MPI
     local = comm.Split_type(MPI.COMM_TYPE_SHARED)                 # the ranks of this node
-    share = available / local.size
+    share = total / local.size
     local.Free()
     return bool(comm.allreduce(need / max(1, comm.size - 1) <= FACTOR_SHARE * share, op=MPI.LAND))
 

@@ -134,14 +134,10 @@ class Stream:
         self._times = {}                              # step -> time of the steps of this run on disk
         if continuing:
             self._times = {record.step: record.time for record in parallel.together(mesh, read, self.dir)[1]}
-        if self.lead:
-            if not continuing:
-                for path in self.dir.glob("steps/[0-9]*.npz"):
-                    path.unlink()                     # a new run replaces the old one (rank parts included)
-            (self.dir / "steps").mkdir(parents=True, exist_ok=True)
-            (self.dir / "vtk").mkdir(exist_ok=True)
-            _atomic_write(self.dir / "run.json", lambda p: p.write_text(json.dumps(info, indent=1)))
-        parallel.barrier(mesh)
+        try:
+            parallel.together(mesh, self._prepare, continuing, info, errors=(OSError,))
+        except OSError as err:
+            raise type(err)(f"out: {str(self.dir)!r} could not be prepared for the run ({err})") from None
         # the facets of Γ3 in the order of the records' per-facet arrays (gathered in rank order)
         self._facets = None if source.side is None else parallel.gather(mesh, source.side.facet_vertices)
         if not continuing:
@@ -149,26 +145,65 @@ class Stream:
                 self._save(record, restart=False)
             self(source.history[-1])                  # the state the run starts from
 
+    def _prepare(self, continuing, info):
+        """Rank 0: the directories, run.json, and the step archives of another run removed."""
+        if not self.lead:
+            return
+        if not continuing:
+            for path in self.dir.glob("steps/[0-9]*.npz"):
+                path.unlink()                         # a new run replaces the old one (rank parts included)
+        (self.dir / "steps").mkdir(parents=True, exist_ok=True)
+        (self.dir / "vtk").mkdir(exist_ok=True)
+        _atomic_write(self.dir / "run.json", lambda p: p.write_text(json.dumps(info, indent=1)))
+
     def __call__(self, record):
         """Write one step: its VTK files, (distributed) every rank's part, its archive last,
         so that a step on disk has all of them."""
-        fields_writer(self.source, self.dir / "vtk" / f"fields_{record.step:06d}").Do(time=record.time)
         self._save(record, restart=True, vtk=True)
 
     def _save(self, record, restart, vtk=False):
-        """The archive of a step: its record, and with ``restart`` the time scheme's restart
-        state; on a distributed mesh the restart state and the record's state (each rank's
-        DOFs) go into the rank's part, and rank 0 writes the archive once every part is on
-        disk (with ``vtk`` after the ParaView files of the step)."""
+        """The files of a step: each rank's own (with ``vtk`` the fields' VTK file; on a
+        distributed mesh its part: the time scheme's restart state with ``restart``, the record's
+        state), then, once every rank has written them, rank 0's: the archive of the record (with
+        the restart state when serial; with ``vtk`` after the Γ3 file and the .pvd series). A
+        write that fails on any rank raises an OSError on every rank, naming the step, the rank
+        and the file, before any rank goes on (the steps before it stay on disk)."""
         arrays = record_arrays(record)
         own = {f"restart/{k}": np.asarray(v) for k, v in self.source.save().items()} if restart else {}
         if self.ranks > 1:
             if "state" in arrays:
                 own["state"] = arrays.pop("state")
-            _atomic_write(part(self.dir, record.step, self.source.mesh.comm.rank), lambda p: _savez(p, own))
-            parallel.barrier(self.source.mesh)
         else:
             arrays.update(own)
+        self._together(record.step, self._own_files, record, own, vtk)
+        self._together(record.step, self._lead_files, record, arrays, vtk)
+
+    def _together(self, n, write, *args):
+        """``write(*args)`` on every rank; an OSError on any rank raised on all (``parallel.together``)."""
+        try:
+            parallel.together(self.source.mesh, write, *args, errors=(OSError,))
+        except OSError as err:
+            raise type(err)(f"out: step {n} could not be written into {str(self.dir)!r} ({err}); the steps "
+                            f"before it are on disk: resume({str(self.dir)!r}) continues from them") from None
+
+    def _own_files(self, record, own, vtk):
+        """This rank's files of a step: with ``vtk`` its VTK file of the fields (checked: NGSolve's
+        VTKOutput does not report a file it could not write), on a distributed mesh its part."""
+        n, comm = record.step, self.source.mesh.comm
+        if vtk:
+            stem = self.dir / "vtk" / f"fields_{n:06d}"
+            written = None if self.ranks > 1 and comm.rank == 0 else \
+                stem.with_name(stem.name + (f"_proc{comm.rank}" if self.ranks > 1 else "") + ".vtu")
+            if written is not None:
+                written.unlink(missing_ok=True)
+            fields_writer(self.source, stem).Do(time=record.time)
+            if written is not None and not written.is_file():
+                raise OSError(f"NGSolve's VTKOutput did not write {str(written)!r}")
+        if self.ranks > 1:
+            _atomic_write(part(self.dir, n, comm.rank), lambda p: _savez(p, own))
+
+    def _lead_files(self, record, arrays, vtk):
+        """Rank 0's files of a step, once every rank's own are on disk."""
         if self.lead:
             if vtk:
                 self._write_vtk(record)
@@ -198,6 +233,37 @@ class Stream:
         if name == "fields" and self.ranks > 1:
             return [(f' part="{r}"', f"fields_{m:06d}_proc{r}.vtu") for r in range(1, self.ranks)]
         return [("", f"{name}_{m:06d}.{ext}")]
+
+
+class FieldsSeries:
+    """``run(vtk=STEM)``: NGSolve's VTKOutput of u and φ into ``STEM.vtu``,
+    ``STEM_step00001.vtu``, ... (distributed: ``STEM_procR.vtu``, ``STEM_procR_step00001.vtu``
+    per computing rank R) and ``STEM.pvd``, one file per call ``series(time)``. VTKOutput does
+    not report a file it could not write: each rank checks its own, and an OSError on any
+    rank is raised on every rank, naming the time, the rank and the file."""
+
+    def __init__(self, source, stem):
+        self.mesh, self.stem, self.calls = source.mesh, pathlib.Path(stem), 0
+        self.writer = fields_writer(source, stem, legacy=False)
+
+    def __call__(self, time):
+        try:
+            parallel.together(self.mesh, self._write, time, errors=(OSError,))
+        except OSError as err:
+            raise type(err)(f"vtk: the fields at t = {time:.6g} s could not be written ({err})") from None
+        self.calls += 1
+
+    def _write(self, time):
+        distributed = parallel.is_distributed(self.mesh)
+        rank = self.mesh.comm.rank
+        written = None if distributed and rank == 0 else self.stem.with_name(
+            self.stem.name + (f"_proc{rank}" if distributed else "") + (f"_step{self.calls:05d}" if self.calls else "")
+            + ".vtu")
+        if written is not None:
+            written.unlink(missing_ok=True)
+        self.writer.Do(time=time)
+        if written is not None and not written.is_file():
+            raise OSError(f"NGSolve's VTKOutput did not write {str(written)!r}")
 
 
 def fields_writer(source, filename, **options):

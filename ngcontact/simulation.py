@@ -320,9 +320,9 @@ class Simulation:
         if out is not None:                      # checks the directory, writes the history so far
             callbacks.insert(0, results.Stream(self.results_source(), out, dt, T, start, resumed, rtol))
         if vtk is not None:                      # distributed: one .vtu per computing rank and step, one .pvd
-            writer = results.fields_writer(self.results_source(), vtk, legacy=False)
-            writer.Do(time=self.t)
-            callbacks.insert(0, lambda record: writer.Do(time=record.time))
+            series = results.FieldsSeries(self.results_source(), vtk)
+            series(self.t)
+            callbacks.insert(0, lambda record: series(record.time))
 
         def after(record):
             for callback in callbacks:

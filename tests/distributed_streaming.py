@@ -11,6 +11,10 @@ contact on). Rank 0 writes JSON to the last argument.
   and a resume from it, a resume from a copy of DIR without rank 2's part of the last step, and with
   another partition in its run.json, and resumes from DIR with another γ0, another time scheme
   and another u0.
+* ``fail DIR OUT`` (under mpiexec): runs streamed into DIR/part and DIR/archive, with a
+  directory put (by an ``on_step``) where rank 1's part, or rank 0's archive, of step ``FAIL``
+  goes; the OSError's message on every rank, the steps computed and the archives on disk; then
+  DIR/part resumed (the obstacle removed) and run to the end, and an uninterrupted run.
 * ``resume DIR OUT``: a resume from DIR; the message of every rank.
 """
 import json
@@ -23,7 +27,7 @@ import ngsolve as ngs
 from ngcontact import parallel
 from ngcontact.scenes import reference
 
-DT, STEPS, STOP = 2.5e-3, 10, 6
+DT, STEPS, STOP, FAIL = 2.5e-3, 10, 6, 4
 T = STEPS * DT
 
 
@@ -90,6 +94,33 @@ elif mode == "run":
     found["scene"] = refusal(lambda: simulation(contact=reference.contact(gamma0=100.0)).resume(directory))
     found["scheme"] = refusal(lambda: simulation(scheme="bdf2").resume(directory))
     found["start"] = refusal(lambda: simulation(u0=ngs.CF((0, -1e-7 * ngs.x / reference.L1))).resume(directory))
+elif mode == "fail":
+    def blocked(name):
+        """An on_step that, after step FAIL − 1 is on disk, puts a directory where the file
+        ``name`` of step FAIL goes (rank 0 does it; the step's collectives follow)."""
+        def block(record):
+            if record.step == FAIL - 1 and parallel.rank() == 0:
+                (record_dir / "steps" / name.format(n=FAIL)).mkdir()
+        return block
+    for case, name in (("part", "{n:06d}.rank1.npz"), ("archive", "{n:06d}.npz")):
+        record_dir = directory / case
+        sim = simulation()
+        try:
+            sim.run(DT, T, out=record_dir, on_step=blocked(name))
+            message = "no error"
+        except OSError as err:
+            message = f"{type(err).__name__}: {err}"
+        found[case] = dict(messages=parallel.every(sim.body.mesh, message), computed=len(sim.history),
+                           archives=sorted(p.name for p in (record_dir / "steps").glob("[0-9]*.npz") if p.is_file()))
+    resumed = simulation().resume(directory / "part")
+    found["resumed_at"] = len(resumed.history) - 1
+    if parallel.rank() == 0:
+        (directory / "part" / "steps" / f"{FAIL:06d}.rank1.npz").rmdir()
+    parallel.barrier(resumed.body.mesh)
+    resumed.run(DT, T, out=directory / "part")
+    sim = simulation()
+    sim.run(DT, T)
+    found.update(force=forces(resumed.history), uninterrupted=forces(sim.history))
 else:
     found["resume"] = refusal(lambda: simulation().resume(directory))
 if parallel.rank() == 0:

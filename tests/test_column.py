@@ -98,3 +98,14 @@ def test_vtk_output_per_step(uniaxial, tmp_path):
     assert len(files) == 3
     text = files[-1].read_text(errors="ignore")
     assert 'Name="displacement"' in text and 'Name="potential"' in text
+
+
+def test_a_vtk_file_that_cannot_be_written_stops_the_run(uniaxial, tmp_path):
+    """A directory where step 1's VTU file goes: NGSolve's VTKOutput would skip it without a
+    word; run(vtk=...) stops with an OSError naming the time and the file, step 1 kept."""
+    (tmp_path / "column_step00001.vtu").mkdir()
+    sim = column(uniaxial(), "bottom|top", ngc.Loads(f2={"top": (0, -P)}))
+    with pytest.raises(IsADirectoryError, match=r"^vtk: the fields at t = 0\.5 s could not be written \(\[Errno 21\] "
+                                                r"Is a directory: '.*column_step00001\.vtu'\)$"):
+        sim.run(dt=0.5, T=1, vtk=tmp_path / "column")
+    assert len(sim.history) == 2 and (tmp_path / "column.vtu").is_file()

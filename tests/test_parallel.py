@@ -250,6 +250,33 @@ def test_streamed_results_resume_distributed(tmp_path):
         r"simulation's by up to 1e-07 m \(of .* m; another u0\?\): not the same scene", run["start"][0])
 
 
+def test_a_failed_write_on_one_rank_stops_every_rank(tmp_path):
+    """``run(dt, T, out=DIR)`` under ``mpiexec -n 3`` (``tests/distributed_streaming.py fail``):
+    when rank 1 cannot write its part of step 4, or rank 0 the step's archive (a directory in
+    the way), every rank raises the same OSError naming the step, the rank and the file, instead
+    of waiting for ever in the next collective operation (the code before hung there); the
+    steps 0-3 are on disk with all their parts, step 4 (computed: 5 records in memory) has no
+    archive, and the run resumed from step 3 (the obstacle removed) ends with the contact
+    forces of an uninterrupted run."""
+    launch(3, str(HERE / "distributed_streaming.py"), "fail", tmp_path, tmp_path / "fail.json", timeout=300)
+    found = json.loads((tmp_path / "fail.json").read_text())
+    for case, rank, name in (("part", 1, "000004.rank1.npz"), ("archive", 0, "000004.npz")):
+        directory = tmp_path / case
+        messages = found[case]["messages"]
+        assert len(messages) == 3 and len(set(messages)) == 1, messages
+        assert messages[0].startswith(f"IsADirectoryError: out: step 4 could not be written into "
+                                      f"{str(directory)!r} (rank {rank}: [Errno 21] Is a directory: ")
+        assert messages[0].endswith(f"-> {str(directory / 'steps' / name)!r}); the steps before it are on disk: "
+                                    f"resume({str(directory)!r}) continues from them")
+        assert found[case]["computed"] == 5
+        on_disk = [f"{n:06d}{part}.npz" for n in range(4) for part in ("", ".rank0", ".rank1", ".rank2")]
+        parts = [f"000004.rank{r}.npz" for r in (0, 2)] if case == "part" else [f"000004.rank{r}.npz" for r in range(3)]
+        assert found[case]["archives"] == sorted(on_disk + parts)
+    assert found["resumed_at"] == 3
+    force, uninterrupted = np.array(found["force"]), np.array(found["uninterrupted"])
+    assert force.shape == (11, 2) and np.abs(force - uninterrupted).max() <= 1e-12 * np.abs(uninterrupted).max()
+
+
 def test_what_does_not_run_distributed_says_so(tmp_path):
     """A serial mesh given to Body, more computing ranks than elements, the nodal active set,
     GMRES with NGSolve's multigrid, a serial inverse, the Jacobian as a scipy matrix, the

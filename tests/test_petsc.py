@@ -9,8 +9,10 @@ import os
 import subprocess
 import sys
 
+import ngsolve as ngs
 import numpy as np
 import pytest
+from netgen.geom2d import unit_square
 
 import ngcontact as ngc
 from ngcontact import petsc_solver
@@ -384,6 +386,29 @@ def test_distributed_gamg_equals_the_serial_run(serial_runs, serial_indenter, tm
     assert distributed["krylov_failures"] == 0
     a, b = np.array(serial["force"]), np.array(distributed["force"])
     assert np.abs(a - b).max() <= 1e-8 * np.abs(a).max(), np.abs(a - b).max() / np.abs(a).max()
+
+
+def test_whether_a_fallback_factorisation_fits_depends_on_the_machine_not_the_moment(monkeypatch):
+    """``factorisation_fits`` compares ``FACTOR_BYTES`` · n^(4/3) (3D) or n log n (2D) with half
+    of the node's physical memory, whatever is free at the moment (an earlier version read
+    MemAvailable, so a busy machine changed the run): on a 24 GB node a 3D Jacobian fits up to
+    (0.5 · 24e9 / 210)^(3/4) DOFs and not 1 % beyond; reading /proc/meminfo fails the test."""
+    from ngcontact import checks, petsc_iterative
+    mesh = ngs.Mesh(unit_square.GenerateMesh(maxh=0.5))
+    monkeypatch.setattr(petsc_iterative, "node_memory", lambda: 24e9)
+    real_open = open
+
+    def no_meminfo(path, *args, **kwargs):
+        assert "meminfo" not in str(path), "the free memory of the moment was read"
+        return real_open(path, *args, **kwargs)
+    monkeypatch.setattr("builtins.open", no_meminfo)
+    limit = (0.5 * 24e9 / 210.0) ** 0.75
+    assert petsc_iterative.factorisation_fits(int(0.99 * limit), 3, mesh)
+    assert not petsc_iterative.factorisation_fits(int(1.01 * limit), 3, mesh)
+    n2 = 3.0e6                                            # 2D: 320 n log n = 1.43e10 > 1.2e10
+    assert not petsc_iterative.factorisation_fits(int(n2), 2, mesh)
+    assert petsc_iterative.factorisation_fits(int(2.0e6), 2, mesh)            # 9.3e9
+    assert checks.node_memory() == os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
 
 
 @needs_petsc

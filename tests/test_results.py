@@ -291,6 +291,54 @@ def test_a_missing_step_archive_is_named(tmp_path):
     assert [r.step for r in results.read(tmp_path)[1]] == [0, 1, 2, 3]
 
 
+def test_a_step_that_cannot_be_written_stops_the_run_and_keeps_the_steps(tmp_path):
+    """A directory where step 2's archive goes: the run stops with an OSError naming the step
+    and the file (not a step silently missing from disk); the 3 steps computed stay in
+    ``history``, steps 0-1 on disk; resumed from step 1, the run ends on the states of one
+    never interrupted."""
+    straight = reference.simulation(1, COARSE, **EXACT)
+    straight.run(DT, 3 * DT)
+
+    def block(record):
+        if record.step == 1:
+            (tmp_path / "steps" / "000002.npz").mkdir()
+    sim = reference.simulation(1, COARSE, **EXACT)
+    expected = (rf"^out: step 2 could not be written into {re.escape(repr(str(tmp_path)))} \(\[Errno 21\] Is a "
+                rf"directory: .* -> {re.escape(repr(str(tmp_path / 'steps' / '000002.npz')))}\); the steps before "
+                rf"it are on disk: resume\({re.escape(repr(str(tmp_path)))}\) continues from them$")
+    with pytest.raises(IsADirectoryError, match=expected):
+        sim.run(DT, 3 * DT, out=tmp_path, on_step=block)
+    assert len(sim.history) == 3 and sim.history[-1].time == pytest.approx(2 * DT, abs=1e-15)
+    (tmp_path / "steps" / "000002.npz").rmdir()
+    resumed = reference.simulation(1, COARSE, **EXACT).resume(tmp_path)
+    assert len(resumed.history) == 2
+    resumed.run(DT, 3 * DT, out=tmp_path)
+    assert np.abs(resumed.history[-1].state - straight.history[-1].state).max() <= \
+        1e-12 * np.abs(straight.history[-1].state).max()
+
+
+def test_a_vtk_file_that_was_not_written_stops_the_run(tmp_path, monkeypatch):
+    """NGSolve's VTKOutput says nothing when it cannot write its file (checked here: a stem in
+    a directory that does not exist); the stream checks the file of every step instead, and
+    a writer that writes nothing at step 1 stops the run with an OSError naming the file."""
+    mesh = reference.simulation(1, COARSE).body.mesh
+    ngs.VTKOutput(mesh, coefs=[ngs.x], names=["x"], filename=str(tmp_path / "absent" / "f")).Do()
+    assert not (tmp_path / "absent").exists()                  # ... and no error
+    writer = results.fields_writer
+
+    def silent(source, filename, **options):
+        if not str(filename).endswith("_000001"):
+            return writer(source, filename, **options)
+        return type("Silent", (), {"Do": lambda self, time=0.0: None})()
+    monkeypatch.setattr(results, "fields_writer", silent)
+    sim = reference.simulation(1, COARSE, **EXACT)
+    vtu = repr(str(tmp_path / "out" / "vtk" / "fields_000001.vtu"))
+    with pytest.raises(OSError, match=rf"^out: step 1 could not be written into .*\(NGSolve's VTKOutput did not "
+                                      rf"write {re.escape(vtu)}\); the steps before it are on disk"):
+        sim.run(DT, 3 * DT, out=tmp_path / "out")
+    assert len(sim.history) == 2 and [r.step for r in results.read(tmp_path / "out")[1]] == [0]
+
+
 @pytest.mark.parametrize("damage", ["truncated", "garbage"])
 def test_a_damaged_step_archive_is_named(tmp_path, damage):
     reference.simulation(1, COARSE).run(DT, 3 * DT, out=tmp_path)
