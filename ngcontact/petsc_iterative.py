@@ -11,7 +11,8 @@ preconditioner of ``multigrid`` built from PETSc's parts instead of nested meshe
      the SPD forms of ``forms.preconditioner_forms`` (u: the piezo-stiffened elasticity plus
      c times the viscosity; φ: the permittivity), u with the rigid-body motions as its near
      null space (without them GAMG needed 117 instead of 28 CG iterations on the 3D block's
-     u form at 15 315 DOFs);
+     u form at 15 315 DOFs) and its rows ordered node by node with block size d
+     (``node_by_node``: GAMG's setup 3.7× faster at 142 404 DOFs);
 
   y = S r;  y += B (r − J y);  y += S (r − J y),
 
@@ -102,8 +103,9 @@ class GamgSolver:
         n_u = self.body.V.ndof
         u_part = np.zeros(matrix.height)
         u_part[:n_u] = 1.0
-        self.fields = [_index_set(PETSc, mapping, template, u_part, 1.0), _index_set(PETSc, mapping, template,
-                                                                                      u_part, 0.0)]
+        self.fields = [node_by_node(PETSc, mapping, template, _index_set(PETSc, mapping, template, u_part, 1.0),
+                                    self.body.dim, n_u),
+                       _index_set(PETSc, mapping, template, u_part, 0.0)]
         layer = np.zeros(matrix.height)
         if self.layer is not None:
             layer[np.array(list(self.layer), dtype=bool)] = 1.0
@@ -156,7 +158,7 @@ class GamgSolver:
             pc.setFromOptions()
             pc.setUp()
             x, y = block.createVecs()
-            blocks.append((pc, x, y))
+            blocks.append((pc, x, y, PETSc.Scatter().create(self._d, rows, x, None)))
         self._bulk = blocks
 
     def _rigid_motions(self, PETSc, rows, block):
@@ -165,15 +167,14 @@ class GamgSolver:
         (``_setup``), not per rate coefficient."""
         gf = ngs.GridFunction(self.system.X)
         vectors = []
+        gather = PETSc.Scatter().create(self._d, rows, block.createVecRight(), None)   # rows: not all owned here
         for values in rigid_motion_values(self.body, self.system.X):
             gf.vec.FV().NumPy()[:] = values
             if gf.vec.GetParallelStatus() != ngs.la.PARALLEL_STATUS.NOT_PARALLEL:
                 gf.vec.SetParallelStatus(ngs.la.PARALLEL_STATUS.CUMULATED)
             full = self.J.vectors.petscVec(gf.vec)
-            part = block.createVecRight()
-            full.getSubVector(rows, part)
-            vector = part.copy()
-            full.restoreSubVector(rows, part)
+            vector = block.createVecRight()
+            gather.scatter(full, vector, addv=PETSc.InsertMode.INSERT_VALUES, mode=PETSc.ScatterMode.FORWARD)
             for earlier in vectors:
                 vector.axpy(-vector.dot(earlier), earlier)
             vector.normalize()
@@ -215,18 +216,18 @@ class GamgSolver:
         self.factorizations += 1
 
     def _add_bulk(self, r, y):
-        """y += diag(GAMG_u, −GAMG_φ) r."""
-        for sign, rows, block in zip((1.0, -1.0), self.fields, self._bulk):
+        """y += diag(GAMG_u, −GAMG_φ) r (each block's rows gathered from r and added back into
+        y by a scatter made with the block)."""
+        PETSc, _ = load()
+        for sign, block in zip((1.0, -1.0), self._bulk):
             if block is None:
                 continue
-            pc, x, z = block
-            part = r.getSubVector(rows)
-            part.copy(x)
-            r.restoreSubVector(rows, part)
+            pc, x, z, scatter = block
+            scatter.scatter(r, x, addv=PETSc.InsertMode.INSERT_VALUES, mode=PETSc.ScatterMode.FORWARD)
             pc.apply(x, z)
-            part = y.getSubVector(rows)
-            part.axpy(sign, z)
-            y.restoreSubVector(rows, part)
+            if sign < 0:
+                z.scale(-1.0)
+            scatter.scatter(z, y, addv=PETSc.InsertMode.ADD_VALUES, mode=PETSc.ScatterMode.REVERSE)
 
     def _apply(self, r, y):
         """y = M r (module docstring), on J's PETSc vectors. S's y is zero off Γ3, and S reads
@@ -355,6 +356,53 @@ def rigid_motion_values(body, X):
         for component, part in enumerate(motion):
             values[component * scalar:component * scalar + nv] = part
         yield values
+
+
+def node_by_node(PETSc, mapping, template, rows, ncomp, n_u):
+    """u's rows of J (the index set ``rows``) reordered node by node, the ``ncomp`` components
+    of each scalar DOF together, as an index set of block size ncomp: GAMG then aggregates
+    nodes (its graph of the ncomp × ncomp blocks) instead of single components. 3D block P1,
+    u's preconditioner form at 142 404 DOFs, one core: GAMG's setup 1.57 against 5.8 s, a
+    V-cycle 0.025 against 0.036 s, CG (1e-8) the same 20–22 iterations. VectorH1 numbers its
+    DOFs component by component (the first n_u/ncomp are x); each DOF is tagged with
+    (its owner's rank, its scalar DOF, its component), which the owner's copy carries into J's
+    numbering; distributed, PETSc's rows of one node may be on different ranks, so every node's
+    rows are sent to its NGSolve master, which obtains them in the block (the index set holds
+    the rows this rank obtains, owned here or not). ``rows`` is returned unchanged (block size
+    1) where some scalar DOF has fewer than ncomp free components (a support that holds one
+    component of u)."""
+    nscalar = n_u // ncomp
+    comm = rows.getComm().tompi4py() if rows.getComm().getSize() > 1 else None
+    rank = 0 if comm is None else comm.rank
+    dof = np.arange(n_u, dtype=np.int64)
+    tag = np.zeros(len(template.FV().NumPy()))
+    tag[:n_u] = (((rank << 32) + dof % nscalar) * 4 + dof // nscalar).astype(np.float64)   # exact below 2^53
+    vec = template.CreateVector()
+    vec.FV().NumPy()[:] = tag
+    if vec.GetParallelStatus() != ngs.la.PARALLEL_STATUS.NOT_PARALLEL:
+        vec.SetParallelStatus(ngs.la.PARALLEL_STATUS.CUMULATED)
+    tagged = mapping.petscVec(vec)
+    start, _ = tagged.getOwnershipRange()
+    indices = rows.getIndices()
+    values = np.rint(tagged.getArray(readonly=True)[indices - start]).astype(np.int64)
+    if comm is not None:         # PETSc's rows of a node may lie on several ranks: each node's go to
+        owner = values // 4 >> 32    # its NGSolve master (its tag's rank), which takes them in the block
+        sent = comm.alltoall([np.stack([indices[owner == r], values[owner == r]]) for r in range(comm.size)])
+        indices, values = (np.concatenate([part[i] for part in sent]) for i in (0, 1))
+    node, component = values // 4, values % 4
+    order = np.lexsort((component, node))
+    grouped = len(order) % ncomp == 0
+    if grouped:
+        node, component = node[order].reshape(-1, ncomp), component[order].reshape(-1, ncomp)
+        grouped = bool(np.all(node == node[:, :1]) and np.all(component == np.arange(ncomp)))
+    if comm is not None:
+        from mpi4py import MPI
+        grouped = comm.allreduce(grouped, op=MPI.LAND)
+    if not grouped:
+        return rows
+    ordered = PETSc.IS().createGeneral(indices[order].astype(PETSc.IntType), comm=rows.getComm())
+    ordered.setBlockSize(ncomp)
+    return ordered
 
 
 def _index_set(PETSc, mapping, template, indicator, value):

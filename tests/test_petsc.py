@@ -378,14 +378,55 @@ def test_distributed_gamg_equals_the_serial_run(serial_runs, serial_indenter, tm
     failure (the block's first step, 50 ms into deep first contact, takes 13 Newton iterations
     after 50 discarded ones with every solver; asked for the step's final accuracy after each
     rise of the residual, GMRES failed there 1-2 times and a factorisation solved:
-    ``newton.forcing_term``, ``krylov_failures``)."""
+    ``newton.forcing_term``, ``krylov_failures``); u's GAMG block is ordered node by node on
+    every rank where every node has all components free (the block), not under rollers."""
     launch(ranks, str(HERE / "distributed_scenes.py"), scene, "gamg", str(tmp_path / "run.json"), timeout=900)
     distributed = json.loads((tmp_path / "run.json").read_text())
     serial = serial_runs[scene] if scene == "block" else serial_indenter
     assert distributed["solver"].startswith("GamgSolver(") and distributed["ranks"] == ranks
     assert distributed["krylov_failures"] == 0
+    # GAMG's u block node by node with block size 3 on every rank; the indenter's rollers hold
+    # one component of the bottom's nodes: component by component there (``node_by_node``)
+    assert distributed["u_block_size"] == ranks * [3 if scene == "block" else 1]
     a, b = np.array(serial["force"]), np.array(distributed["force"])
     assert np.abs(a - b).max() <= 1e-8 * np.abs(a).max(), np.abs(a - b).max() / np.abs(a).max()
+
+
+@needs_petsc
+def test_gamg_orders_u_node_by_node():
+    """``petsc_iterative.node_by_node``: on the 3D block (clamped: every free node has its 3
+    components free) GAMG's u rows are the free u DOFs node by node, (x, y, z) of one scalar
+    DOF of VectorH1 (its DOFs d, d + n, d + 2n) in consecutive rows, block size 3, and u's GAMG
+    operator is that reordering of the preconditioner form's u block (to 0); with the
+    component tags scrambled the rows stay as they were (block size 1)."""
+    from ngcontact import petsc_iterative
+    from ngcontact.petsc_solver import PetscMatrix, load
+    sim = reference.simulation(1, 0.01, 1, 3, keep_states=False, iterative="gamg")
+    sim.run(2 ** -8, 2 ** -8)
+    solver = sim.newton.solver
+    rows = solver.fields[0]
+    assert rows.getBlockSize() == 3
+    free = np.flatnonzero(np.array(list(sim.newton.freedofs), dtype=bool))     # PETSc row i: free DOF i
+    dofs = free[rows.getIndices()].reshape(-1, 3)
+    n = sim.body.V.ndof // 3
+    assert len(dofs) * 3 == np.count_nonzero(free < sim.body.V.ndof) > 2000
+    assert np.all(dofs[:, 1] == dofs[:, 0] + n) and np.all(dofs[:, 2] == dofs[:, 0] + 2 * n)
+    PETSc, _ = load()
+    (u, phi), (v, xi) = sim.system.X.TnT()
+    form = ngs.BilinearForm(sim.system.X, symmetric=True)
+    form += sum(petsc_iterative.forms.preconditioner_forms(sim.body, u, v, phi, xi, sim.system.coefficients.rate)) * ngs.dx
+    form.Assemble()
+    P = PetscMatrix(form.mat, sim.newton.freedofs).mat
+    operator = solver._bulk[0][0].getOperators()[0]
+    ptr, cols, values = operator.getValuesCSR()
+    expected = P.createSubMatrix(rows, rows).getValuesCSR()
+    assert operator.getBlockSize() == 3 and np.array_equal(ptr, expected[0]) and np.array_equal(cols, expected[1])
+    assert np.abs(values - expected[2]).max() <= 1e-12 * np.abs(values).max()
+    plain = petsc_iterative._index_set(PETSc, solver.J.vectors, form.mat.CreateColVector(),
+                                       np.r_[np.ones(sim.body.V.ndof), np.zeros(sim.system.X.ndof - sim.body.V.ndof)], 1.0)
+    scrambled = petsc_iterative.node_by_node(PETSc, solver.J.vectors, form.mat.CreateColVector(), plain, 3,
+                                             sim.body.V.ndof - 3)
+    assert scrambled is plain and scrambled.getBlockSize() == 1
 
 
 def test_whether_a_fallback_factorisation_fits_depends_on_the_machine_not_the_moment(monkeypatch):
