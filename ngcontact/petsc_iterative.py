@@ -12,7 +12,7 @@ preconditioner of ``multigrid`` built from PETSc's parts instead of nested meshe
      c times the viscosity; φ: the permittivity), u with the rigid-body motions as its near
      null space (without them GAMG needed 117 instead of 28 CG iterations on the 3D block's
      u form at 15 315 DOFs) and its rows ordered node by node with block size d
-     (``node_by_node``: GAMG's setup 3.7× faster at 142 404 DOFs);
+     (``petsc_blocks.node_by_node``: GAMG's setup 3.7× faster at 142 404 DOFs);
 
   y = S r;  y += B (r − J y);  y += S (r − J y),
 
@@ -43,6 +43,7 @@ import numpy as np
 from . import forms, parallel
 from .checks import node_memory
 from .machine_code import compile_bulk, compiled
+from .petsc_blocks import index_set, node_by_node, rigid_motion_values
 from .petsc_solver import MumpsFactorization, PetscMatrix, WeightedGmres, load
 
 
@@ -103,13 +104,13 @@ class GamgSolver:
         n_u = self.body.V.ndof
         u_part = np.zeros(matrix.height)
         u_part[:n_u] = 1.0
-        self.fields = [node_by_node(PETSc, mapping, template, _index_set(PETSc, mapping, template, u_part, 1.0),
+        self.fields = [node_by_node(PETSc, mapping, template, index_set(PETSc, mapping, template, u_part, 1.0),
                                     self.body.dim, n_u),
-                       _index_set(PETSc, mapping, template, u_part, 0.0)]
+                       index_set(PETSc, mapping, template, u_part, 0.0)]
         layer = np.zeros(matrix.height)
         if self.layer is not None:
             layer[np.array(list(self.layer), dtype=bool)] = 1.0
-        self.surface_rows = _index_set(PETSc, mapping, template, layer, 1.0)
+        self.surface_rows = index_set(PETSc, mapping, template, layer, 1.0)
         self._surface = self._surface_matrix = None
         self._near_null_space = None                  # GAMG's, for these rows: made once
         self._bulk = None                             # B for these rows (``_preconditioners``)
@@ -322,97 +323,3 @@ def factorisation_fits(ndof, dim, mesh):
     share = total / local.size
     local.Free()
     return bool(comm.allreduce(need / max(1, comm.size - 1) <= FACTOR_SHARE * share, op=MPI.LAND))
-
-
-def rigid_motion_values(body, X):
-    """The rigid-body motions of u (2D: the translations and the rotation about z; 3D: the
-    translations and the rotations about x, y, z) as arrays over the DOFs of the product space
-    ``X`` (u first; φ 0), on this process's part of the mesh.
-
-    With NGSolve's hierarchical H1 basis a linear function is its vertex values (DOF v of each
-    component is vertex v, the higher-order DOFs are 0; on a straight-sided mesh exactly what
-    ``GridFunction.Set`` gives, to round-off): read from the vertex coordinates instead of 6
-    ``Set`` calls, which took 29 s at 1.06·10⁶ DOFs (3D P1, one thread)."""
-    dim, V = body.dim, body.V
-    if body.mesh.ne == 0:                                 # rank 0 of a distributed mesh: no elements
-        for _ in range(3 if dim == 2 else 6):
-            yield np.zeros(X.ndof)
-        return
-    scalar = V.ndof // dim                                # VectorH1: one H1 space per component
-    points = np.array(body.mesh.ngmesh.Coordinates())[:, :dim]
-    if V.ndof != dim * scalar or len(points) != body.mesh.nv or scalar < body.mesh.nv:
-        raise ValueError(f"rigid motions need u in a VectorH1 space ({V.ndof} DOFs, {body.mesh.nv} vertices)")
-    x, y = points[:, 0], points[:, 1]
-    one, zero = np.ones_like(x), np.zeros_like(x)
-    if dim == 2:
-        motions = [(one, zero), (zero, one), (-y, x)]
-    else:
-        z = points[:, 2]
-        motions = [(one, zero, zero), (zero, one, zero), (zero, zero, one), (-y, x, zero), (zero, -z, y),
-                   (z, zero, -x)]
-    nv = len(points)
-    for motion in motions:
-        values = np.zeros(X.ndof)
-        for component, part in enumerate(motion):
-            values[component * scalar:component * scalar + nv] = part
-        yield values
-
-
-def node_by_node(PETSc, mapping, template, rows, ncomp, n_u):
-    """u's rows of J (the index set ``rows``) reordered node by node, the ``ncomp`` components
-    of each scalar DOF together, as an index set of block size ncomp: GAMG then aggregates
-    nodes (its graph of the ncomp × ncomp blocks) instead of single components. 3D block P1,
-    u's preconditioner form at 142 404 DOFs, one core: GAMG's setup 1.57 against 5.8 s, a
-    V-cycle 0.025 against 0.036 s, CG (1e-8) the same 20–22 iterations. VectorH1 numbers its
-    DOFs component by component (the first n_u/ncomp are x); each DOF is tagged with
-    (its owner's rank, its scalar DOF, its component), which the owner's copy carries into J's
-    numbering; distributed, PETSc's rows of one node may be on different ranks, so every node's
-    rows are sent to its NGSolve master, which obtains them in the block (the index set holds
-    the rows this rank obtains, owned here or not). ``rows`` is returned unchanged (block size
-    1) where some scalar DOF has fewer than ncomp free components (a support that holds one
-    component of u)."""
-    nscalar = n_u // ncomp
-    comm = rows.getComm().tompi4py() if rows.getComm().getSize() > 1 else None
-    rank = 0 if comm is None else comm.rank
-    dof = np.arange(n_u, dtype=np.int64)
-    tag = np.zeros(len(template.FV().NumPy()))
-    tag[:n_u] = (((rank << 32) + dof % nscalar) * 4 + dof // nscalar).astype(np.float64)   # exact below 2^53
-    vec = template.CreateVector()
-    vec.FV().NumPy()[:] = tag
-    if vec.GetParallelStatus() != ngs.la.PARALLEL_STATUS.NOT_PARALLEL:
-        vec.SetParallelStatus(ngs.la.PARALLEL_STATUS.CUMULATED)
-    tagged = mapping.petscVec(vec)
-    start, _ = tagged.getOwnershipRange()
-    indices = rows.getIndices()
-    values = np.rint(tagged.getArray(readonly=True)[indices - start]).astype(np.int64)
-    if comm is not None:         # PETSc's rows of a node may lie on several ranks: each node's go to
-        owner = values // 4 >> 32    # its NGSolve master (its tag's rank), which takes them in the block
-        sent = comm.alltoall([np.stack([indices[owner == r], values[owner == r]]) for r in range(comm.size)])
-        indices, values = (np.concatenate([part[i] for part in sent]) for i in (0, 1))
-    node, component = values // 4, values % 4
-    order = np.lexsort((component, node))
-    grouped = len(order) % ncomp == 0
-    if grouped:
-        node, component = node[order].reshape(-1, ncomp), component[order].reshape(-1, ncomp)
-        grouped = bool(np.all(node == node[:, :1]) and np.all(component == np.arange(ncomp)))
-    if comm is not None:
-        from mpi4py import MPI
-        grouped = comm.allreduce(grouped, op=MPI.LAND)
-    if not grouped:
-        return rows
-    ordered = PETSc.IS().createGeneral(indices[order].astype(PETSc.IntType), comm=rows.getComm())
-    ordered.setBlockSize(ncomp)
-    return ordered
-
-
-def _index_set(PETSc, mapping, template, indicator, value):
-    """The PETSc index set of the rows of J (free DOFs, ``mapping``'s layout) whose
-    ``indicator`` (numpy over the DOFs of ``template``'s space) equals ``value``."""
-    vec = template.CreateVector()
-    vec.FV().NumPy()[:] = indicator == value
-    if vec.GetParallelStatus() != ngs.la.PARALLEL_STATUS.NOT_PARALLEL:
-        vec.SetParallelStatus(ngs.la.PARALLEL_STATUS.CUMULATED)
-    marked = mapping.petscVec(vec)
-    start, _ = marked.getOwnershipRange()
-    rows = start + np.flatnonzero(marked.getArray() > 0.5)
-    return PETSc.IS().createGeneral(rows.astype(PETSc.IntType), comm=marked.getComm())

@@ -39,6 +39,12 @@ archive last: a step is on disk when its archive is (parts without an archive, o
 in between, are ignored and overwritten). ``numpy.load`` reads the archives; ``read(DIR)``
 stacks the records (of a distributed run too, in a serial process).
 
+A write that fails (a full disk, a directory in the way, NGSolve's VTKOutput leaving a file
+unwritten, which it does without a word) stops the run with an OSError on every rank, naming
+the step, the rank and the file: no rank waits for ever in a collective operation that a
+failed rank never reaches. The steps before it stay on disk, the step computed stays in the
+simulation's history, and ``resume(DIR)`` continues from the last step on disk.
+
 ``Simulation.resume(DIR)`` puts the last step on disk back into a simulation of the same scene
 and scheme (its history, and the scheme's restart state through its ``load``; distributed:
 each rank its own parts), and ``run(dt, T, out=DIR)`` with the same dt and T then computes only
@@ -59,10 +65,10 @@ from dataclasses import dataclass
 from importlib.metadata import PackageNotFoundError, version
 from typing import Callable
 
-import ngsolve as ngs
 import numpy as np
 
 from . import parallel
+from .paraview import checked_vtk, fields_writer, gamma3_vtp
 from .records import History
 from .run_directory import (check_partition, check_ranks, check_run, check_scene, check_scheme, check_start, load,
                             load_part, part, read_steps, record_arrays, run_info)
@@ -194,11 +200,7 @@ class Stream:
             stem = self.dir / "vtk" / f"fields_{n:06d}"
             written = None if self.ranks > 1 and comm.rank == 0 else \
                 stem.with_name(stem.name + (f"_proc{comm.rank}" if self.ranks > 1 else "") + ".vtu")
-            if written is not None:
-                written.unlink(missing_ok=True)
-            fields_writer(self.source, stem).Do(time=record.time)
-            if written is not None and not written.is_file():
-                raise OSError(f"NGSolve's VTKOutput did not write {str(written)!r}")
+            checked_vtk(fields_writer(self.source, stem), record.time, written)
         if self.ranks > 1:
             _atomic_write(part(self.dir, n, comm.rank), lambda p: _savez(p, own))
 
@@ -214,7 +216,7 @@ class Stream:
         n, vtk = record.step, self.dir / "vtk"
         (vtk / f"fields_{n:06d}.pvd").unlink(missing_ok=True)      # VTKOutput's own (distributed)
         if record.contact is not None:
-            _atomic_write(vtk / f"gamma3_{n:06d}.vtp", lambda p: p.write_text(_gamma3_vtp(self._facets,
+            _atomic_write(vtk / f"gamma3_{n:06d}.vtp", lambda p: p.write_text(gamma3_vtp(self._facets,
                                                                                            record.contact)))
         self._times = {m: t for m, t in self._times.items() if m < n}     # a redone step replaces
         self._times[n] = record.time
@@ -235,75 +237,11 @@ class Stream:
         return [("", f"{name}_{m:06d}.{ext}")]
 
 
-class FieldsSeries:
-    """``run(vtk=STEM)``: NGSolve's VTKOutput of u and φ into ``STEM.vtu``,
-    ``STEM_step00001.vtu``, ... (distributed: ``STEM_procR.vtu``, ``STEM_procR_step00001.vtu``
-    per computing rank R) and ``STEM.pvd``, one file per call ``series(time)``. VTKOutput does
-    not report a file it could not write: each rank checks its own, and an OSError on any
-    rank is raised on every rank, naming the time, the rank and the file."""
-
-    def __init__(self, source, stem):
-        self.mesh, self.stem, self.calls = source.mesh, pathlib.Path(stem), 0
-        self.writer = fields_writer(source, stem, legacy=False)
-
-    def __call__(self, time):
-        try:
-            parallel.together(self.mesh, self._write, time, errors=(OSError,))
-        except OSError as err:
-            raise type(err)(f"vtk: the fields at t = {time:.6g} s could not be written ({err})") from None
-        self.calls += 1
-
-    def _write(self, time):
-        distributed = parallel.is_distributed(self.mesh)
-        rank = self.mesh.comm.rank
-        written = None if distributed and rank == 0 else self.stem.with_name(
-            self.stem.name + (f"_proc{rank}" if distributed else "") + (f"_step{self.calls:05d}" if self.calls else "")
-            + ".vtu")
-        if written is not None:
-            written.unlink(missing_ok=True)
-        self.writer.Do(time=time)
-        if written is not None and not written.is_file():
-            raise OSError(f"NGSolve's VTKOutput did not write {str(written)!r}")
-
-
-def fields_writer(source, filename, **options):
-    """NGSolve's VTKOutput of u and φ ("displacement", "potential") of ``source`` into
-    ``filename`` (a stem; ``options`` such as ``legacy=False`` go to VTKOutput)."""
-    return ngs.VTKOutput(source.mesh, coefs=list(source.fields), names=["displacement", "potential"],
-                         filename=str(filename), subdivision=source.subdivision, **options)
-
-
 def _savez(path, arrays):
     with open(path, "wb") as f:
         np.savez(f, **arrays)
         f.flush()
         os.fsync(f.fileno())
-
-
-def _gamma3_vtp(facets, contact):
-    """The facets of Γ3 (their vertices, facets × dim × dim, in the order of the record's
-    arrays) as VTK PolyData (lines in 2D, triangles in 3D), fields as cell data."""
-    dim = facets.shape[-1]
-    points = np.zeros((facets.shape[0] * dim, 3))
-    points[:, :dim] = facets.reshape(-1, dim)
-    cells = np.arange(len(points)).reshape(-1, dim)
-    offsets = np.arange(1, len(facets) + 1) * dim
-    kind = "Lines" if dim == 2 else "Polys"
-
-    def array(name, values, typ="Float64", components=1):
-        text = " ".join(repr(float(v)) if typ == "Float64" else str(int(v)) for v in np.ravel(values))
-        return (f'<DataArray type="{typ}" Name="{name}" NumberOfComponents="{components}" format="ascii">'
-                f"{text}</DataArray>\n")
-    fields = dict(beta=contact.beta, pressure=contact.pressure, multiplier=contact.multiplier,
-                  charge_flux_density=contact.charge_flux_density, potential=contact.potential,
-                  contact_set=contact.contact_set)
-    counts = f'NumberOfLines="{len(facets) if dim == 2 else 0}" NumberOfPolys="{len(facets) if dim == 3 else 0}"'
-    return ('<?xml version="1.0"?>\n<VTKFile type="PolyData" version="1.0" byte_order="LittleEndian">\n'
-            f'<PolyData>\n<Piece NumberOfPoints="{len(points)}" NumberOfVerts="0" {counts} NumberOfStrips="0">\n'
-            "<Points>\n" + array("points", points, components=3) + "</Points>\n"
-            f"<{kind}>\n" + array("connectivity", cells, "Int64") + array("offsets", offsets, "Int64")
-            + f"</{kind}>\n<CellData>\n" + "".join(array(k, v) for k, v in fields.items())
-            + "</CellData>\n</Piece>\n</PolyData>\n</VTKFile>\n")
 
 
 def read(directory):

@@ -13,7 +13,7 @@ from functools import partial
 import ngsolve as ngs
 import numpy as np
 
-from . import arguments, gamma3, parallel, results, stepping
+from . import arguments, gamma3, parallel, paraview, results, stepping
 from .fingerprint import fingerprint
 from .admissible import PhysicsWarning, check_initial_displacement, check_supports_at_start, flags, scene_flags
 from .checks import integer, number, uses_only
@@ -320,7 +320,7 @@ class Simulation:
         if out is not None:                      # checks the directory, writes the history so far
             callbacks.insert(0, results.Stream(self.results_source(), out, dt, T, start, resumed, rtol))
         if vtk is not None:                      # distributed: one .vtu per computing rank and step, one .pvd
-            series = results.FieldsSeries(self.results_source(), vtk)
+            series = paraview.FieldsSeries(self.results_source(), vtk)
             series(self.t)
             callbacks.insert(0, lambda record: series(record.time))
 

@@ -338,7 +338,7 @@ def test_rigid_motions_from_the_vertices_are_the_interpolated_motions(order, dim
     to a force 10⁻¹⁰ of its size on a stretch (a rigid motion has no strain; the vertex values
     of a wrong component or a DOF offset would not)."""
     import ngsolve as ngs
-    from ngcontact.petsc_iterative import rigid_motion_values
+    from ngcontact.petsc_blocks import rigid_motion_values
     sim = reference.simulation(order, 0.02 if dim == 3 else 0.01, 0, dim, keep_states=False)
     X = sim.system.X
     x, y, z = ngs.x, ngs.y, ngs.z
@@ -394,12 +394,12 @@ def test_distributed_gamg_equals_the_serial_run(serial_runs, serial_indenter, tm
 
 @needs_petsc
 def test_gamg_orders_u_node_by_node():
-    """``petsc_iterative.node_by_node``: on the 3D block (clamped: every free node has its 3
+    """``petsc_blocks.node_by_node``: on the 3D block (clamped: every free node has its 3
     components free) GAMG's u rows are the free u DOFs node by node, (x, y, z) of one scalar
     DOF of VectorH1 (its DOFs d, d + n, d + 2n) in consecutive rows, block size 3, and u's GAMG
     operator is that reordering of the preconditioner form's u block (to 0); with the
     component tags scrambled the rows stay as they were (block size 1)."""
-    from ngcontact import petsc_iterative
+    from ngcontact import forms, petsc_blocks
     from ngcontact.petsc_solver import PetscMatrix, load
     sim = reference.simulation(1, 0.01, 1, 3, keep_states=False, iterative="gamg")
     sim.run(2 ** -8, 2 ** -8)
@@ -414,7 +414,7 @@ def test_gamg_orders_u_node_by_node():
     PETSc, _ = load()
     (u, phi), (v, xi) = sim.system.X.TnT()
     form = ngs.BilinearForm(sim.system.X, symmetric=True)
-    form += sum(petsc_iterative.forms.preconditioner_forms(sim.body, u, v, phi, xi, sim.system.coefficients.rate)) * ngs.dx
+    form += sum(forms.preconditioner_forms(sim.body, u, v, phi, xi, sim.system.coefficients.rate)) * ngs.dx
     form.Assemble()
     P = PetscMatrix(form.mat, sim.newton.freedofs).mat
     operator = solver._bulk[0][0].getOperators()[0]
@@ -422,9 +422,9 @@ def test_gamg_orders_u_node_by_node():
     expected = P.createSubMatrix(rows, rows).getValuesCSR()
     assert operator.getBlockSize() == 3 and np.array_equal(ptr, expected[0]) and np.array_equal(cols, expected[1])
     assert np.abs(values - expected[2]).max() <= 1e-12 * np.abs(values).max()
-    plain = petsc_iterative._index_set(PETSc, solver.J.vectors, form.mat.CreateColVector(),
+    plain = petsc_blocks.index_set(PETSc, solver.J.vectors, form.mat.CreateColVector(),
                                        np.r_[np.ones(sim.body.V.ndof), np.zeros(sim.system.X.ndof - sim.body.V.ndof)], 1.0)
-    scrambled = petsc_iterative.node_by_node(PETSc, solver.J.vectors, form.mat.CreateColVector(), plain, 3,
+    scrambled = petsc_blocks.node_by_node(PETSc, solver.J.vectors, form.mat.CreateColVector(), plain, 3,
                                              sim.body.V.ndof - 3)
     assert scrambled is plain and scrambled.getBlockSize() == 1
 
