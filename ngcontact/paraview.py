@@ -28,12 +28,18 @@ class FieldsSeries:
         self.calls += 1
 
     def _write(self, time):
-        distributed = parallel.is_distributed(self.mesh)
-        rank = self.mesh.comm.rank
-        written = None if distributed and rank == 0 else self.stem.with_name(
-            self.stem.name + (f"_proc{rank}" if distributed else "") + (f"_step{self.calls:05d}" if self.calls else "")
-            + ".vtu")
-        checked_vtk(self.writer, time, written)
+        checked_vtk(self.writer, time, own_vtu(self.mesh, self.stem, f"_step{self.calls:05d}" if self.calls else ""))
+
+
+def own_vtu(mesh, stem, suffix=""):
+    """The .vtu file this rank's VTKOutput writes for ``stem`` (and ``suffix``, its step):
+    ``stem + suffix``, distributed ``stem_procR + suffix`` on computing rank R; None on rank 0
+    of a distributed mesh, which holds no cells."""
+    stem = pathlib.Path(stem)
+    if not parallel.is_distributed(mesh):
+        return stem.with_name(f"{stem.name}{suffix}.vtu")
+    rank = mesh.comm.rank
+    return None if rank == 0 else stem.with_name(f"{stem.name}_proc{rank}{suffix}.vtu")
 
 
 def checked_vtk(writer, time, written):

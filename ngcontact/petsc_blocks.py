@@ -58,11 +58,7 @@ def node_by_node(PETSc, mapping, template, rows, ncomp, n_u):
     dof = np.arange(n_u, dtype=np.int64)
     tag = np.zeros(len(template.FV().NumPy()))
     tag[:n_u] = (((rank << 32) + dof % nscalar) * 4 + dof // nscalar).astype(np.float64)   # exact below 2^53
-    vec = template.CreateVector()
-    vec.FV().NumPy()[:] = tag
-    if vec.GetParallelStatus() != ngs.la.PARALLEL_STATUS.NOT_PARALLEL:
-        vec.SetParallelStatus(ngs.la.PARALLEL_STATUS.CUMULATED)
-    tagged = mapping.petscVec(vec)
+    tagged = petsc_vector(mapping, template, tag)
     start, _ = tagged.getOwnershipRange()
     indices = rows.getIndices()
     values = np.rint(tagged.getArray(readonly=True)[indices - start]).astype(np.int64)
@@ -89,11 +85,18 @@ def node_by_node(PETSc, mapping, template, rows, ncomp, n_u):
 def index_set(PETSc, mapping, template, indicator, value):
     """The PETSc index set of the rows of J (free DOFs, ``mapping``'s layout) whose
     ``indicator`` (numpy over the DOFs of ``template``'s space) equals ``value``."""
-    vec = template.CreateVector()
-    vec.FV().NumPy()[:] = indicator == value
-    if vec.GetParallelStatus() != ngs.la.PARALLEL_STATUS.NOT_PARALLEL:
-        vec.SetParallelStatus(ngs.la.PARALLEL_STATUS.CUMULATED)
-    marked = mapping.petscVec(vec)
+    marked = petsc_vector(mapping, template, indicator == value)
     start, _ = marked.getOwnershipRange()
     rows = start + np.flatnonzero(marked.getArray() > 0.5)
     return PETSc.IS().createGeneral(rows.astype(PETSc.IntType), comm=marked.getComm())
+
+
+def petsc_vector(mapping, template, values):
+    """``values`` (numpy over the DOFs of ``template``'s space on this process, every copy of
+    an interface DOF holding the value) as a PETSc vector in J's numbering (``mapping``,
+    ngsPETSc's: a row takes the value of its DOF's NGSolve master)."""
+    vec = template.CreateVector()
+    vec.FV().NumPy()[:] = values
+    if vec.GetParallelStatus() != ngs.la.PARALLEL_STATUS.NOT_PARALLEL:
+        vec.SetParallelStatus(ngs.la.PARALLEL_STATUS.CUMULATED)
+    return mapping.petscVec(vec)

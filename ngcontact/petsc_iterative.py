@@ -43,7 +43,7 @@ import numpy as np
 from . import forms, parallel
 from .checks import node_memory
 from .machine_code import compile_bulk, compiled
-from .petsc_blocks import index_set, node_by_node, rigid_motion_values
+from .petsc_blocks import index_set, node_by_node, petsc_vector, rigid_motion_values
 from .petsc_solver import MumpsFactorization, PetscMatrix, WeightedGmres, load
 
 
@@ -166,14 +166,11 @@ class GamgSolver:
         """The rigid-body motions of u (translations, rotations about the axes), restricted to
         the free u DOFs and orthonormalised, as GAMG's near null space; made once per pattern
         (``_setup``), not per rate coefficient."""
-        gf = ngs.GridFunction(self.system.X)
         vectors = []
         gather = PETSc.Scatter().create(self._d, rows, block.createVecRight(), None)   # rows: not all owned here
+        template = ngs.GridFunction(self.system.X).vec
         for values in rigid_motion_values(self.body, self.system.X):
-            gf.vec.FV().NumPy()[:] = values
-            if gf.vec.GetParallelStatus() != ngs.la.PARALLEL_STATUS.NOT_PARALLEL:
-                gf.vec.SetParallelStatus(ngs.la.PARALLEL_STATUS.CUMULATED)
-            full = self.J.vectors.petscVec(gf.vec)
+            full = petsc_vector(self.J.vectors, template, values)
             vector = block.createVecRight()
             gather.scatter(full, vector, addv=PETSc.InsertMode.INSERT_VALUES, mode=PETSc.ScatterMode.FORWARD)
             for earlier in vectors:
@@ -204,6 +201,7 @@ class GamgSolver:
             self._surface.setFromOptions()
             self._sr, self._sy = self._surface_matrix.createVecs()
             self._sd, self._sz = self._surface_matrix.createVecs()
+            self._on_surface = PETSc.Scatter().create(self._d, self.surface_rows, self._sr, None)   # J's vectors ↔ Γ3's
         else:
             every, columns, rows = self._strips
             J.createSubMatrix(self.surface_rows, self.surface_rows, submat=self._surface_matrix)
@@ -233,29 +231,26 @@ class GamgSolver:
     def _apply(self, r, y):
         """y = M r (module docstring), on J's PETSc vectors. S's y is zero off Γ3, and S reads
         Γ3's rows of r − J y only: J's strips J[:, Γ3] and J[Γ3, :] stand for J there (two
-        products with all of J per application otherwise: 11 of the 58 ms at 142 404 DOFs)."""
+        products with all of J per application otherwise: 11 of the 58 ms at 142 404 DOFs).
+        Γ3's rows move by one scatter made with S (``_factor_surface``)."""
         y.set(0.0)
         if self._surface is None:
             self._add_bulk(r, y)
             return
-        rows, d = self.surface_rows, self._d
+        PETSc, _ = load()
+        forward, reverse = PETSc.ScatterMode.FORWARD, PETSc.ScatterMode.REVERSE
+        insert, add = PETSc.InsertMode.INSERT_VALUES, PETSc.InsertMode.ADD_VALUES
         _, columns, strip = self._strips
-        part = r.getSubVector(rows)
-        part.copy(self._sr)                  # r on Γ3
-        r.restoreSubVector(rows, part)
+        self._on_surface.scatter(r, self._sr, addv=insert, mode=forward)      # r on Γ3
         self._surface.apply(self._sr, self._sy)
-        columns.mult(self._sy, d)
-        d.aypx(-1.0, r)                      # d = r − J y, y = S r (zero off Γ3)
-        part = y.getSubVector(rows)
-        self._sy.copy(part)
-        y.restoreSubVector(rows, part)
-        self._add_bulk(d, y)
+        columns.mult(self._sy, self._d)
+        self._d.aypx(-1.0, r)                                                 # d = r − J y, y = S r (zero off Γ3)
+        self._on_surface.scatter(self._sy, y, addv=insert, mode=reverse)
+        self._add_bulk(self._d, y)
         strip.mult(y, self._sd)
-        self._sd.aypx(-1.0, self._sr)        # Γ3's rows of r − J y
+        self._sd.aypx(-1.0, self._sr)                                         # Γ3's rows of r − J y
         self._surface.apply(self._sd, self._sz)
-        part = y.getSubVector(rows)
-        part.axpy(1.0, self._sz)
-        y.restoreSubVector(rows, part)
+        self._on_surface.scatter(self._sz, y, addv=add, mode=reverse)
 
     def solve(self, matrix, freedofs, r, w, generation=None, timer=None, weights=None, tol=None, changing=None):
         """w = J⁻¹ r to the relative accuracy ``tol`` (default the solver's) in the ``weights``

@@ -68,7 +68,7 @@ from typing import Callable
 import numpy as np
 
 from . import parallel
-from .paraview import checked_vtk, fields_writer, gamma3_vtp
+from .paraview import checked_vtk, fields_writer, gamma3_vtp, own_vtu
 from .records import History
 from .run_directory import (check_partition, check_ranks, check_run, check_scene, check_scheme, check_start, load,
                             load_part, part, read_steps, record_arrays, run_info)
@@ -195,14 +195,12 @@ class Stream:
     def _own_files(self, record, own, vtk):
         """This rank's files of a step: with ``vtk`` its VTK file of the fields (checked: NGSolve's
         VTKOutput does not report a file it could not write), on a distributed mesh its part."""
-        n, comm = record.step, self.source.mesh.comm
+        n, mesh = record.step, self.source.mesh
         if vtk:
             stem = self.dir / "vtk" / f"fields_{n:06d}"
-            written = None if self.ranks > 1 and comm.rank == 0 else \
-                stem.with_name(stem.name + (f"_proc{comm.rank}" if self.ranks > 1 else "") + ".vtu")
-            checked_vtk(fields_writer(self.source, stem), record.time, written)
+            checked_vtk(fields_writer(self.source, stem), record.time, own_vtu(mesh, stem))
         if self.ranks > 1:
-            _atomic_write(part(self.dir, n, comm.rank), lambda p: _savez(p, own))
+            _atomic_write(part(self.dir, n, mesh.comm.rank), lambda p: _savez(p, own))
 
     def _lead_files(self, record, arrays, vtk):
         """Rank 0's files of a step, once every rank's own are on disk."""
