@@ -32,6 +32,7 @@ The CLI cases call ``ngcontact.cli.main`` there (as ``python -m ngcontact`` woul
 Python's start-up); a few run ``python -m ngcontact`` itself, the rest of those are ``slow``.
 """
 import functools
+import importlib
 import math
 import multiprocessing
 import os
@@ -1210,6 +1211,22 @@ for arguments, words in CLI_CASES:
 cli("demo --steps 2 --maxh 0.02 --gamma0 1e-6", "step|gamma0", process=True)
 
 
+# ----------------------------------------------------------------------------- classes of the newer features
+
+# Each newer feature has its class in a module of its own beside this one (``hostile_<class>.py``,
+# with a ``register(h)`` that adds its cases through ``h.case`` and uses this module's scenes,
+# outcomes and checks as ``h.<name>``); the fork server imports them with this module.
+EXTENSIONS = ("hostile_scheme", "hostile_laws", "hostile_adapt", "hostile_petsc", "hostile_trust")
+for _name in EXTENSIONS:
+    try:
+        _module = importlib.import_module(_name)
+    except ModuleNotFoundError as err:
+        if err.name != _name:
+            raise
+        continue
+    _module.register(sys.modules[__name__])
+
+
 # ----------------------------------------------------------------------------- running a case in its own process
 
 def _child(connection, case_id, ctx):
@@ -1352,4 +1369,8 @@ def test_the_suite_has_400_default_cases_in_every_class():
     default = [c for c in CASES if not c.slow]
     groups = {c.group for c in default}
     assert len(default) >= 400 and len({c.id for c in CASES}) == len(CASES)
-    assert groups == {"extreme", "held", "sizes", "types", "objects", "nonsense", "resume", "output", "cli"}
+    assert {"extreme", "held", "sizes", "types", "objects", "nonsense", "resume", "output", "cli"} <= groups
+    for name in EXTENSIONS:     # each extension module present brings its class(es)
+        module = sys.modules.get(name)
+        if module is not None:
+            assert set(module.CLASSES) <= groups, name
