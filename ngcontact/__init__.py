@@ -32,6 +32,7 @@ from .body import Body
 from .contact import Contact
 from .enforcement import METHODS
 from .loads import Loads
+from .arguments import MIN_DT
 from .materials import EPS0, Material, academic, batio3, pzt5a
 from .newton import NewtonError
 from .records import ContactRecord, History, StepRecord
@@ -40,5 +41,5 @@ from .stepping import AccuracyWarning
 from .webgui import save_html
 
 __all__ = ["Body", "Contact", "Loads", "Material", "Simulation", "History", "StepRecord", "ContactRecord",
-           "NewtonError", "PhysicsWarning", "AccuracyWarning", "METHODS", "EPS0", "academic", "pzt5a", "batio3", "save_html", "contact_laws",
+           "NewtonError", "PhysicsWarning", "AccuracyWarning", "METHODS", "EPS0", "MIN_DT", "academic", "pzt5a", "batio3", "save_html", "contact_laws",
            "parallel", "checks", "meshes", "schemes", "adapt", "estimators", "laws", "petsc_solver"]

@@ -20,18 +20,25 @@ but the Newton start of a step (the last level's displacement, interpolated).
 
 The estimate is the equilibrated bound of the step (``estimators.equilibrated``); the relative
 estimate divides it by the energy |||x_h||| of the discrete state (the largest over a history).
-Bad input (a fraction outside (0, 1], a tolerance that is not positive, limits that are not
-positive integers) is refused before any work; a target not reached within the limits stops
-with every level kept and the reason.
+Bad input is refused before any work (the first solve): a fraction outside (0, 1], a tolerance
+that is not positive, limits that are not positive integers or a DOF limit beyond the machine's
+memory or below the first mesh's DOFs, a scene that is not a function of the mesh or a mesh
+that is not an ngsolve.Mesh, a mesh that cannot be refined (no geometry, distributed), what the
+estimator cannot estimate (``estimators.equilibrated.check``: nonlinear laws, weak normal
+supports), callbacks that are not functions, and streaming a history (``out=``, ``vtk=``: every
+level would write into one directory). A target not reached within the limits stops with every
+level kept and the reason; a zero estimate (an exact discrete solution) stops as "target
+reached" (its relative estimate is 0), or, without a target, as "nothing to refine".
 """
+import inspect
 import time as wallclock
 from dataclasses import dataclass, field
 
 import ngsolve as ngs
 import numpy as np
 
-from . import checks, forms, parallel
-from .estimators.equilibrated import EquilibratedEstimator
+from . import arguments, checks, forms, parallel
+from .estimators.equilibrated import EquilibratedEstimator, check as estimable
 from .meshes import refined
 
 
@@ -39,9 +46,17 @@ def mark(indicators, fraction=0.5):
     """Dörfler marking: a boolean array, True on the fewest elements whose η_K² add up to at
     least ``fraction`` of Σ η_K² (fraction in (0, 1]; 1 marks every element with η_K > 0)."""
     fraction = checks.number("fraction", fraction, 0, 1, low_open=True)
-    eta2 = np.asarray(indicators, dtype=float) ** 2
-    if not np.all(np.isfinite(eta2)):
-        raise ValueError("mark: the indicators must be finite")
+    try:
+        eta = np.asarray(indicators, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(f"mark: the indicators must be an array of numbers (one η_K >= 0 per element), got "
+                        f"{type(indicators).__name__}") from None
+    if eta.ndim != 1:
+        raise ValueError(f"mark: the indicators must be a 1D array (one η_K per element), got shape {eta.shape}")
+    if not np.all(np.isfinite(eta)) or np.any(eta < 0):
+        bad = eta[~(np.isfinite(eta) & (eta >= 0))]
+        raise ValueError(f"mark: the indicators must be finite and >= 0, got {bad[:3].tolist()}")
+    eta2 = eta ** 2
     order = np.argsort(-eta2, kind="stable")
     total = eta2.sum()
     marked = np.zeros(len(eta2), dtype=bool)
@@ -62,7 +77,14 @@ def energy(sim, reference=None):
     e, order = forms.strain(sim.u), 2 * sim.body.order
     g = ngs.grad(sim.phi) if sim.electric else None
     if reference is not None:
+        if not isinstance(reference, (tuple, list)) or len(reference) != 2 \
+                or not isinstance(reference[0], ngs.GridFunction) \
+                or not (reference[1] is None or isinstance(reference[1], ngs.GridFunction)):
+            raise TypeError("energy: reference must be (u_ref, φ_ref), GridFunctions (φ_ref None without φ), got "
+                            f"{type(reference).__name__}")
         u_ref, phi_ref = reference
+        if sim.electric and phi_ref is None:
+            raise ValueError("energy: reference needs φ_ref (the simulation solves for φ), got None")
         e = e - forms.strain(u_ref)
         g = g - ngs.grad(phi_ref) if sim.electric else None
         order += 4
@@ -104,7 +126,8 @@ class Level:
 @dataclass
 class Adaptation:
     """The levels of an adaptation and why it stopped (``reason``: "target reached", "DOF
-    limit", "level limit"); ``reached``: whether the target was met."""
+    limit", "level limit", or "nothing to refine": a zero estimate without a target);
+    ``reached``: whether the target was met."""
     levels: list
     reason: str
     reached: bool
@@ -118,8 +141,37 @@ def _limits(tol, fraction, max_levels, max_ndof):
     tol = None if tol is None else checks.number("tol", tol, 0, low_open=True)
     fraction = checks.number("fraction", fraction, 0, 1, low_open=True)
     max_levels = checks.integer("max_levels", max_levels, 1, 50)
-    max_ndof = checks.number("max_ndof", max_ndof, 1)
+    max_ndof = checks.fits_in_memory("max_ndof", checks.number("max_ndof", max_ndof, 1))
     return tol, fraction, max_levels, max_ndof
+
+
+def _inputs(where, scene, mesh, max_levels, polygonal, on_level, stop_newton):
+    """The arguments every adaptation has, checked before any work: ``scene`` a function,
+    ``mesh`` a serial ngsolve.Mesh that can be refined (if more than one level may be made),
+    ``on_level`` a function of one argument or None, ``stop_newton`` in (0, 1] or None."""
+    if not callable(scene):
+        raise TypeError(f"{where}: scene must be a function mesh -> Simulation (the scene built on each level's "
+                        f"mesh), got {type(scene).__name__}")
+    if not isinstance(mesh, ngs.Mesh):
+        hint = " (wrap a Netgen mesh: ngsolve.Mesh(ngmesh))" if type(mesh).__module__.startswith("netgen") else ""
+        raise TypeError(f"{where}: mesh must be an ngsolve.Mesh{hint}, got {type(mesh).__name__}")
+    parallel.serial_only(mesh, f"{where}: adaptive refinement", "NGSolve refines serial meshes only")
+    polygonal = checks.flag("polygonal", polygonal)
+    if max_levels > 1 and not polygonal and type(mesh.ngmesh.GetGeometry()).__name__ == "NetgenGeometry":
+        raise ValueError(f"{where}: the mesh cannot be refined: it has no geometry to place new boundary points on "
+                         "(made point by point or read from another mesher); mesh a geometry (netgen.occ, geom2d, "
+                         "csg), pass polygonal=True if its boundary is polygonal, or max_levels=1")
+    if on_level is not None:
+        if not callable(on_level):
+            raise TypeError(f"{where}: on_level must be a function of the Level or None, got "
+                            f"{type(on_level).__name__}")
+        try:
+            inspect.signature(on_level).bind(None)
+        except TypeError:
+            raise TypeError(f"{where}: on_level must take one argument (the Level); {on_level!r} cannot") from None
+        except ValueError:                           # a builtin without a signature: not checked
+            pass
+    return None if stop_newton is None else checks.number("stop_newton", stop_newton, 0, 1, low_open=True)
 
 
 def _build(scene, mesh):
@@ -131,10 +183,28 @@ def _build(scene, mesh):
         raise TypeError(f"scene(mesh) must return an ngcontact.Simulation, got {type(sim).__name__}")
     if sim.body.mesh is not mesh:
         raise ValueError("scene(mesh) must build its Simulation on the mesh it is given")
+    estimable(sim)                               # before it is solved
     return sim, wallclock.perf_counter() - t0
 
 
-def _next(scene, level, tol, levels, max_levels, max_ndof, fraction):
+def _first(scene, mesh, max_ndof):
+    """The first level's simulation (``_build``), refused if its DOFs already pass ``max_ndof``."""
+    sim, seconds = _build(scene, mesh)
+    if sim.X.ndof > max_ndof:
+        raise ValueError(f"max_ndof = {max_ndof:g} is below the {sim.X.ndof} DOFs of the first mesh's simulation: "
+                         "no level would fit; raise max_ndof or start from a coarser mesh")
+    return sim, seconds
+
+
+def _relative(estimate, norm):
+    """The relative estimate η / |||x_h|||: 0 for a zero estimate (the discrete solution is
+    exact, whatever its norm), inf for a nonzero one of a zero state."""
+    if estimate == 0:
+        return 0.0
+    return estimate / norm if norm > 0 else np.inf
+
+
+def _next(scene, level, tol, levels, max_levels, max_ndof, fraction, polygonal):
     """(the reason to stop after ``level`` or None, the next simulation, the seconds its build
     took): the mesh marked by ``mark``, refined, and the scene built on it; one whose DOFs pass
     ``max_ndof`` is not used (it is built to count them: the scene decides its spaces)."""
@@ -142,8 +212,11 @@ def _next(scene, level, tol, levels, max_levels, max_ndof, fraction):
         return "target reached", None, 0.0
     if levels >= max_levels:
         return "level limit", None, 0.0
-    level.marked = mark(level.indicators, fraction)
-    sim, seconds = _build(scene, refined(level.mesh, level.marked))
+    marked = mark(level.indicators, fraction)
+    if not marked.any():                         # every indicator 0: the same mesh again would be
+        return "nothing to refine", None, 0.0    # the same level again
+    level.marked = marked
+    sim, seconds = _build(scene, refined(level.mesh, level.marked, polygonal=polygonal))
     if sim.X.ndof > max_ndof:
         return "DOF limit", None, seconds
     return None, sim, seconds
@@ -160,7 +233,7 @@ def _timed(on_level, level):
 
 
 def step(scene, mesh, dt, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5, guess=None, on_level=None,
-         stop_newton=None):
+         stop_newton=None, polygonal=False):
     """Adapt the mesh to one step of length dt (s) from the initial state (``Simulation.step``):
     solve, estimate, mark (``mark``), refine (``meshes.refined``), until the relative estimate is
     at most ``tol`` (None: until a limit) or ``max_levels`` meshes or ``max_ndof`` DOFs;
@@ -168,12 +241,13 @@ def step(scene, mesh, dt, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5
     (``guess`` at the first); ``on_level(level)`` is called after each level. ``stop_newton``
     (a fraction, e.g. 0.1; None: Newton's fixed tolerances): from the second level on, Newton
     stops once its last correction's energy is below that fraction of the estimate expected
-    on the new mesh (the last one scaled by the DOFs, η (N_ℓ−1/N_ℓ)^(p/d))."""
+    on the new mesh (the last one scaled by the DOFs, η (N_ℓ−1/N_ℓ)^(p/d)). ``polygonal``:
+    the mesh has no geometry and its boundary is polygonal (``meshes.refined``)."""
     tol, fraction, max_levels, max_ndof = _limits(tol, fraction, max_levels, max_ndof)
-    stop_newton = None if stop_newton is None else checks.number("stop_newton", stop_newton, 0, 1, low_open=True)
-    parallel.serial_only(mesh, "adapt.step: adaptive refinement")
+    stop_newton = _inputs("adapt.step", scene, mesh, max_levels, polygonal, on_level, stop_newton)
+    arguments.time_step(dt, 0.0)                     # dt > 0, finite, before any work
     levels, start, began = [], guess, wallclock.perf_counter()
-    sim, build_s = _build(scene, mesh)
+    sim, build_s = _first(scene, mesh, max_ndof)
     while True:
         mesh = sim.body.mesh
         if stop_newton is not None and levels:
@@ -185,13 +259,14 @@ def step(scene, mesh, dt, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5
         solved = wallclock.perf_counter()
         estimate = EquilibratedEstimator(sim)()
         norm = energy(sim)
-        level = Level(mesh, sim.X.ndof, estimate.total, estimate.total / norm if norm > 0 else np.inf,
+        level = Level(mesh, sim.X.ndof, estimate.total, _relative(estimate.total, norm),
                       estimate.parts, estimate.indicators, solved - t0, wallclock.perf_counter() - solved,
                       record.newton_iterations, sim, krylov=record.krylov_iterations,
                       elapsed_s=wallclock.perf_counter() - began, estimate_stops=sim.newton.estimate_stops,
                       build_s=build_s)
         levels.append(level)
-        reason, following, build_s = _next(scene, level, tol, len(levels), max_levels, max_ndof, fraction)
+        reason, following, build_s = _next(scene, level, tol, len(levels), max_levels, max_ndof, fraction,
+                                           polygonal)
         began += _timed(on_level, level)
         if reason is not None:
             return Adaptation(levels, reason, reason == "target reached")
@@ -199,20 +274,29 @@ def step(scene, mesh, dt, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5
 
 
 def history(scene, mesh, dt, T, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5, every=1, on_level=None,
-            stop_newton=None, **run_options):
+            stop_newton=None, polygonal=False, **run_options):
     """Adapt the mesh to a whole load history: run ``Simulation.run(dt, T, **run_options)`` on
     each mesh, estimate every ``every``-th step (and the last), mark each element by its largest
     indicator over them, refine, and run again, until the largest relative estimate over the
     steps is at most ``tol`` or a limit; returns the ``Adaptation`` (``Level.estimate`` the
     largest over the steps, ``relative`` that over the largest |||x_h|||). ``stop_newton`` (a
     fraction; None: Newton's fixed tolerances): after a step's estimate, Newton stops once its
-    last correction's energy is below that fraction of it."""
+    last correction's energy is below that fraction of it. ``run_options`` go to every run
+    but ``out`` and ``vtk`` (refused: each level's run would stream into the same directory;
+    keep a level's simulation with ``on_level``)."""
     tol, fraction, max_levels, max_ndof = _limits(tol, fraction, max_levels, max_ndof)
-    stop_newton = None if stop_newton is None else checks.number("stop_newton", stop_newton, 0, 1, low_open=True)
+    stop_newton = _inputs("adapt.history", scene, mesh, max_levels, polygonal, on_level, stop_newton)
     every = checks.integer("every", every, 1, 10 ** 6)
-    parallel.serial_only(mesh, "adapt.history: adaptive refinement")
+    for name in ("out", "vtk"):
+        if run_options.get(name) is not None:
+            raise ValueError(f"adapt.history runs the history once per level, each on a new mesh: {name}= "
+                             f"({run_options[name]!r}) would stream every level into one directory; keep a level's "
+                             "simulation with on_level (level.sim) and write it yourself")
+    arguments.callback(run_options.get("on_step"))
+    arguments.time_step(dt, 0.0)                     # dt > 0 and T > 0, finite, before any work
+    checks.number("T", T, 0, low_open=True, unit="s")
     levels, began = [], wallclock.perf_counter()
-    sim, build_s = _build(scene, mesh)
+    sim, build_s = _first(scene, mesh, max_ndof)
     while True:
         mesh = sim.body.mesh
         estimator, spent = None, [0.0]
@@ -237,7 +321,7 @@ def history(scene, mesh, dt, T, *, tol=None, fraction=0.5, max_levels=10, max_nd
         sim.run(dt, T, on_step=(lambda r: (on_step(r), user(r))) if user else on_step, **run_options)
         wall = wallclock.perf_counter() - t0
         norm = state["norm"]
-        level = Level(mesh, sim.X.ndof, state["estimate"], state["estimate"] / norm if norm > 0 else np.inf,
+        level = Level(mesh, sim.X.ndof, state["estimate"], _relative(state["estimate"], norm),
                       state["parts"], state["indicators"], wall - spent[0], spent[0],
                       int(sum(sim.history.newton_iterations)), sim,
                       krylov=int(sum(r.krylov_iterations for r in sim.history[1:])),
@@ -246,7 +330,7 @@ def history(scene, mesh, dt, T, *, tol=None, fraction=0.5, max_levels=10, max_nd
         levels.append(level)
         if user:
             run_options["on_step"] = user
-        reason, sim, build_s = _next(scene, level, tol, len(levels), max_levels, max_ndof, fraction)
+        reason, sim, build_s = _next(scene, level, tol, len(levels), max_levels, max_ndof, fraction, polygonal)
         began += _timed(on_level, level)
         if reason is not None:
             return Adaptation(levels, reason, reason == "target reached")

@@ -37,11 +37,12 @@ def check_initial_displacement(body, u0, gamma3=None):
     """u0 (a CoefficientFunction, m) must vanish on Γ1 and be admissible on Γ3 (u0_ν <= g, with
     the contact normal of ``gamma3``, an ``observables.Gamma3`` or None)."""
     mesh, square = body.mesh, ngs.InnerProduct(u0, u0)
-    if not np.isfinite(parallel.sum(mesh, ngs.Integrate(square, mesh))):
+    whole = parallel.sum(mesh, ngs.Integrate(square, mesh))
+    if not np.isfinite(whole):
         raise ValueError("u0 is not finite (NaN or inf) in the body")
     if body.boundaries["clamped"]:
         on_gamma1 = parallel.sum(mesh, ngs.Integrate(square * ngs.ds(body.region("clamped")), mesh))
-        if on_gamma1 > 1e-20 * (1 + ngs.Integrate(square, mesh)):     # (all ranks' sum)
+        if on_gamma1 > 1e-20 * (1 + whole):                            # (all ranks' sums)
             raise ValueError(f"u0 must vanish on the clamped boundary Γ1 ({body.region_names('clamped')!r})")
     if gamma3 is not None:
         side = gamma3.side

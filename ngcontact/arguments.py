@@ -73,6 +73,17 @@ def time_step(dt, t):
     return float(dt)
 
 
+def history_index(n, count):
+    """n, an index of a history of ``count`` records ([0, count − 1], or [−count, −1] from the
+    end): a TypeError or IndexError naming n and that range otherwise."""
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)):
+        raise TypeError(f"state: the step n must be an integer in [0, {count - 1}] (or [-{count}, -1] from the "
+                        f"end), got {n!r}")
+    if not -count <= n < count:
+        raise IndexError(f"state: step n = {n} is not in the history: n must be in [0, {count - 1}] (or "
+                         f"[-{count}, -1] from the end; {count} records, step 0 the initial state)")
+
+
 def later(name, value, t):
     """A time (s) after the current time t: a finite number > t by at least the smallest step
     (``MIN_DT``, and ``RESOLUTION`` of t)."""
@@ -143,12 +154,14 @@ def gamma3_data(contact, gamma3, mesh, at, t):
                 raise ValueError(f"{name} is not finite (NaN or inf) on Γ3 at t = {t:.6g} s")
 
 
-def controlled(sim, dt, rtol, dt_min, event_dt):
+def controlled(sim, dt, rtol, dt_min, event_dt, T=0.0):
     """The error-controlled steps of ``run``: None without ``rtol`` (then ``dt_min`` and
     ``event_dt`` must be None too), else (dt_min, event_dt) in s, checked: rtol in (0, 0.1] and
     at least 100 times Newton's tolerance,
     a scheme with an error estimate, 0 < dt_min <= event_dt <= dt (defaults 1e-6 dt and
-    1e-3 dt), a serial run. A ValueError or TypeError naming the parameter otherwise."""
+    1e-3 dt), dt_min at least the smallest step a run to T takes (``time_step``). A ValueError or TypeError naming the parameter otherwise. On a distributed mesh the
+    steps are those of a serial run: the estimate and the events are over all ranks (``schemes.bdf2``,
+    ``stepping``)."""
     if rtol is None:
         for name, value in (("dt_min", dt_min), ("event_dt", event_dt)):
             if value is not None:
@@ -161,7 +174,7 @@ def controlled(sim, dt, rtol, dt_min, event_dt):
     if not hasattr(sim.scheme, "local_error"):
         raise ValueError(f"run(rtol={rtol:g}): the scheme {sim.scheme.name!r} has no local error estimate to choose "
                          "steps by; use Simulation(scheme='bdf2'), or fixed steps (no rtol)")
-    parallel.serial_only(sim.body.mesh, "run(rtol=...): error-controlled steps", "use fixed steps")
-    dt_min = number("dt_min", 1e-6 * dt if dt_min is None else dt_min, 0, dt, low_open=True, unit="s")
+    smallest = max(MIN_DT, RESOLUTION * abs(T))               # the smallest step ``step`` takes up to T
+    dt_min = number("dt_min", max(1e-6 * dt, smallest) if dt_min is None else dt_min, smallest, dt, unit="s")
     event_dt = number("event_dt", 1e-3 * dt if event_dt is None else event_dt, dt_min, dt, unit="s")
     return dt_min, event_dt

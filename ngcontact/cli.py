@@ -146,7 +146,8 @@ def parser():
     steps.add_argument("--scene", nargs="+", choices=("plate", "plate-nodal", "column"),
                        default=["plate", "plate-nodal", "column"], help="the scenes (default: all three)")
     steps.add_argument("--maxh", metavar="H", type=float, default=0.01, help="the plate's mesh size in m (default 0.01)")
-    steps.add_argument("--T", metavar="S", type=float, default=0.25, help="the plate's final time in s (default 0.25)")
+    steps.add_argument("--T", metavar="S", type=float, default=0.25,
+                       help="the plate's final time in s, 0.01 to 0.5 (default 0.25)")
     order = commands.add_parser("timeorder", parents=[common], help="the order in time of backward Euler and "
                                 "BDF2 on the glued column, against Radau on its semi-discrete system (lift-off, "
                                 "and debonding to β ≈ 4e-4): column_order.csv and chart")
@@ -170,10 +171,11 @@ def parser():
 def _cluster_parser(commands, common):
     """The options of ``python -m ngcontact cluster``."""
     from .studies import cluster_case
-    cluster = commands.add_parser("cluster", parents=[common], help="issue 27's measurements, each run launched as its "
-                                  "own process (python or mpiexec -n N): time per step, memory per rank and contact "
-                                  "forces per solver and number of ranks, a scaling model (runs.csv, summary.md, "
-                                  "model.json, charts); --factorisations: UMFPACK against MUMPS; not under mpiexec")
+    cluster = commands.add_parser("cluster", parents=[common], help="serial against MPI ranks per solver, each run "
+                                  "launched as its own process (python or mpiexec -n N): time per step, memory per "
+                                  "rank and contact forces per solver and number of ranks, a scaling model (runs.csv, "
+                                  "summary.md, model.json, charts); --factorisations: UMFPACK against MUMPS; not under "
+                                  "mpiexec")
     cluster.add_argument("--out", metavar="DIR", default="cluster", help="output directory (default cluster)")
     cluster.add_argument("--scene", choices=("plate", "block"), default="plate",
                          help="the reference scene: the 2D plate (default) or the 3D block")
@@ -206,22 +208,64 @@ def _cluster_parser(commands, common):
 
 def main(argv=None):
     """Entry point of ``python -m ngcontact`` and of the ``ngcontact`` script. Bad input
-    (a ValueError or TypeError naming the parameter) and a failed Newton solve
+    (a ValueError or TypeError naming the parameter), a missing optional engine (an
+    ImportError: PETSc for ``--inverse mumps``, what to install) and a failed Newton solve
     (``ngcontact.NewtonError``: where it failed, where the steps before it are kept, what to
     try) print one line and exit with status 2, as argparse does for its own errors; under
-    mpiexec rank 0 prints it and every rank exits. ``--traceback`` (or NGCONTACT_TRACEBACK=1)
-    shows the full traceback instead. Warnings (``PhysicsWarning``) print one line each."""
+    mpiexec rank 0 prints it and every rank exits. Options that need an engine that is not
+    installed, and commands that would run nothing, are refused before any work
+    (``_refuse_before_work``). ``--traceback`` (or NGCONTACT_TRACEBACK=1) shows the full
+    traceback instead. Warnings (``PhysicsWarning``) print one line each."""
     args = parser().parse_args(argv)
     warnings.showwarning = _one_line_warning
     try:
+        _refuse_before_work(args)
         _dispatch(args)
-    except (ValueError, TypeError, ngcontact.NewtonError) as err:
+    except (ValueError, TypeError, ImportError, ngcontact.NewtonError) as err:
         if args.traceback or os.environ.get("NGCONTACT_TRACEBACK", "") not in ("", "0"):
             raise
         if ngcontact.parallel.rank() == 0:
-            text = _newton_line(err, args) if isinstance(err, ngcontact.NewtonError) else str(err)
+            text = (_newton_line(err, args) if isinstance(err, ngcontact.NewtonError) else
+                    _missing_line(err) if isinstance(err, ImportError) else str(err))
             print(f"ngcontact {args.command}: error: {' '.join(text.split())}", file=sys.stderr)
         sys.exit(2)
+
+
+def _missing_line(err):
+    """An ImportError in one line: ours say what needs the engine and how to install it; a bare
+    "No module named ..." gets what is missing."""
+    if isinstance(err, ModuleNotFoundError) and str(err).startswith("No module named"):
+        top = (err.name or "?").split(".")[0]
+        return f"this command needs the Python module {top!r}, which is not installed here ({sys.executable})"
+    return str(err)
+
+
+def _needs_petsc(option):
+    """An ImportError naming ``option`` and how to install PETSc if it is not installed."""
+    from .studies.common import petsc_missing
+    missing = petsc_missing()
+    if missing:
+        raise ImportError(f"{option} needs PETSc (petsc4py with MUMPS) and ngsPETSc; not installed here: "
+                          f"{', '.join(missing)}; {ngcontact.petsc_solver.INSTALL}")
+
+
+def _refuse_before_work(args):
+    """The refusals that need the command line as a whole: bench's --inverse with an iterative
+    --solver; an option that needs PETSc where it is not installed (bench --inverse mumps,
+    --solver gamg, --solver iterative under mpiexec; cluster --factorisations; cluster's
+    solvers are sorted out by ``cluster.plan``)."""
+    if args.command == "bench" and not args.merge:
+        if args.inverse and args.solver in ("iterative", "multigrid", "gamg"):
+            raise ValueError(f"--inverse {args.inverse} with --solver {args.solver}: the iterative solvers solve by "
+                             "GMRES with their own preconditioner and take no --inverse; drop one of the two")
+        if args.inverse == "mumps":
+            _needs_petsc("--inverse mumps")
+        if args.solver == "gamg":
+            _needs_petsc("--solver gamg")
+        if args.solver == "iterative" and ngcontact.parallel.world() is not None:
+            _needs_petsc("--solver iterative under mpiexec (PETSc's GAMG)")
+    elif args.command == "cluster" and args.factorisations:
+        _needs_petsc("--factorisations (MUMPS)")
 
 
 def _newton_line(err, args):

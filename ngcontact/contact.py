@@ -5,7 +5,7 @@ from dataclasses import dataclass
 import ngsolve as ngs
 
 from . import contact_laws as laws
-from .checks import number
+from .checks import number, parameters
 from .loads import as_cf
 from .enforcement import METHODS
 from .obstacles import OBSTACLES
@@ -77,6 +77,9 @@ class Contact:
             raise TypeError(f"Contact.theta must be 1, 0 or -1, got {self.theta!r} ({type(self.theta).__name__})")
         if self.theta not in (1, 0, -1):
             raise ValueError(f"Contact.theta must be 1, 0 or -1, got {self.theta!r}")
+        if self.theta != 1 and self.method != "nitsche":
+            raise ValueError(f"Contact.theta = {self.theta!r} means nothing with method {self.method!r}: θ chooses "
+                             "the variant of Nitsche's method (method='nitsche'); leave theta at 1")
         number("Contact.gamma0 (Nitsche parameter)", self.gamma0, 0, low_open=True)
         number("Contact.bond_length", self.bond_length, 0, low_open=True, unit="m")
         number("Contact.ramp_width", self.ramp_width, 0, low_open=True, unit="m")
@@ -94,6 +97,10 @@ class Contact:
             number("Contact.beta0", self.beta0, 0, 1)
         else:
             as_cf(self.beta0, 1, "Contact.beta0")                # real, one component
+            if parameters(self.beta0):
+                raise ValueError("Contact.beta0 depends on an ngsolve.Parameter (the time?): β0 is the bonding "
+                                 "at the start, read once at t = 0, and β then follows (2.9); give β0 without "
+                                 "a Parameter")
         if self.obstacle is not None:
             if not isinstance(self.obstacle, OBSTACLES):
                 raise TypeError("Contact.obstacle must be an ngcontact.obstacles Plane, Cylinder, Sphere or "

@@ -10,7 +10,7 @@ import numpy as np
 from matplotlib import ticker, tri
 from matplotlib.figure import Figure
 
-from . import checks, parallel, run_directory
+from . import checks, parallel, results, run_directory
 from .progress import write
 from .scenes import reference
 from .studies.bench import THREADS_FROM
@@ -75,7 +75,7 @@ def run(order=1, out="results", maxh=None, steps=200, theta=1, gamma0=10.0, resu
     if scheme != "backward_euler" or rtol is not None:     # (demo.json of earlier runs have neither)
         settings.update(scheme=scheme, rtol=rtol)
     if resume:                                       # before meshing
-        _check_resumable(out / "run", settings)
+        _check_resumable(out / "run", dict(settings, scheme=scheme, rtol=rtol))
     lead = parallel.rank() == 0                      # under mpiexec rank 0 prints and writes
     say = print if lead else _quiet
     sim = reference.simulation(order, maxh, refine, dim, contact=contact, keep_states=dim == 2, scheme=scheme)
@@ -105,8 +105,13 @@ def run(order=1, out="results", maxh=None, steps=200, theta=1, gamma0=10.0, resu
               f"{1e-6 * max(c.pressure.max(), 0.0):11.3f} {c.beta.min():8.4f} {c.charge_flux:+17.4e}")
     start = wallclock.perf_counter()
     T = reference.LOAD_HISTORY[-1][0]
+    complete = resume and results.complete(run_directory.run_info(out / "run"), sim.t)
+    if complete:                                     # killed after its last step: its summary from the steps
+        say(f"the run in {str(out / 'run')!r} is already complete: it reached T = {T:g} s at step "
+            f"{len(sim.history) - 1}; nothing is left to compute, the summary and charts are written from its "
+            "steps (run without --resume to compute it again)")
     with ngs.TaskManager() if body.ndof >= THREADS_FROM else nullcontext():
-        history = sim.run(T / steps, T, on_step=report, out=out / "run", rtol=rtol)
+        history = sim.history if complete else sim.run(T / steps, T, on_step=report, out=out / "run", rtol=rtol)
     wall = wallclock.perf_counter() - start
     for n in range(1, len(history)):                 # steps of a resumed run: from their kept states
         if n not in deflection and sim.keep_states:
@@ -145,11 +150,15 @@ def _check_resumable(directory, settings):
         stored = json.loads((directory / "demo.json").read_text())
     except (OSError, ValueError):
         stored = {}                                  # none or unreadable: resume's scene check decides
+    if stored:                                       # a demo.json names scheme and rtol where not the defaults
+        stored = dict(dict(scheme="backward_euler", rtol=None), **stored)
     changed = [key for key in settings if key in stored and stored[key] != settings[key]]
     if changed:
+        def given(key, value):
+            return f"no --{key}" if value is None else f"--{key} {value}"
         raise ValueError(f"resume: {str(directory)!r} holds a demo run with "
-                         + ", ".join(f"--{key} {stored[key]}" for key in changed) + "; this one has "
-                         + ", ".join(f"--{key} {settings[key]}" for key in changed)
+                         + ", ".join(given(key, stored[key]) for key in changed) + "; this one has "
+                         + ", ".join(given(key, settings[key]) for key in changed)
                          + ": resume with the settings of the interrupted run, or run without --resume")
 
 
@@ -166,28 +175,55 @@ def _row(rec, deflection):
 
 
 def _plot_overview(path, columns, history):
-    """Load, contact length, min β, tip deflection and the time steps over time."""
-    fig = Figure(figsize=(8, 7.5), layout="constrained")
-    axes = fig.subplots(4, 1, sharex=True, height_ratios=(1, 1, 1, 0.7))
+    """Load, contact length, tip deflection, min and mean β over time, one quantity per panel;
+    and the time steps k where they vary (chosen by the error control, or cut back): a run of
+    fixed steps (k varying by round-off only, ``steps_vary``) names its k in the title."""
     time = np.array(columns["times"])
+    dt = np.array(columns["dt"], dtype=float)
+    varies = steps_vary(dt)
+    fig = Figure(figsize=(8, 9.6 if varies else 8.4), layout="constrained")
+    axes = fig.subplots(5 if varies else 4, 1, sharex=True, height_ratios=(1, 1, 1, 1, 0.8)[:5 if varies else 4])
     axes[0].plot(time, 1e-6 * np.array(columns["load"]), color="C3")
     axes[0].set_ylabel("pressure on top [MPa]")
     area, unit = (1e3, "contact length [mm]") if len(history[0].reaction) == 2 else (1e6, "contact area [mm²]")
-    axes[1].plot(time, area * np.array(columns["contact_length"]), color="C0", label=unit)
-    axes[1].plot(time, 1e6 * np.array(columns["tip_deflection"]), color="C2", label="tip deflection [µm]")
-    axes[1].legend()
+    axes[1].plot(time, area * np.array(columns["contact_length"]), color="C0")
+    axes[1].set_ylabel(unit)
+    axes[2].plot(time, 1e6 * np.array(columns["tip_deflection"]), color="C2")
+    axes[2].axhline(0.0, color="k", linewidth=0.5)
+    axes[2].set_ylabel("tip displacement,\nvertical [µm]")
     beta = history.contact_column("beta")[1:]
-    axes[2].plot(time, beta.min(axis=1), color="C1", label="min β")
-    axes[2].plot(time, beta.mean(axis=1), "--", color="C1", label="mean β")
-    axes[2].set(ylabel="bonding field β", ylim=(-0.05, 1.05))
-    axes[2].legend()
-    axes[3].semilogy(time, columns["dt"], ".-", color="C4", markersize=2, linewidth=0.8)
-    for rec in history[1:]:
-        if rec.event:
-            axes[3].axvline(rec.time, color="grey", linestyle=":", linewidth=0.7)
-    axes[3].set(xlabel="time t [s]", ylabel="time step k [s]")
-    axes[0].set_title("push: contact zone grows; pull: contact opens, glue debonds, plate lifts off")
+    axes[3].plot(time, beta.min(axis=1), color="C1", label="min β")
+    axes[3].plot(time, beta.mean(axis=1), "--", color="C1", label="mean β")
+    axes[3].set(ylabel="bonding field β [–]", ylim=(-0.05, 1.05))
+    axes[3].legend()
+    title = "push: contact zone grows; pull: contact opens, glue debonds, plate lifts off"
+    if varies:
+        k = axes[4]
+        finite = dt[np.isfinite(dt)]
+        if finite.max() >= 10 * finite.min():
+            k.semilogy(time, dt, ".-", color="C4", markersize=2, linewidth=0.8)
+            k.set_ylabel("time step k [s]")
+        else:                                        # cut-backs of a fixed step: less than a decade
+            k.plot(time, 1e3 * dt, ".-", color="C4", markersize=2, linewidth=0.8)
+            k.yaxis.set_major_formatter(ticker.ScalarFormatter(useOffset=False))
+            k.set_ylabel("time step k [ms]")
+        for rec in history[1:]:
+            if rec.event:
+                k.axvline(rec.time, color="grey", linestyle=":", linewidth=0.7)
+    elif dt[np.isfinite(dt)].size:
+        title += f"\n(fixed time step k = {1e3 * np.nanmedian(dt):.4g} ms, {np.isfinite(dt).sum()} steps)"
+    axes[-1].set_xlabel("time t [s]")
+    axes[0].set_title(title)
     fig.savefig(path, dpi=120)
+
+
+def steps_vary(dt, relative=1e-9):
+    """Whether the time steps ``dt`` (s; NaN entries ignored) vary by more than ``relative`` of
+    the largest: by the error control or by cut-backs, not by the round-off of t_n − t_{n−1}
+    (a fixed step of 2.5 ms varies by ~1e-16 s)."""
+    finite = np.asarray(dt, dtype=float)
+    finite = finite[np.isfinite(finite)]
+    return finite.size > 1 and finite.max() - finite.min() > relative * finite.max()
 
 
 def _quiet(*args, **kwargs):

@@ -13,9 +13,17 @@ never continued with another scene. Its fields (one key each, e.g. ``contact.gam
 * ``contact.*``: every field of ``Contact`` (``contact`` is None without a contact law) and
   ``contact.obstacle.*``, the obstacle's own data;
 * ``loads.*``: every entry of ``Loads``, keyed by its boundary;
-* ``options.*``: what changes the results: Newton's rtol and maxit, the electric choice
-  (``Simulation.electric``), the predictor, Newton's step limit, static condensation and the
-  linear solver's name; ``scheme``: backward Euler (β's update is ``contact.beta_update``).
+* ``options.*``: the options of ``Simulation`` that change the results: Newton's rtol and
+  maxit, the electric choice (``Simulation.electric``), the predictor, Newton's step limit,
+  static condensation, the linear solver as used (its name, ``inverse``: the factorisation,
+  ``reuse_factorization``: kept as GMRES's preconditioner, ``iterative``: "multigrid", "gamg"
+  or False) and ``realcompile`` (True, False, or None: by the rule of ``machine_code``);
+  ``scheme``: the time scheme's name (β's update of backward Euler is ``contact.beta_update``);
+* ``run.*`` (``run_options``, added by ``results`` to the fingerprint it stores): the options
+  of ``Simulation.run`` that change the results: dt, T, rtol and, with rtol, dt_min and
+  event_dt as used (their defaults resolved), without it max_cutbacks and a guess for every
+  step ("nested", "p1"). ``results`` compares them at ``run(..., out=DIR)``, the rest at
+  ``resume(DIR)`` already.
 
 Numbers are stored as numbers. Data that may depend on position and time
 (CoefficientFunctions) are sampled on their region (Γ3 for the contact data, the boundary of
@@ -81,9 +89,41 @@ def fingerprint(sim, T):
     found.update({"options.rtol": sim.newton.rtol, "options.maxit": sim.newton.maxit,
                   "options.electric": bool(sim.electric), "options.predictor": bool(sim.scheme.predictor),
                   "options.limit_steps": sim.newton.step_length is not None,
-                  "options.condense": bool(sim.condense), "options.solver": sim.solver,
-                  "scheme": "backward Euler"})
+                  "options.condense": bool(sim.condense), "options.solver": sim.solver, **_solver(sim),
+                  "scheme": sim.scheme.name})
     return found
+
+
+RUN_OPTIONS = ("dt", "T", "rtol", "dt_min", "event_dt", "max_cutbacks", "guess")
+"""The options of ``Simulation.run`` in the fingerprint of a run (``run_options``)."""
+
+
+def run_options(dt, T, rtol=None, dt_min=None, event_dt=None, max_cutbacks=None, guess=None):
+    """The ``run.*`` fields of a run ``Simulation.run(dt, T, ...)`` (dt, T, dt_min and event_dt
+    in s, dt_min and event_dt as used, defaults resolved): with ``rtol`` its dt_min and
+    event_dt, without it max_cutbacks and a guess for every step ("nested" or "p1"; a guess
+    for the first step alone is not kept), the options each kind of run uses."""
+    controlled = rtol is not None
+    return {"run.dt": _plain(dt), "run.T": _plain(T), "run.rtol": _plain(rtol),
+            "run.dt_min": _plain(dt_min) if controlled else None,
+            "run.event_dt": _plain(event_dt) if controlled else None,
+            "run.max_cutbacks": None if controlled else _plain(max_cutbacks),
+            "run.guess": guess if isinstance(guess, str) and not controlled else None}
+
+
+def _solver(sim):
+    """The ``options.*`` fields of the linear solver as used: ``inverse`` (the factorisation's
+    name, None for an iterative solver), ``reuse_factorization`` (kept as GMRES's
+    preconditioner), ``iterative`` ("multigrid", "gamg" or False) and ``realcompile`` (as given:
+    True, False, or None where the rule of ``machine_code`` decides)."""
+    solver = sim.newton.solver
+    kind = type(solver).__name__
+    iterative = {"MultigridSolver": "multigrid", "GamgSolver": "gamg"}.get(kind, False)
+    inverse = None if iterative else "mumps" if kind == "KeptMumps" else getattr(getattr(solver, "direct", solver),
+                                                                              "name", None)
+    automatic = getattr(sim, "_machine_code", None) is not None
+    return {"options.inverse": inverse, "options.reuse_factorization": kind in ("KeptFactorization", "KeptMumps"),
+            "options.iterative": iterative, "options.realcompile": None if automatic else bool(sim.realcompile)}
 
 
 def differences(stored, current):
@@ -106,9 +146,13 @@ def mismatch(stored, current):
     found = differences(stored, current)
     if not found:
         return None
-    there = ", ".join(f"{key} = {_show(a)}" for key, a, b in found)
+    there = ", ".join(f"{key} = {_show(a) if key in stored else NOT_RECORDED}" for key, a, b in found)
     here = ", ".join(f"{key} = {_show(b)}{_by(a, b)}" for key, a, b in found)
     return f"{there}; this simulation has {here}"
+
+
+NOT_RECORDED = "not recorded (a run of an earlier ngcontact)"
+"""A field that a fingerprint lacks, in a message."""
 
 
 def _show(value):

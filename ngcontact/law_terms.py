@@ -8,6 +8,9 @@ differentiates N for Newton (``BilinearForm.AssembleLinearization``); ``StepSyst
 N(x) to the residual and N'(x) to the Jacobian at its positions in the bulk's pattern. Newton's
 scales come from the laws' tangents at 0 (``scales``), not from the state.
 
+After each step, and when Newton fails, the laws are held to their hypotheses at the run's own
+strains (``law_watch``).
+
 Quadrature: a law's stress is not a polynomial of the strain, so NGSolve's default rule for
 ε(u):ε(v), of order 2(p − 1) (exact for the linear bulk), is not enough before h is far
 below the law's strain scale; N is integrated with p more orders, 3p − 2 in all
@@ -20,7 +23,9 @@ import numpy as np
 
 from . import forms, parallel
 from .contact_side import element_boundary_layer
+from .law_watch import CHANGED_HINT, LawViolation, LawWatch
 from .matrices import csr, matching_positions
+from .voigt import strain_matrix
 
 
 BONUS_ORDER_PER_DEGREE = 1
@@ -59,6 +64,16 @@ class LawTerms:
         self.residual = ngs.GridFunction(X).vec
         self.linearized = False
         self._positions = {}
+        state = ngs.GridFunction(X)                    # a copy of the state the watches read
+        u, dim = state.components[0], X.mesh.dim
+        self.watches = []
+        if T.F_law is not None:
+            self.watches.append(LawWatch(T.F_law, state, strain_matrix(forms.strain(u), dim),
+                                         quadrature_order(order)))
+        if T.A_law is not None:
+            rate = strain_matrix(coefficients.rate * (forms.strain(u) - forms.strain(coefficients.anchor)), dim)
+            self.watches.append(LawWatch(T.A_law, state, rate, quadrature_order(order)))
+        self._state, self._time, self._verified_at = state, coefficients.time, None
 
     def assemble_scales(self):
         """The tangents at 0 for the step's rate coefficient c (with each new c), and their
@@ -67,7 +82,17 @@ class LawTerms:
         self._diagonal = csr(self.scales.mat).diagonal()
 
     def apply(self, x):
-        """N(x), in ``residual``."""
+        """N(x), in ``residual``; at the first call of a step, after each law is found to be
+        the one checked (``laws.BoundLaw.verify``: a Parameter it reads has not changed), else
+        ``LawViolation``."""
+        if self._verified_at != self._time.Get():          # a new step (its t_n): verify the laws
+            for watch in self.watches:
+                try:
+                    watch.bound.verify(fresh=False)
+                except ValueError as error:
+                    raise LawViolation(watch.name(), str(error), step=None, time=self._time.Get(),
+                                       hint=CHANGED_HINT) from None
+            self._verified_at = self._time.Get()
         self.form.Apply(x, self.residual)
         return self.residual
 
@@ -92,3 +117,24 @@ class LawTerms:
         ``StepSystem.magnitude`` sums them over the ranks)."""
         tangent = self.form.mat if self.linearized else self.scales.mat
         return abs(csr(tangent)) @ np.abs(x) + np.abs(self.residual.FV().NumPy())
+
+    # ---------------------------------------------------------------- the laws at the run's strains
+    def check_step(self, x, step, time):
+        """Raise ``LawViolation`` if a law breaks (2.16)-(2.17) at the strains of the state
+        ``x`` Newton accepted for ``step`` (at ``time``, s), or has changed since its check;
+        else remember the strains (``law_watch``)."""
+        self._state.vec.data = x
+        for watch in self.watches:
+            watch.check(step, time)
+
+    def explain(self, x, reason, hint):
+        """(reason, hint) of a Newton failure at the iterate ``x``, with the law named where
+        it is the likely cause (``law_watch``); unchanged otherwise."""
+        self._state.vec.data = x
+        self._verified_at = None                # a retry verifies the laws again
+        matrix = parallel.local_matrix(self.form.mat) if self.linearized else None
+        for watch in self.watches:
+            found = watch.diagnose(matrix)
+            if found is not None:
+                return f"{reason}: {found[0]}", f"{found[1]}; otherwise {hint}" if hint else found[1]
+        return reason, hint

@@ -19,6 +19,10 @@ the samples); m ≤ 0 at a sampled pair is an error naming the law and the pair.
 scale of Nitsche's γ and of the penalty (``MaterialTensors.stiffness``); the tangent at
 ε = 0 (``linear``) is the bulk the preconditioners of iterative solvers use.
 
+The law solved with is the law checked (``BoundLaw.verify``: a law reading a global variable
+or a Parameter changed since its check is refused by name), and the run's own strains, which
+may lie beyond the samples, are checked step by step (``law_watch``).
+
 Built-in laws (``ProjectionLaw``, ``PowerViscosity``) add a nonlinear part to the material's
 own linear tensor ℰ (its F, or its A for a viscosity):
 
@@ -115,7 +119,7 @@ class StrainLaw:
     """
 
     def __init__(self, function, name=None, *, lipschitz=None, monotonicity=None, strain_scale=1e-3):
-        if isinstance(function, str) or not callable(function):
+        if isinstance(function, (str, ngs.CoefficientFunction)) or not callable(function):
             raise TypeError(f"a law must be a Python function of the strain CoefficientFunction, got "
                             f"{function!r} ({type(function).__name__})")
         self.function = function
@@ -177,7 +181,13 @@ class PowerViscosity(StrainLaw):
 
 class BoundLaw:
     """A StrainLaw for one model dimension and one material: ``voigt_stress(strain_voigt)`` the
-    Voigt stress CF; ``linear`` the tangent at 0 (Voigt); ``lipschitz``, ``monotonicity``."""
+    Voigt stress CF; ``linear`` the tangent at 0 (Voigt); ``lipschitz``, ``monotonicity``.
+
+    Its stress at ``FINGERPRINT`` sampled strains is kept: each later call (``matrix_stress``)
+    first compares the checked stress CF and a fresh call with it (``verify``). The run's
+    strains are checked with ``jacobian``, ``chord`` and ``hypotheses`` (``law_watch``);
+    ``checked_range``: the largest strain sampled so far; ``tangent_bound``: the largest norm
+    of the tangent at the samples."""
 
     def __init__(self, law, linear, dim, what):
         self.law, self.dim, self.what, self.name = law, dim, what, law.name
@@ -185,86 +195,183 @@ class BoundLaw:
         def linear_stress(eps):
             return stress_matrix(matrix_cf(linear) * strain_vector(eps, dim), dim)
         self._linear_stress = linear_stress
+        self.basis = strain_basis(dim)
         self._check()
 
+    def describe(self):
+        """"elasticity law 'name'" (for messages)."""
+        return f"{self.what} law {self.name!r}"
+
+    def _call(self, eps, when=""):
+        """law(ε), its type and shape checked."""
+        name, dim = self.describe(), self.dim
+        try:
+            sigma = self.law.function(eps, self._linear_stress) if self.law.takes_linear else self.law.function(eps)
+        except Exception as error:
+            raise ValueError(f"{name} failed on a strain CoefficientFunction{when}: {error}") from error
+        if not isinstance(sigma, ngs.CoefficientFunction):
+            raise TypeError(f"{name} must return a CoefficientFunction, got {type(sigma).__name__}{when}")
+        if sigma.is_complex:
+            raise TypeError(f"{name} must return a real stress CoefficientFunction, got a complex one{when}")
+        if tuple(sigma.dims) != (dim, dim):
+            raise ValueError(f"{name} must return a {dim}x{dim} stress, got shape {tuple(sigma.dims)}{when}")
+        return sigma
+
     def matrix_stress(self, eps):
-        """σ = law(ε) as a matrix CF, for a strain matrix CF ε."""
-        if self.law.takes_linear:
-            return self.law.function(eps, self._linear_stress)
-        return self.law.function(eps)
+        """σ = law(ε) as a matrix CF, for a strain matrix CF ε: the law called again, once
+        ``verify`` found it unchanged since its check."""
+        self.verify()
+        return self._call(eps, " (called again after its check)")
 
     def voigt_stress(self, strain_voigt):
         """The Voigt stress of a Voigt strain CF (``forms.strain``)."""
         return stress_vector(self.matrix_stress(strain_matrix(strain_voigt, self.dim)), self.dim)
 
+    # ---------------------------------------------------------------- the law as checked
+    def verify(self, fresh=True):
+        """Raise a ValueError if the law is not the one checked: the checked stress CF (a
+        Parameter it reads has changed) or, with ``fresh``, a new call of the law (a global
+        variable it reads has changed) gives another stress at a ``FINGERPRINT`` strain
+        (without ``fresh``, at the first and the largest only: the check of every step)."""
+        found = self._changed(self._sigma, self._prints if fresh else (self._prints[0], self._prints[-1]))
+        cause = "a Parameter or other CoefficientFunction it reads has a new value"
+        if found is None and fresh:
+            found = self._changed(self._call(self._eps, " (called again after its check)"))
+            cause = "a new call of the law builds another stress: it reads a variable that has changed"
+        if found is not None:
+            strain, now, then = found
+            raise ValueError(f"{self.describe()} has changed since it was checked ({cause}): at the strain "
+                             f"{_fmt(strain)} it gives σ = {_fmt(now)} Pa, checked {_fmt(then)} Pa. The hypotheses "
+                             "(2.16)-(2.17) hold for the law as checked only: a law must be a fixed function of the "
+                             "strain; build the Body again after changing what the law reads")
+
+    def _changed(self, sigma, prints=None):
+        """(strain, stress now, stress checked) at the first of the ``prints`` (default: all
+        ``FINGERPRINT`` strains) where ``sigma`` differs from the checked law, or None."""
+        for strain, then in self._prints if prints is None else prints:
+            now = self.evaluate(strain, sigma)
+            scale = np.abs(then).max() + 1e-300
+            if not np.all(np.abs(now - then) <= 1e-12 * scale):         # NaN differs too
+                return strain, now, then
+        return None
+
+    def evaluate(self, strain, sigma=None):
+        """The stress (numpy dim × dim) of the checked law (or of ``sigma``, a CF of the same
+        placeholder strain) at a strain (numpy dim × dim)."""
+        for p, (i, j) in zip(self._values, self._pairs):
+            p.Set(float(strain[i, j]))
+        return np.array((self._sigma if sigma is None else sigma)(self._point)).reshape(self.dim, self.dim)
+
     # ---------------------------------------------------------------- the hypotheses (2.16)-(2.17)
     def _check(self):
-        dim, name = self.dim, self.law.name
-        values = [ngs.Parameter(0.0) for _ in range(dim * (dim + 1) // 2)]
-        pairs = [(i, j) for i in range(dim) for j in range(i, dim)]
+        dim = self.dim
+        self._values = [ngs.Parameter(0.0) for _ in range(dim * (dim + 1) // 2)]
+        self._pairs = [(i, j) for i in range(dim) for j in range(i, dim)]
         entries = {}
-        for p, (i, j) in zip(values, pairs):
+        for p, (i, j) in zip(self._values, self._pairs):
             entries[i, j] = entries[j, i] = p
-        eps = ngs.CF(tuple(entries[i, j] for i in range(dim) for j in range(dim)), dims=(dim, dim))
-        try:
-            sigma = self.matrix_stress(eps)
-        except Exception as error:
-            raise ValueError(f"{self.what} law {name!r} failed on a strain CoefficientFunction: {error}") from error
-        if not isinstance(sigma, ngs.CoefficientFunction):
-            raise TypeError(f"{self.what} law {name!r} must return a CoefficientFunction, got "
-                            f"{type(sigma).__name__}")
-        if tuple(sigma.dims) != (dim, dim):
-            raise ValueError(f"{self.what} law {name!r} must return a {dim}x{dim} stress, got shape "
-                             f"{tuple(sigma.dims)}")
-        mesh = _point_mesh()
-        point = mesh(0.25, 0.25)
-
-        def evaluate(strain):
-            for p, (i, j) in zip(values, pairs):
-                p.Set(float(strain[i, j]))
-            return np.array(sigma(point)).reshape(dim, dim)
-        rng = np.random.default_rng(20261125)           # the same samples in every run
+        self._eps = ngs.CF(tuple(entries[i, j] for i in range(dim) for j in range(dim)), dims=(dim, dim))
+        self._sigma = self._call(self._eps)
+        self._point = _point_mesh()(0.25, 0.25)
         scale = self.law.strain_scale
-        m, L = math.inf, 0.0
-        for k in range(SAMPLES):
-            a, b = (_sample(rng, dim, scale) for _ in range(2))
-            if k % 4 == 0:
-                b = a + _sample(rng, dim, scale * 1e-3)    # close pairs: the local slopes
-            sa, sb = evaluate(a), evaluate(b)
-            for strain, stress in ((a, sa), (b, sb)):
-                if not np.all(np.isfinite(stress)):
-                    raise ValueError(f"{self.what} law {name!r} gives a non-finite stress {stress.tolist()} at "
-                                     f"the strain {strain.tolist()}")
-                if not np.allclose(stress, stress.T, rtol=1e-9, atol=1e-12 * (np.abs(stress).max() + 1e-300)):
-                    raise ValueError(f"{self.what} law {name!r} gives a non-symmetric stress {stress.tolist()} "
-                                     f"at the strain {strain.tolist()}")
-            d, ds = a - b, sa - sb
-            norm2 = float(np.sum(d * d))
-            slope = float(np.sum(ds * d)) / norm2
-            if not slope > 0:
-                raise ValueError(f"{self.what} law {name!r} is not strongly monotone (2.16)-(2.17): "
-                                 f"(σ(a) − σ(b)):(a − b) = {slope * norm2:.4g} ≤ 0 at a = {a.tolist()}, "
-                                 f"b = {b.tolist()}")
-            m, L = min(m, slope), max(L, math.sqrt(float(np.sum(ds * ds)) / norm2))
+        rng = np.random.default_rng(20261125)           # the same samples in every run
+        m, L, strains = self.hypotheses(rng, scale)
+        name = self.describe()
         if self.law.monotonicity is not None and self.law.monotonicity > m * (1 + 1e-9):
-            raise ValueError(f"{self.what} law {name!r}: the given monotonicity {self.law.monotonicity:.4g} "
+            raise ValueError(f"{name}: the given monotonicity {self.law.monotonicity:.4g} "
                              f"exceeds the sampled {m:.4g}")
         if self.law.lipschitz is not None and self.law.lipschitz < L * (1 - 1e-9):
-            raise ValueError(f"{self.what} law {name!r}: the given Lipschitz constant {self.law.lipschitz:.4g} "
+            raise ValueError(f"{name}: the given Lipschitz constant {self.law.lipschitz:.4g} "
                              f"is below the sampled {L:.4g}")
         self.monotonicity = self.law.monotonicity or m
         self.lipschitz = self.law.lipschitz or L
+        self.checked_range = max(float(np.linalg.norm(a)) for a in strains)
+        picked = strains[::max(1, len(strains) // FINGERPRINT)][:FINGERPRINT - 1] + [max(strains, key=np.linalg.norm)]
+        self._prints = [(a, self.evaluate(a)) for a in picked]
+        # the largest norm of the tangent at the samples (and at 0): the sampled chords come in
+        # random directions and find less than the steepest; the run's tangents are held to it
+        self.tangent_bound = max(float(np.linalg.norm(self.jacobian(a), 2)) for a in [0 * strains[0]] + strains)
         # the tangent at 0 (Voigt, engineering strain): central differences of σ(0 ± h e_J)
         h = 1e-6 * scale
-        n = len(pairs)
+        n = len(self._pairs)
         tangent = np.zeros((n, n))
         order = [(0, 0), (1, 1), (0, 1)] if dim == 2 else [(0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1)]
         for J, (k, l) in enumerate(order):
             e = np.zeros((dim, dim))
             e[k, l] = e[l, k] = h / (1 if k == l else 2)         # engineering shear h
-            column = (evaluate(e) - evaluate(-e)) / (2 * h)
+            column = (self.evaluate(e) - self.evaluate(-e)) / (2 * h)
             tangent[:, J] = [column[i, j] for (i, j) in order]
         self.linear = 0.5 * (tangent + tangent.T)
+
+    def hypotheses(self, rng, scale, largest=None, where=""):
+        """(m, L, the strains a) of ``SAMPLES`` pairs (a, b) of sizes 1e-3 to 1e1 × ``scale`` (or up
+        to ``largest``), a quarter close pairs (local slopes); a non-finite or non-symmetric stress
+        or (σ(a) − σ(b)):(a − b) ≤ 0 raises a ValueError naming the law, the strain and ``where``."""
+        dim, name = self.dim, self.describe()
+        top = 1.0 if largest is None else math.log10(largest / scale)
+        m, L, strains = math.inf, 0.0, []
+        for k in range(SAMPLES):
+            a, b = (_sample(rng, dim, scale, top) for _ in range(2))
+            if k % 4 == 0:
+                b = a + _sample(rng, dim, scale * 1e-3, top)    # close pairs: the local slopes
+            sa, sb = self.evaluate(a), self.evaluate(b)
+            for strain, stress in ((a, sa), (b, sb)):
+                if not np.all(np.isfinite(stress)):
+                    raise ValueError(f"{name} gives a non-finite stress {stress.tolist()} at "
+                                     f"the strain {strain.tolist()}{where}")
+                if not np.allclose(stress, stress.T, rtol=1e-9, atol=1e-12 * (np.abs(stress).max() + 1e-300)):
+                    raise ValueError(f"{name} gives a non-symmetric stress {stress.tolist()} "
+                                     f"at the strain {strain.tolist()}{where}")
+            d, ds = a - b, sa - sb
+            norm2 = float(np.sum(d * d))
+            slope = float(np.sum(ds * d)) / norm2
+            if not slope > 0:
+                raise ValueError(f"{name} is not strongly monotone (2.16)-(2.17): "
+                                 f"(σ(a) − σ(b)):(a − b) = {slope * norm2:.4g} ≤ 0 at a = {a.tolist()}, "
+                                 f"b = {b.tolist()}{where}")
+            m, L = min(m, slope), max(L, math.sqrt(float(np.sum(ds * ds)) / norm2))
+            strains.append(a)
+        return m, L, strains
+
+    def jacobian(self, strain, h=None):
+        """The tangent dσ/dε at ``strain`` (numpy) in the orthonormal ``basis`` of symmetric
+        strains (Frobenius), by forward differences of step ``h`` (default 1e-6 of the strain's
+        size or of ``strain_scale``)."""
+        h = h or 1e-6 * max(float(np.linalg.norm(strain)), self.law.strain_scale)
+        sigma = self.evaluate(strain)
+        columns = [coordinates(self.evaluate(strain + h * B) - sigma, self.basis) / h for B in self.basis]
+        return np.array(columns).T
+
+    def chord(self, strain, direction, h):
+        """(d:(σ(ε + h d) − σ(ε))/h, |σ(ε + h d) − σ(ε)|/h) for the unit strain ``direction``
+        d (numpy): the exact slopes of the checked law along a chord at ``strain``."""
+        step = self.evaluate(strain + h * direction) - self.evaluate(strain)
+        return float(np.sum(step * direction)) / h, float(np.linalg.norm(step)) / h
+
+
+FINGERPRINT = 8
+"""Sampled strains at which a law's stress is kept when checked (``BoundLaw.verify``)."""
+
+
+def strain_basis(dim):
+    """An orthonormal basis (Frobenius) of the symmetric dim × dim matrices (numpy): e_i ⊗ e_i
+    and (e_i ⊗ e_j + e_j ⊗ e_i)/√2."""
+    basis = []
+    for i in range(dim):
+        for j in range(i, dim):
+            B = np.zeros((dim, dim))
+            B[i, j] = B[j, i] = 1.0 if i == j else math.sqrt(0.5)
+            basis.append(B)
+    return basis
+
+
+def coordinates(M, basis):
+    """The coordinates of symmetric matrices ``M`` (..., dim, dim) in the ``basis``."""
+    return np.einsum("...ij,bij->...b", M, np.array(basis))
+
+
+def _fmt(a):
+    return np.array2string(np.asarray(a), precision=4, separator=", ").replace("\n", "")
 
 
 _MESH = None
@@ -278,8 +385,8 @@ def _point_mesh():
     return _MESH
 
 
-def _sample(rng, dim, scale):
-    size = scale * 10 ** rng.uniform(-3, 1)
+def _sample(rng, dim, scale, top=1.0):
+    size = scale * 10 ** rng.uniform(-3, top)
     a = rng.standard_normal((dim, dim))
     a = 0.5 * (a + a.T)
     return size * a / np.linalg.norm(a)

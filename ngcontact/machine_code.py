@@ -23,6 +23,10 @@ paid for the compile (the ski-rental rule: never more than twice the cost of the
 the two choices made in hindsight). A one-step Hertz solve then never compiles (it paid 15 s
 for it before), a long run of the 3D block compiles at once.
 """
+import os
+import shutil
+import sys
+import sysconfig
 import warnings
 
 COMPILE_S = 8.0
@@ -69,12 +73,38 @@ def compile_bulk(realcompile, elements):
     return bool(realcompile) if realcompile is not None else elements >= BULK_COMPILED_FROM
 
 
+def find_compiler():
+    """Put the directory of this NGSolve's compiler wrapper ``ngscxx`` first on PATH when the
+    ``ngscxx`` PATH finds is another one or none; returns that directory (None if there is no
+    wrapper beside this Python). NGSolve installs the wrapper beside the interpreter
+    (``sys.executable``'s directory, or sysconfig's scripts directory) but calls it by name,
+    and the wrapper runs ``python3`` from PATH to find the headers: a venv's Python started
+    without activating the venv (``/path/venv/bin/python -m ngcontact``) found none and fell
+    back to interpreted code at every compile, and under pyenv's shims another version's
+    wrapper (with that version's headers) was used."""
+    for directory in dict.fromkeys((os.path.dirname(sys.executable), sysconfig.get_path("scripts"))):
+        wrapper = directory and shutil.which("ngscxx", path=directory)
+        if wrapper:
+            found = shutil.which("ngscxx")
+            if found is None or not os.path.samefile(found, wrapper):
+                os.environ["PATH"] = os.pathsep.join(filter(None, (directory, os.environ.get("PATH"))))
+            return directory
+    return None
+
+
+_compiler = []
+"""Whether ``find_compiler`` has run (once per process, before the first realcompile)."""
+
+
 def compiled(cf, realcompile, maxderiv=2):
     """cf.Compile(), to machine code if ``realcompile`` (falls back, with a warning, when
-    there is no working C++ compiler); ``maxderiv``: the derivatives compiled (1 suffices for
-    a Jacobian by ``AssembleLinearization``: 6.5 s to compile instead of 8.7, and assembles in
-    half the time of 2)."""
+    there is no working C++ compiler; NGSolve's ``ngscxx`` found first, ``find_compiler``);
+    ``maxderiv``: the derivatives compiled (1 suffices for a Jacobian by
+    ``AssembleLinearization``: 6.5 s to compile instead of 8.7, and assembles in half the time
+    of 2)."""
     if realcompile:
+        if not _compiler:
+            _compiler.append(find_compiler())
         try:
             return cf.Compile(realcompile=True, maxderiv=maxderiv, wait=True)
         except Exception as err:                               # NGSolve raises a plain Exception

@@ -74,6 +74,31 @@ def _symmetric_positive_definite(name, M, unit, allow_zero=False):
                          f"eigenvalues > 0); its smallest eigenvalue is {lmin:.4g} {unit}")
 
 
+COUPLING_LIMIT = 1e8
+"""The largest piezoelectric stiffening λ_max(c^-½ eᵀ ε⁻¹ e c^-½) accepted: the factor by which the
+coupling stiffens the body at open circuit (PZT-5A 1.05; the strong-coupling study runs to
+10⁴). Beyond it the charges outweigh the forces by its square root in Newton's scaled norms, and
+a residual of the forces would hide under the tolerance of the charges."""
+
+
+def _physical_scales(c, e, eps):
+    """Refuse a permittivity below the vacuum's ε0 (relative permittivity < 1 in some direction)
+    and a coupling so strong that the electric part swamps the mechanical one numerically."""
+    lmin = np.linalg.eigvalsh(eps).min()
+    if lmin < EPS0 * (1 - 1e-9):
+        raise ValueError(f"Material: permittivity eps must be >= ε0 = {EPS0:.6g} F/m in every direction (a "
+                         f"relative permittivity >= 1: no material is below the vacuum); its smallest "
+                         f"eigenvalue is {lmin:.4g} F/m")
+    w, v = np.linalg.eigh(c)
+    root = v @ np.diag(w ** -0.5) @ v.T                        # c^-½
+    stiffening = np.linalg.eigvalsh(root @ e.T @ np.linalg.solve(eps, e) @ root).max()
+    if stiffening > COUPLING_LIMIT:
+        raise ValueError(f"Material: the coupling e with the permittivity eps stiffens the body {stiffening:.3g}-fold "
+                         f"(λ_max(c^-½ eᵀ eps⁻¹ e c^-½); allowed <= {COUPLING_LIMIT:g}, PZT-5A 1.05): the "
+                         "electric part would swamp the mechanical one in the solver; check the units of e "
+                         "(C/m²) and eps (F/m)")
+
+
 @dataclass(frozen=True)
 class MaterialTensors:
     """The model-dimensional matrices (Voigt, engineering shear) used by the forms."""
@@ -180,6 +205,7 @@ class Material:
         _symmetric_positive_definite("elasticity c (F)", self.c, "Pa")
         _symmetric_positive_definite("viscosity eta (A)", self.eta, "Pa·s", allow_zero=True)
         _symmetric_positive_definite("permittivity eps (C)", self.eps, "F/m")
+        _physical_scales(self.c, self.e, self.eps)
         if not isinstance(self.name, str):
             raise TypeError(f"Material: name must be a str, got {type(self.name).__name__}")
         if self.poling not in (None, "x", "y", "z"):
@@ -196,7 +222,7 @@ class Material:
         permittivity (F/m), transversely isotropic piezo coupling (C/m²), and isotropic
         viscosity A ε = 2 viscosity ε + bulk_viscosity tr(ε) I (Pa·s)."""
         E, nu = number("E", E, 0, low_open=True, unit="Pa"), number("nu", nu, -1, 0.5, low_open=True, high_open=True)
-        permittivity = number("permittivity", permittivity, 0, low_open=True, unit="F/m")
+        permittivity = number("permittivity", permittivity, EPS0, unit="F/m")   # ε0: the vacuum's
         for key, value in dict(e31=e31, e33=e33, e15=e15).items():
             number(key, value, unit="C/m²")
         for key, value in dict(viscosity=viscosity, bulk_viscosity=bulk_viscosity).items():

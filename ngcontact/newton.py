@@ -34,6 +34,7 @@ from . import parallel
 from .linear_solver import DirectSolver, untimed
 from .residual_norm import ResidualNorm
 from .stopping import ConvergenceTest
+from .cycles import CycleWatch
 
 LINEAR_COUNTS = ("factorizations", "krylov_iterations", "krylov_failures")
 """The linear solver's counters that a solve reports."""
@@ -197,6 +198,7 @@ class Newton:
         self.on_iteration = None       # called with (iteration, scaled residual): progress output
         self.energy_target = None      # J^½: stop once the last correction's energy is below it (``adapt``)
         self.estimate_stops = 0        # solves stopped by ``energy_target`` (NewtonResult.stopped = "estimate")
+        self.switches = None           # the laws' pieces at the state (``switches.Switches``): a cycle's account
         self.solver = solver or DirectSolver("umfpack")
         self.rtol, self.maxit = rtol, int(maxit)
         space = gfu.space
@@ -255,6 +257,8 @@ class Newton:
             self.step_length.start()
 
         def fail(reason, it, hint, recoverable=True):
+            if getattr(self.system, "laws", None) is not None:     # a nonlinear law the cause? (``law_terms``)
+                reason, hint = self.system.laws.explain(x, reason, hint)
             error = NewtonError(reason, iteration=it, residuals=residuals, step=step, time=time, hint=hint,
                                 recoverable=recoverable)
             for name, value in self._linear_counts(since=counts).items():
@@ -263,6 +267,7 @@ class Newton:
             return error
 
         correction = None                # the energy of the last correction (J^½), for the adaptive stop
+        cycling = CycleWatch(self.switches)   # iterates that repeat: a cycle, named by the laws that flip
         for it in range(self.maxit + 1):
             with timer("residual"):
                 self.system.Apply(x, r)
@@ -274,7 +279,7 @@ class Newton:
                 self.on_iteration(it, value)
             if not np.isfinite(value):
                 raise fail("diverged (non-finite residual)", it, "a smaller time step")
-            verdict = self.test(x, residuals, self.rtol)
+            verdict = self.test(x, residuals, self.rtol, r)
             adaptive = (self.energy_target is not None and correction is not None and correction <= self.energy_target
                         and value < residuals[-2])
             if settled and (verdict.converged or adaptive):
@@ -286,6 +291,9 @@ class Newton:
             if verdict.uncertifiable:
                 reason, hint = verdict.explain()
                 raise fail(reason, it, hint, recoverable=False)
+            cycle = cycling(residuals)
+            if cycle is not None:
+                raise fail(cycle[0], it, cycle[1])
             if it == self.maxit:
                 break
             if hook is not None:

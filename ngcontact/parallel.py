@@ -38,9 +38,14 @@ def world():
 def oversubscribed():
     """True if more MPI ranks run than this machine has cores (``os.cpu_count()``): every
     collective operation then waits for a descheduled rank (PETSc's GMRES on 3 ranks on 2
-    cores: 27 ms per iteration against 2 ms on 2 ranks)."""
+    cores: 27 ms per iteration against 2 ms on 2 ranks). True on every rank if true on some
+    (nodes with fewer cores): the solver it chooses is the same on every rank. Collective:
+    every rank calls it."""
     comm = world()
-    return comm is not None and comm.size > (os.cpu_count() or 1)
+    if comm is None:
+        return False
+    from mpi4py import MPI
+    return bool(comm.allreduce(comm.size > (os.cpu_count() or 1), op=MPI.LOR))
 
 
 def rank():

@@ -1,5 +1,5 @@
 """Newton's corrections by PETSc's GMRES preconditioned with Γ3 solves around block algebraic
-multigrid: the iterative solver of large steps on PETSc, serial or distributed (issue 27).
+multigrid: the iterative solver of large steps on PETSc, serial or distributed.
 
 The step Jacobian J (``system``; non-symmetric, indefinite: ``multigrid`` has the blocks) is
 solved by GMRES in Newton's weighted norm (``petsc_solver.WeightedGmres``) with the
@@ -44,6 +44,7 @@ from . import forms, parallel
 from .checks import node_memory
 from .machine_code import compile_bulk, compiled
 from .petsc_blocks import index_set, node_by_node, petsc_vector, rigid_motion_values
+from .petsc_options import reading_options
 from .petsc_solver import MumpsFactorization, PetscMatrix, WeightedGmres, load
 
 
@@ -156,8 +157,9 @@ class GamgSolver:
             for key, value in GAMG_OPTIONS.items():          # the defaults, where PETSC_OPTIONS says nothing
                 if not options.hasName(prefix + key):
                     options.setValue(prefix + key, value)
-            pc.setFromOptions()
-            pc.setUp()
+            with reading_options(f"the GAMG preconditioner of {name} (prefix -{prefix})"):
+                pc.setFromOptions()
+                pc.setUp()
             x, y = block.createVecs()
             blocks.append((pc, x, y, PETSc.Scatter().create(self._d, rows, x, None)))
         self._bulk = blocks
@@ -198,7 +200,8 @@ class GamgSolver:
             self._surface.setOperators(self._surface_matrix)
             self._surface.setType("lu")
             self._surface.setFactorSolverType("mumps")
-            self._surface.setFromOptions()
+            with reading_options("the Γ3 factorisation of iterative='gamg' (prefix -ngcontact_gamma3_)"):
+                self._surface.setFromOptions()
             self._sr, self._sy = self._surface_matrix.createVecs()
             self._sd, self._sz = self._surface_matrix.createVecs()
             self._on_surface = PETSc.Scatter().create(self._d, self.surface_rows, self._sr, None)   # J's vectors ↔ Γ3's
@@ -208,7 +211,8 @@ class GamgSolver:
             J.createSubMatrix(every[0], self.surface_rows, submat=columns)
             J.createSubMatrix(self.surface_rows, every[1], submat=rows)
             self._surface.setOperators(self._surface_matrix)
-        self._surface.setUp()
+        with reading_options("the Γ3 factorisation of iterative='gamg' (prefix -ngcontact_gamma3_)"):
+            self._surface.setUp()
         if self._surface.getFailedReason():
             raise ArithmeticError(f"the MUMPS factorisation of the Γ3 block failed (PETSc's reason "
                                   f"{self._surface.getFailedReason()})")

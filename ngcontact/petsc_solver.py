@@ -1,4 +1,4 @@
-"""Newton's linear solves on PETSc: MUMPS factorisations through ngsPETSc (issue 27).
+"""Newton's linear solves on PETSc: MUMPS factorisations through ngsPETSc.
 
 ``Simulation(inverse="mumps")`` factorises the step's Jacobian with MUMPS (LU for a
 non-symmetric Jacobian, LDLᵀ for a symmetric one), serially or on a mesh distributed over MPI
@@ -15,7 +15,8 @@ so that MUMPS reuses its analysis (symbolic factorisation and ordering).
 Installing PETSc: PyPI has no binary petsc4py; on Python ≥ 3.12 the ``dolfinx-solver-real``
 wheel ships PETSc 3.25 with MUMPS and its own petsc4py (``INSTALL``); on a cluster, build
 petsc4py against the site's PETSc (docs/cluster.md). Without PETSc, ``inverse="mumps"`` is an
-error that says how to install it, before any work.
+error that says how to install it, before any work (``PetscMissing``). PETSc's options
+(``PETSC_OPTIONS``) reach the factorisation; what they cannot do is named (``petsc_options``).
 """
 from contextlib import nullcontext
 
@@ -23,6 +24,7 @@ import ngsolve as ngs
 import numpy as np
 
 from . import mpi_launch
+from .petsc_options import check_factorisation, reading_options
 
 NAMES = ("mumps",)
 """The ``inverse=`` names of the PETSc engine."""
@@ -39,6 +41,12 @@ MAX_RELAXATION = 640
 _modules = None
 
 
+class PetscMissing(ImportError, ValueError):
+    """What an option needs of PETSc is not installed: an ImportError (a module is missing) and a
+    ValueError (the option's value cannot be used here), so that the command line reports it in
+    one line like any other bad value."""
+
+
 def load(what='inverse="mumps"'):
     """(petsc4py.PETSc, ngsPETSc), imported in the order the wheel needs (mpi4py's MPI first,
     so that PETSc finds the MPI library); ImportError naming ``what`` needs them, with
@@ -53,8 +61,8 @@ def load(what='inverse="mumps"'):
             from petsc4py import PETSc
             import ngsPETSc
         except ImportError as err:
-            raise ImportError(f'{what} needs PETSc (petsc4py with MUMPS) and ngsPETSc, which are not '
-                              f'installed ({err}); {INSTALL}') from None
+            raise PetscMissing(f'{what} needs PETSc (petsc4py with MUMPS) and ngsPETSc, which are not '
+                               f'installed ({err}); {INSTALL}') from None
         _modules = PETSc, ngsPETSc
     return _modules
 
@@ -145,8 +153,10 @@ class MumpsFactorization(ngs.BaseMatrix):
         self.pc.setFactorSetUpSolverType()
         self.relaxation = WORKSPACE_RELAXATION
         self.pc.getFactorMatrix().setMumpsIcntl(14, self.relaxation)
-        self.pc.setFromOptions()                    # PETSC_OPTIONS, e.g. -mat_mumps_icntl_4 2
-        self._factorise()
+        with reading_options('the MUMPS factorisation of inverse="mumps"'):
+            self.pc.setFromOptions()                # PETSC_OPTIONS, e.g. -mat_mumps_icntl_4 2
+            check_factorisation(self.pc, self.symmetric, 'inverse="mumps"')
+            self._factorise()                       # MUMPS reads its -mat_mumps_* options here
         self._x, self._y = self.petsc.mat.createVecs()
 
     def _factorise(self):

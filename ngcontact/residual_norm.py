@@ -45,6 +45,14 @@ class ResidualNorm:
         for block, whole, scale in zip(self.blocks, self.whole_blocks, self.scales):
             self.weights[block], self._dual[block], self._everywhere[whole] = scale, 1 / scale, 1 / scale
 
+    def restore_scales(self, scales, n):
+        """The scales set to ``scales`` exactly (saved ones: ``set_scales`` takes a diagonal's
+        means, which round), for vectors of length n."""
+        self.set_scales(np.ones(n))
+        self.scales = list(scales)
+        for block, whole, scale in zip(self.blocks, self.whole_blocks, scales):
+            self.weights[block], self._dual[block], self._everywhere[whole] = scale, 1 / scale, 1 / scale
+
     weights = None
     """s_b on the free DOFs of block b, 0 elsewhere (numpy): the primal norm is (Σ w x²)^½."""
 
@@ -66,6 +74,15 @@ class ResidualNorm:
         included (where a force vector holds the reactions of the supports and the charges of
         the electrodes), J^½."""
         return self._weighted(self._values(r), self._everywhere)
+
+    def block_duals(self, r, everywhere=False):
+        """[‖r_u‖, ‖r_φ‖]: the dual norm of each block of ``r`` on its own (free DOFs, or every
+        DOF with ``everywhere``), summed over the ranks, J^½."""
+        a = self._values(r)
+        blocks = self.whole_blocks if everywhere else self.blocks
+        weights = self._everywhere if everywhere else self._dual
+        squares = np.array([np.einsum("i,i,i", weights[b], a[b], a[b]) for b in blocks])
+        return [float(v) for v in np.sqrt(parallel.sum(self.mesh, squares))]
 
     def primal(self, x):
         """‖x‖ = (Σ_b s_b ‖x_b‖²)^½ of a state vector, J^½."""

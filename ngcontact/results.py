@@ -3,7 +3,9 @@
 ``Simulation.run(dt, T, out=DIR)`` writes into DIR:
 
 * ``run.json``: the run (dt, T, its start time, the global ndof, dimension, ngcontact
-  version), the fingerprint of its scene (``ngcontact.fingerprint``) and ``ranks``, the
+  version), the fingerprint of its scene (``ngcontact.fingerprint``) with the options of
+  ``Simulation.run`` that change the results (``fingerprint.run_options``: dt, T, rtol,
+  dt_min, event_dt, max_cutbacks, guess) and ``ranks``, the
   number of MPI ranks that wrote it (1 serially); on a distributed mesh also ``partition``:
   per rank its DOFs, its facets of Γ3 and a hash of its vertices and facets;
 * ``steps/NNNNNN.npz``: one NumPy archive per computed step (cut-back steps included),
@@ -13,7 +15,10 @@
   ...), of its ContactRecord as ``contact/<field>``, and the state a restart needs as
   ``restart/<part>``: the time scheme's own restart state (``save`` of a scheme in
   ``ngcontact.schemes``; backward Euler: the (u, φ) vector, β before and after clipping, the
-  enforcement's own unknowns, the predictor's memory, t); run.json names the scheme;
+  enforcement's own unknowns, the predictor's memory, t, and what Newton's next solve decides
+  by, ``solver_restart.restart_state``: the rate c of the step system, Newton's norm scales, the
+  values the kept factorisation factorised where they differ from the bulk; with the rule
+  that compiles the Γ3 integrand, how far it has counted); run.json names the scheme;
 * on a distributed mesh (``mpiexec -n N``) the restart state, and the record's ``state``
   (with ``keep_states``), are each rank's own: they go into ``steps/NNNNNN.rankR.npz``, one
   part per rank R = 0 .. N − 1 (rank 0's holds no DOFs), and ``steps/NNNNNN.npz`` holds the
@@ -47,8 +52,10 @@ simulation's history, and ``resume(DIR)`` continues from the last step on disk.
 
 ``Simulation.resume(DIR)`` puts the last step on disk back into a simulation of the same scene
 and scheme (its history, and the scheme's restart state through its ``load``; distributed:
-each rank its own parts), and ``run(dt, T, out=DIR)`` with the same dt and T then computes only
-the nominal steps not yet reached. Both check first, on every rank, that DIR was written by
+each rank its own parts), and ``run(dt, T, out=DIR)`` with the same options then computes only
+the steps not yet reached, to the results of the run never interrupted, bitwise (serially; under
+mpiexec MUMPS adds in the order messages arrive); a run that had reached T is complete, and
+``run`` says so (``check_incomplete``). Both check first, on every rank, that DIR was written by
 as many MPI ranks (a run is resumed under the ``mpiexec -n N`` that wrote it, a serial one
 serially) with the mesh distributed alike, and that it holds this scene (the fingerprints
 agree, and at resume the state at t = 0 too; a run of another time scheme is refused), and
@@ -59,6 +66,7 @@ one all ranks see (a shared file system on a cluster).
 """
 import hashlib
 import json
+import numbers
 import os
 import pathlib
 from dataclasses import dataclass
@@ -67,7 +75,8 @@ from typing import Callable
 
 import numpy as np
 
-from . import parallel
+from . import arguments, parallel
+from .fingerprint import run_options
 from .paraview import checked_vtk, fields_writer, gamma3_vtp, own_vtu
 from .records import History
 from .run_directory import (check_partition, check_ranks, check_run, check_scene, check_scheme, check_start, load,
@@ -117,6 +126,9 @@ class Stream:
     """Writes the steps of a simulation's run into ``directory`` (see the module).
 
     dt, T, start : the run's nominal time step, final time and start time (s).
+    rtol, dt_min, event_dt, max_cutbacks, guess : the other options of ``Simulation.run`` that
+        change its results (dt_min and event_dt as used), stored with the fingerprint and
+        compared with a run in ``directory`` (``fingerprint.run_options``).
     resumed : the run info ``restore`` returned if the simulation was resumed, else None.
         Resumed from ``directory``, the stream continues the steps on disk; otherwise it
         starts the directory afresh with the simulation's history so far (the records of
@@ -125,13 +137,15 @@ class Stream:
         start, number of ranks, distribution of the mesh or scene) is refused on every rank
         before anything is written."""
 
-    def __init__(self, source, directory, dt, T, start, resumed=None, rtol=None):
+    def __init__(self, source, directory, dt, T, start, resumed=None, rtol=None, *, dt_min=None, event_dt=None,
+                 max_cutbacks=None, guess=None):
         self.source, self.dir = source, pathlib.Path(directory)
         mesh = source.mesh
         self.lead = mesh.comm.rank == 0               # writes the archives and the series (rank 0)
+        options = run_options(dt, T, rtol, dt_min, event_dt, max_cutbacks, guess)
         info = dict(dt=dt, T=T, start=start, rtol=rtol, **source.description, ngcontact=_version(),
-                    format="one numpy archive per step, see ngcontact.results", fingerprint=source.fingerprint(T),
-                    **_layout(source))
+                    format="one numpy archive per step, see ngcontact.results",
+                    fingerprint=dict(source.fingerprint(T), **options), **_layout(source))
         self.ranks = info["ranks"]
         existing = parallel.together(mesh, run_info, self.dir)
         if existing is not None:
@@ -279,6 +293,32 @@ def restore(source, directory):
                                                 mesh.comm.rank)
     check_start(mesh, source.start, first.get("restart/state", first.get("state")), directory)
     return dict(info, directory=str(directory)), history, restart
+
+
+def complete(info, t):
+    """Whether the run of run.json ``info`` had reached its T when its last step on disk ended at
+    ``t`` (s): to round-off of T and of its nominal dt (where ``Simulation.run``'s steps stop)."""
+    T, dt = info.get("T"), info.get("dt")
+    if not all(isinstance(v, numbers.Real) and not isinstance(v, bool) for v in (T, dt, t)):
+        return False
+    return T - t <= max(arguments.MIN_DT, arguments.RESOLUTION * abs(t), 1e-12 * abs(T), 1e-9 * abs(dt))
+
+
+def check_incomplete(resumed, history, T):
+    """Raise if the run ``resumed`` (the run info of ``restore``; None: nothing to check) had
+    reached its T (``complete``) and ``T``, the final time now asked for, is no later: the run is
+    already complete. The message says where it ended and how to extend it (from its last state,
+    into another directory: a run's directory keeps its T)."""
+    if resumed is None or not history or not isinstance(T, numbers.Real) or isinstance(T, bool):
+        return
+    t, last, stored = history[-1].time, len(history) - 1, resumed["T"]
+    if not (complete(resumed, t) and (T <= stored or T - t < max(arguments.MIN_DT, arguments.RESOLUTION * abs(t)))):
+        return
+    directory = resumed["directory"]
+    raise ValueError(f"run: the run in {directory!r} is already complete: it reached its T = {stored:g} s at step "
+                     f"{last} (t = {t:.9g} s), nothing is left to compute (ngcontact.results.read({directory!r}) "
+                     f"reads it). To extend it, run(dt, T_later, out=<another directory>) continues from its last "
+                     f"state (T_later > {t:.9g} s; the directory of a run keeps its T)")
 
 
 def _stored_run(directory, scheme, layout):

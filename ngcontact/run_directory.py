@@ -1,9 +1,10 @@
 """The directory of a streamed run (``results``): its files read back and checked.
 
-``run.json`` is read and compared with a run about to be written or resumed (dt and T, the
-number of MPI ranks, the time scheme, the partition of a distributed mesh, the scene's
-fingerprint, the state at t = 0); the step archives and the ranks' parts are read back, and
-a missing or damaged one is a ValueError naming the file, what is wrong and what to do.
+``run.json`` is read and compared with a run about to be written or resumed (the options of
+``Simulation.run``: dt, T, rtol, dt_min, event_dt, max_cutbacks, guess; the number of MPI
+ranks, the time scheme, the partition of a distributed mesh, the scene's fingerprint, the state
+at t = 0); the step archives and the ranks' parts are read back, and a missing or damaged one
+is a ValueError naming the file, what is wrong and what to do.
 """
 import json
 import zipfile
@@ -11,7 +12,7 @@ import zipfile
 import numpy as np
 
 from . import parallel
-from .fingerprint import mismatch
+from .fingerprint import RUN_OPTIONS, mismatch
 from .records import ContactRecord, History, StepRecord
 
 DICTS = ("boundary_reaction", "electrode_charge", "timings")
@@ -65,14 +66,46 @@ def run_info(directory):
     return info
 
 
+_ABSENT = object()
+
+
+def run_options(info):
+    """{option: value} of the options of ``Simulation.run`` (``fingerprint.RUN_OPTIONS``) of
+    the run ``info``: from its fingerprint's ``run.*`` fields; a run.json written before they
+    were stored has dt, T and rtol alone (the others absent)."""
+    stored = info.get("fingerprint") or {}
+    if "run.dt" in stored:
+        return {k: stored.get(f"run.{k}", _ABSENT) for k in RUN_OPTIONS}
+    return {k: info.get(k, _ABSENT) if k in ("dt", "T", "rtol") else _ABSENT for k in RUN_OPTIONS}
+
+
+def _option(name, value):
+    """An option of ``run`` and its value, for a message."""
+    return f"{name} {'none' if value is None else repr(value)}"
+
+
 def check_run(existing, info, directory):
     """Raise unless a new stream with run.json ``info`` may write into ``directory``, which
-    holds the run ``existing``: the same dt, T, start and rtol, ranks, scheme, partition and
-    scene."""
-    if any(existing.get(k) != info[k] for k in ("dt", "T", "start", "rtol")):
-        raise ValueError(f"out: {str(directory)!r} holds another run (dt {existing.get('dt')}, T "
-                         f"{existing.get('T')}, start {existing.get('start')}, rtol {existing.get('rtol')}); "
-                         "resume it with the same dt, T and rtol, or write to a new directory")
+    holds the run ``existing``: the same options of ``run`` (``run_options``: dt, T, rtol,
+    dt_min, event_dt, max_cutbacks, guess), start, ranks, scheme, partition and scene. A
+    differing option is named with both values."""
+    if "fingerprint" not in existing:
+        check_scene(existing, info["fingerprint"], directory, "out")          # says so
+    stored, now = run_options(existing), run_options(info)
+    absent = [k for k in RUN_OPTIONS if stored[k] is _ABSENT]
+    if absent:
+        raise ValueError(f"out: {str(directory)!r} holds a run of an earlier ngcontact, which did not record "
+                         f"{', '.join(absent)} (the options of run that change its results): whether this run "
+                         "continues it cannot be checked; run again into a new directory")
+    differing = [k for k in RUN_OPTIONS if stored[k] != now[k]]
+    if differing:
+        there, here = (", ".join(_option(k, options[k]) for k in differing) for options in (stored, now))
+        raise ValueError(f"out: {str(directory)!r} holds another run ({there}; this run has {here}): resume it with "
+                         f"the same {', '.join(RUN_OPTIONS[:-1])} and {RUN_OPTIONS[-1]}, or write to a new directory")
+    if existing.get("start") != info["start"]:
+        raise ValueError(f"out: {str(directory)!r} holds another run, begun at t = {existing.get('start')} s; this "
+                         f"run begins at t = {info['start']} s: resume({str(directory)!r}) continues it, or write "
+                         "to a new directory")
     check_ranks(existing, info["ranks"], directory, "out")
     check_scheme(existing, info["scheme"], directory, "out")
     check_partition(existing, info, directory, "out")
@@ -134,7 +167,9 @@ def check_scene(info, current, directory, who):
         raise ValueError(f"{who}: {str(directory)!r} holds a run written before ngcontact stored the scene of a "
                          "run (no fingerprint in run.json): whether this simulation is its scene cannot be "
                          "checked; run again into a new directory")
-    found = mismatch(info["fingerprint"], current)
+    def scene(found):                     # the options of ``run`` are compared by ``check_run``
+        return {k: v for k, v in found.items() if not k.startswith("run.")}
+    found = mismatch(scene(info["fingerprint"]), scene(current))
     if found:
         raise ValueError(f"{who}: {str(directory)!r} was computed with {found}: not the same scene")
 

@@ -17,6 +17,7 @@ from . import arguments, gamma3, parallel, paraview, results, stepping
 from .fingerprint import fingerprint
 from .admissible import PhysicsWarning, check_initial_displacement, check_supports_at_start, flags, scene_flags
 from .checks import integer, number, uses_only
+from .switches import Switches
 from .electric_part import electric_parts, solves_potential
 from .enforcement import METHODS
 from .loads import Loads, as_cf
@@ -126,9 +127,9 @@ class Simulation:
         self.gfu = ngs.GridFunction(self.X, name="state")
         self.u, self.phi = self.gfu.components
         distributed = parallel.is_distributed(body.mesh)     # see parallel.check_simulation, parallel_notes
-        self.condense = (has_interior_dofs(self.X) and body.tensors.linear) if condense is None else bool(condense)
-        if contact is not None and not METHODS[contact.method].condensable:
-            self.condense = False
+        automatic = has_interior_dofs(self.X) and body.tensors.linear and iterative in (None, False)  # not under GMRES
+        self.condense = automatic if condense is None else bool(condense)
+        self.condense &= contact is None or METHODS[contact.method].condensable
         kept = body.region("contact_side") if contact is not None else None
         coefficients = StepCoefficients(self.time, body.V)        # t_n, c, û: written by the scheme only
         self.system = StepSystem(body, self.loads, self.X, coefficients, condense=self.condense, kept=kept)
@@ -153,6 +154,7 @@ class Simulation:
             limit = StepLength(self.gamma3.side, self.gfu, self.gamma3.gap, normal=self.gamma3.sampled_normal)
         self.newton = Newton(self.system, self.gfu, solver=solver, rtol=rtol, maxit=maxit, hook=hook,
                              step_length=limit)
+        self.newton.switches = Switches(self.gamma3, self.gfu) if contact is not None else None   # a cycle's account
         self.scheme = Scheme(coefficients, self.system, self.newton, self.gfu,
                              self.gamma3.beta if contact is not None else None, predictor,
                              self.gamma3.normal if contact is not None else None)
@@ -257,6 +259,8 @@ class Simulation:
                     with at(self.t + dt):
                         self._gap_check(self.t + dt)
             result = self.scheme.advance(dt, step=n, timer=timings, start=partial(self.starts.apply, guessed))
+            if self.system.laws is not None:        # (2.16)-(2.17) at the step's strains (``law_terms``)
+                self.system.laws.check_step(self.gfu.vec, n, self.t)
             record = self._record(n, result, start, timings)
         except BaseException:
             self.scheme.restore(saved)
@@ -307,8 +311,9 @@ class Simulation:
         The arguments are checked before the first step (``arguments.run``: the directories
         of ``vtk`` and ``out`` must be writable, at most ``checks.MAX_STEPS`` steps).
         """
+        results.check_incomplete(self._resumed, self.history, T)      # resumed, complete: say so
         dt, T, max_cutbacks, progress = arguments.run(self, dt, T, max_cutbacks, progress, vtk, on_step, out)
-        control = arguments.controlled(self, dt, rtol, dt_min, event_dt)
+        control = arguments.controlled(self, dt, rtol, dt_min, event_dt, T)
         self.starts.resolve(guess)
         resumed = self._resumed
         start = resumed["start"] if resumed and (resumed["dt"], resumed["T"], resumed.get("rtol")) == (dt, T, rtol) \
@@ -318,7 +323,9 @@ class Simulation:
             self._machine_code.expect(steps * ITERATIONS_PER_STEP)
         callbacks = [on_step] if on_step else []
         if out is not None:                      # checks the directory, writes the history so far
-            callbacks.insert(0, results.Stream(self.results_source(), out, dt, T, start, resumed, rtol))
+            dt_min, event_dt = control or (None, None)
+            callbacks.insert(0, results.Stream(self.results_source(), out, dt, T, start, resumed, rtol, dt_min=dt_min,
+                                               event_dt=event_dt, max_cutbacks=max_cutbacks, guess=guess))
         if vtk is not None:                      # distributed: one .vtu per computing rank and step, one .pvd
             series = paraview.FieldsSeries(self.results_source(), vtk)
             series(self.t)
@@ -349,21 +356,37 @@ class Simulation:
         ``run(dt, T, out=directory)`` with the run's dt and T computes the rest. Returns self."""
         info, history, restart = results.restore(self.results_source(), directory)
         self.scheme.load(restart)
+        if self._machine_code is not None and "machine_code_spent" in restart:    # its rule counts on
+            self._machine_code.spent = float(restart["machine_code_spent"])
+            if restart["machine_code"]:
+                self.system.use_machine_code()
         self.history[:] = history
         self._resumed = info
         return self
+
+    def _restart_state(self):
+        """The restart state of a step archive (``results``): the time scheme's (its ``save``)
+        and, where a rule decides whether the Γ3 integrand is compiled, how far it has counted
+        and whether it compiled (a resumed run compiles at the same step)."""
+        arrays = self.scheme.save()
+        if self._machine_code is not None:
+            arrays.update(machine_code_spent=np.asarray(self._machine_code.spent),
+                          machine_code=np.asarray(self.system.machine_code))
+        return arrays
 
     def results_source(self):
         """What ``results`` reads of this simulation (``results.Source``)."""
         body, X, side = self.body, self.X, self.gamma3.side if self.gamma3 is not None else None
         return results.Source(body.mesh, (self.u, self.phi), max(body.order, body.order_phi) - 1, side, self.history,
                               dict(ndof=X.ndofglobal, dim=body.dim, model=self.model, scheme=self.scheme.name),
-                              partial(fingerprint, self), self.scheme.save,
+                              partial(fingerprint, self), self._restart_state,
                               (self.gfu.vec.FV().NumPy(), [X.Range(0), X.Range(1)]))
 
     # ----------------------------------------------------------------------- reading the state
     def state(self, n):
-        """GridFunction of (u, φ) at step n (needs ``keep_states``)."""
+        """GridFunction of (u, φ) at step n (needs ``keep_states``): n an integer in [0, len(history) − 1],
+        or from the end in [−len(history), −1]; a TypeError or IndexError naming n and that range otherwise."""
+        arguments.history_index(n, len(self.history))
         if self.history[n].state is None:
             raise ValueError("the states were not kept: pass keep_states=True to Simulation")
         gf = ngs.GridFunction(self.body.X)

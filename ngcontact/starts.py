@@ -99,7 +99,7 @@ class Field:
         gf = ngs.GridFunction(sim.body.V)
         gf.Set(self.value)
         values = gf.vec.FV().NumPy()
-        if not np.all(np.isfinite(values)):
+        if parallel.any_rank(sim.body.mesh, not np.all(np.isfinite(values))):     # on every rank
             raise ValueError(f"guess is not finite (NaN or inf) at t = {target:.6g} s")
         return values
 
@@ -145,8 +145,8 @@ class Starts:
             guess.check(self.sim)
             return guess
         if isinstance(guess, np.ndarray):
-            if guess.shape != (body.V.ndof,) or not np.issubdtype(guess.dtype, np.number) \
-                    or np.iscomplexobj(guess):
+            if parallel.any_rank(body.mesh, guess.shape != (body.V.ndof,) or not np.issubdtype(
+                    guess.dtype, np.number) or np.iscomplexobj(guess)):          # (each rank's DOFs)
                 raise ValueError(f"guess: an array of u's DOF values must be real of shape ({body.V.ndof},), got "
                                  f"{guess.dtype} of shape {guess.shape}")
             values = guess.astype(float)
@@ -161,7 +161,7 @@ class Starts:
             return self._field(as_cf(guess, body.dim, "guess"))
         else:
             raise TypeError(f"guess must be {GUESSES}; got {type(guess).__name__}")
-        if not np.all(np.isfinite(values)):
+        if parallel.any_rank(body.mesh, not np.all(np.isfinite(values))):
             raise ValueError("guess is not finite (NaN or inf)")
         return Field(values)
 

@@ -159,7 +159,7 @@ def controlled_steps(sim, start, T, dt, rtol, after, shown, dt_min, event_dt):
     # the floor of the estimate met in this run (the first step accepted above rtol), from the records: a resume sees it
     floor_level = next((r.error_estimate for r in sim.history if r.time > start and r.error_estimate is not None
                         and r.error_estimate > 1), None)
-    while sim.t < T * (1 - 1e-12) and T - sim.t > 1e-9 * dt:
+    while sim.t < T * (1 - 1e-12) and T - sim.t > 1e-9 * min(dt, span):
         k = min(k, T - sim.t)
         if T - sim.t - k < 0.01 * k:                  # no sliver of a step before T
             k = T - sim.t

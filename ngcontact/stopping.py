@@ -44,6 +44,15 @@ solve fails (``newton.NewtonError``) naming the share of the Γ3 terms in that f
 test never uses the initial residual or the size of x: both grow with a bad start or an
 exploded state.
 
+Each field must balance on its own as well: forces and charges enter S and ‖R‖ together, so
+where one field's scale dwarfs the other's (a coupling e²/(c ε) of 10²⁰) a residual of the
+other could hide under rtol · S. A state counts as converged only if each field's residual is at
+most max(rtol, ``FLOOR_LIMIT``) of that field's own scale S_b (``StepSystem.block_force_scales``);
+a field whose S_b is below ``FLOOR_LIMIT`` of S (nothing acts on it), and a step on which
+nothing acts beyond round-off, are left to the test on ‖R‖; a field that stalls out of balance
+cannot be certified. Where the fields are of comparable scale (every
+material of the presets) this is looser than the test on ‖R‖ and changes nothing.
+
 A system without ``force_scale`` (a plain nonlinear ``BilinearForm``) gets the classical
 relative test ``‖R(x)‖ <= rtol ‖R(x_0)‖``.
 """
@@ -73,9 +82,21 @@ class Verdict:
     floor: float = None
     contact_share: float = None
     uncertifiable: bool = False
+    quiet: bool = False
+    """Nothing acts on the step beyond the round-off of the bulk's own terms (certified so)."""
+    unbalanced: tuple = None
+    """(field name, its residual, its own scale S_b, the tolerance) of a field out of balance, or None."""
 
     def explain(self):
         """(why the residual cannot be certified, what to try), for ``NewtonError``."""
+        if self.unbalanced is not None:
+            name, value, own, tolerance = self.unbalanced
+            return (f"cannot be certified: the {name} stay out of balance by {value:.3e}, more than "
+                    f"{tolerance:g} of their own scale {own:.3e}, while the residual of both fields together "
+                    f"({self.residual:.3e}) is small against the step's force scale {self.scale:.3e}: the "
+                    "other field's scale hides them, and Newton no longer reduces them",
+                    "material data of sensible scales (the coupling e²/(c ε) and the permittivity, in SI "
+                    "units), or loads of comparable size on both fields")
         share = self.contact_share
         where = "" if share is None else f"; the terms on Γ3 make up {100 * share:.3g} % of that floor"
         advice = ("a smaller Nitsche gamma0, penalty, adhesion or compliance (the contact terms are too "
@@ -108,17 +129,43 @@ class ConvergenceTest:
         self.system, self.norm = system, norm
         self.certified = hasattr(system, "force_scale")
 
-    def __call__(self, x, residuals, rtol):
+    def __call__(self, x, residuals, rtol, r=None):
         """The Verdict at the iterate x for the relative tolerance ``rtol``; ``residuals``: the
-        scaled residuals of the solve so far, the last one x's (right after ``system.Apply``).
+        scaled residuals of the solve so far, the last one x's (right after ``system.Apply``),
+        ``r`` the residual vector R(x) (for the balance of each field; None: not checked).
         A solve stalls when its residual has not halved over the last ``STALL`` iterations."""
         value, first = residuals[-1], residuals[0]
         if not self.certified:
             return Verdict(value <= rtol * first, value, rtol * first)
         scale = self.system.force_scale(self.norm)
         verdict = Verdict(value <= rtol * scale, value, rtol * scale, scale)
-        small = value <= FLOOR_LIMIT * scale
         stalling = len(residuals) > STALL and value > 0.5 * residuals[-STALL - 1]
+        verdict = self._overall(verdict, x, value, scale, stalling)
+        if verdict.converged and r is not None and hasattr(self.system, "block_force_scales"):
+            self._fields(verdict, x, r, max(rtol, FLOOR_LIMIT), stalling)
+        return verdict
+
+    FIELDS = ("forces", "charges")
+
+    def _fields(self, verdict, x, r, tolerance, stalling):
+        """Unset ``verdict.converged`` where a field's residual exceeds ``tolerance`` of its own
+        scale (see the module); ``uncertifiable`` where it stalls so. A field whose scale is
+        below ``FLOOR_LIMIT`` of the step's is left to the test on ‖R‖, and so is a step on which
+        nothing acts beyond round-off (``Verdict.quiet``)."""
+        if verdict.quiet:
+            return
+        own = self.system.block_force_scales(self.norm)
+        values = self.norm.block_duals(r)
+        for name, value, scale in zip(self.FIELDS, values, own):
+            if value <= tolerance * scale or scale <= FLOOR_LIMIT * verdict.scale:
+                continue
+            verdict.converged, verdict.uncertifiable = False, stalling
+            verdict.unbalanced = (name, value, scale, tolerance)
+            return
+
+    def _overall(self, verdict, x, value, scale, stalling):
+        """The test on ‖R‖ against S, with the round-off floor (see the module)."""
+        small = value <= FLOOR_LIMIT * scale
         if verdict.converged or not (small or stalling):
             return verdict                                   # the floor cannot decide
         contact = self.system.contact_magnitude(x) if hasattr(self.system, "contact_magnitude") else None
@@ -131,5 +178,5 @@ class ConvergenceTest:
             # motion: K x = 0): certified too; a floor raised by stiff Γ3 terms does not count here
             bulk = magnitude if contact is None else magnitude - contact
             quiet = scale <= ROUNDOFF * self.norm.dual(bulk)
-            verdict.converged, verdict.uncertifiable = small or quiet, not (small or quiet)
+            verdict.converged, verdict.uncertifiable, verdict.quiet = small or quiet, not (small or quiet), quiet
         return verdict

@@ -312,6 +312,11 @@ class StepSystem:
         supports and the charges of the electrodes), without the Γ3 terms (``stopping``)."""
         return max(norm.dual_everywhere(self.f.vec), norm.dual_everywhere(self._internal))
 
+    def block_force_scales(self, norm):
+        """[S_u, S_φ]: ``force_scale`` of each field on its own (forces, charges), J^½."""
+        return [max(f, k) for f, k in zip(norm.block_duals(self.f.vec, everywhere=True),
+                                          norm.block_duals(self._internal, everywhere=True))]
+
     def contact_magnitude(self, x):
         """|R_Γ3'| |x| (numpy, cumulated on a distributed mesh) with the Γ3 Jacobian of the
         last linearisation (zeros before any): the Γ3 part of ``magnitude``."""

@@ -70,3 +70,55 @@ def test_charts_are_nontrivial_pngs(demo, name):
     assert image.shape[0] >= 300 and image.shape[1] >= 400
     colours = np.unique(np.round(image[..., :3] * 255).astype(int).reshape(-1, 3), axis=0)
     assert len(colours) > 50
+
+
+class _Record:
+    def __init__(self, time, event=None):
+        self.time, self.event, self.reaction = time, event, (0.0, 0.0)
+
+
+class _History(list):
+    """What ``demo._plot_overview`` reads of a History: records and β along Γ3."""
+    def contact_column(self, name):
+        return np.linspace(1.0, 0.0, len(self))[:, None] * np.ones((1, 4))
+
+
+def _overview(columns, tmp_path, monkeypatch):
+    """The figure ``demo._plot_overview`` draws from ``columns``: its axes."""
+    from matplotlib.figure import Figure
+
+    import ngcontact.demo
+    made = []
+
+    class Kept(Figure):
+        def savefig(self, *args, **kwargs):
+            made.append(self)
+            return super().savefig(*args, **kwargs)
+    monkeypatch.setattr(ngcontact.demo, "Figure", Kept)
+    history = _History([_Record(0.0)] + [_Record(t) for t in columns["times"]])
+    ngcontact.demo._plot_overview(tmp_path / "history.png", columns, history)
+    (figure,) = made
+    return figure.axes
+
+
+def test_the_step_panel_only_where_the_steps_vary(demo, tmp_path, monkeypatch):
+    """A fixed-step run's k varies by round-off only (t_n − t_{n−1}): no panel of k (its sharp
+    dips all read 2.5 × 10⁻³), k named in the title; one quantity per panel, each with its unit.
+    Steps cut back: a panel of k whose tick labels differ."""
+    from ngcontact.demo import steps_vary
+    summary, _ = demo
+    columns = {key: summary[key] for key in ("times", "dt", "load", "contact_length", "tip_deflection")}
+    assert not steps_vary(columns["dt"])
+    axes = _overview(columns, tmp_path, monkeypatch)
+    assert len(axes) == 4 and "fixed time step k = 2.5 ms, 200 steps" in axes[0].get_title()
+    labels = [ax.get_ylabel() for ax in axes]
+    assert all("[" in label for label in labels) and not any("time step" in label for label in labels)
+    assert all(len(ax.get_lines()) == 1 for ax in axes[:2])          # one quantity (one line) per panel
+    dt = np.array(columns["dt"])
+    dt[[20, 21, 60, 61, 62, 63]] /= [2, 2, 4, 4, 4, 4]                # cut-backs
+    assert steps_vary(dt)
+    axes = _overview(dict(columns, dt=list(dt)), tmp_path, monkeypatch)
+    assert len(axes) == 5 and axes[4].get_ylabel() == "time step k [ms]"
+    low, high = axes[4].get_ylim()
+    shown = [t.get_text() for t in axes[4].get_yticklabels() if low <= t.get_position()[1] <= high]
+    assert len(shown) >= 2 and len(set(shown)) == len(shown), shown

@@ -1216,7 +1216,7 @@ cli("demo --steps 2 --maxh 0.02 --gamma0 1e-6", "step|gamma0", process=True)
 # Each newer feature has its class in a module of its own beside this one (``hostile_<class>.py``,
 # with a ``register(h)`` that adds its cases through ``h.case`` and uses this module's scenes,
 # outcomes and checks as ``h.<name>``); the fork server imports them with this module.
-EXTENSIONS = ("hostile_scheme", "hostile_laws", "hostile_adapt", "hostile_petsc", "hostile_trust")
+EXTENSIONS = ("hostile_scheme", "hostile_laws", "hostile_adapt", "hostile_petsc", "hostile_trust", "hostile_scales")
 for _name in EXTENSIONS:
     try:
         _module = importlib.import_module(_name)

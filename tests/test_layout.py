@@ -91,7 +91,8 @@ def test_studies_use_the_public_api_and_scenes_only():
 def test_cli_only_dispatches():
     (path,) = [p for n, p in modules() if n == "ngcontact.cli"]
     targets = {t for t, _ in imports("ngcontact.cli", path) if t.startswith("ngcontact")}
-    assert targets <= {"ngcontact", "ngcontact.demo", "ngcontact.studies", "ngcontact.studies.convergence",
+    assert targets <= {"ngcontact", "ngcontact.demo", "ngcontact.studies", "ngcontact.studies.common",
+                       "ngcontact.studies.convergence",
                        "ngcontact.studies.stability", "ngcontact.studies.bench"}, targets
 
 

@@ -2,11 +2,13 @@
 extra): the 3D demo distributed equals the serial run, and what does not run distributed
 says so. NGSolve distributes from rank 0, which keeps no elements: ``-n 2`` computes on one
 rank (the distributed code paths without shared DOFs), ``-n 3`` on two (shared DOFs)."""
+import contextlib
 import json
 import os
 import pathlib
 import re
 import shutil
+import signal
 import subprocess
 import sys
 import xml.etree.ElementTree as ElementTree
@@ -29,11 +31,28 @@ def mpiexec():
 
 
 def launch(ranks, *args, timeout=600):
+    """``mpiexec -n ranks python *args``: its stdout, after a clean exit. A run that has not
+    ended after ``timeout`` s (a rank waiting for ever in a collective operation the others
+    left) is stopped, every rank with it (its process group), and fails the test."""
     env = dict(os.environ, PYTHONWARNINGS="ignore")
-    done = subprocess.run([mpiexec(), "-n", str(ranks), sys.executable, *args], capture_output=True, text=True,
-                          timeout=timeout, env=env, cwd=HERE.parent)
-    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
-    return done.stdout
+    process = subprocess.Popen([mpiexec(), "-n", str(ranks), sys.executable, *args], stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True, env=env, cwd=HERE.parent, start_new_session=True)
+    try:
+        stdout, stderr = process.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        stdout = stderr = ""
+        for stop in (signal.SIGTERM, signal.SIGKILL):       # mpiexec passes SIGTERM on to the ranks
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(process.pid, stop)
+            try:
+                stdout, stderr = process.communicate(timeout=10)
+                break
+            except subprocess.TimeoutExpired:
+                continue
+        pytest.fail(f"mpiexec -n {ranks} {' '.join(map(str, args))} did not end within {timeout} s (a rank waits "
+                    f"in a collective operation the others left?): {(stdout or '')[-1000:]}{(stderr or '')[-1000:]}")
+    assert process.returncode == 0, stdout[-3000:] + stderr[-3000:]
+    return stdout
 
 
 @pytest.fixture(scope="module")
@@ -139,6 +158,73 @@ def test_distributed_scenes_equal_the_serial_run(serial_scenes, tmp_path, scene,
         for run in (serial, distributed):
             force, reactions = np.array(run["force"])[1:], sum(np.array(r) for r in run["reactions"].values())
             assert np.abs(force + reactions).max() <= 1e-8 * np.abs(force).max()
+
+
+LOOPS = ("bdf2", "bdf2-rtol", "penalty", "law", "active_set")
+"""The cases of ``tests/distributed_loops.py``: loops that stop on data, and the refused nodal constraint."""
+
+
+@pytest.fixture(scope="module")
+def serial_loops(tmp_path_factory):
+    out = tmp_path_factory.mktemp("serial_loops") / "loops.json"
+    done = subprocess.run([sys.executable, str(HERE / "distributed_loops.py"), ",".join(LOOPS), str(out)],
+                          capture_output=True, text=True, cwd=HERE.parent, timeout=300)
+    assert done.returncode == 0, done.stderr[-3000:]
+    return json.loads(out.read_text())
+
+
+@pytest.mark.parametrize("ranks", [2, 3])
+def test_loops_that_stop_on_data_stop_alike_on_every_rank(serial_loops, tmp_path, ranks):
+    """``mpiexec -n 2|3 tests/distributed_loops.py`` (the 2D reference plate, P1, maxh 20 mm): BDF2
+    with fixed steps over the push, hold and pull (β's passes from u_n: each rank took its own
+    facets' change, and rank 0, which has none, left them at once and hung), BDF2 with
+    error-controlled steps across the lift-off (the local error estimate and the events over all
+    ranks: rejected tries, the lift-off located), the penalty method, and a nonlinear elasticity
+    (the projection law) with BDF2 end on every rank with the serial run's steps (times to 1e-10,
+    the same rejections and events), contact force, charge flux and β (gathered, by facet
+    midpoint) to 1e-10 of their largest values (Newton's iterations may differ: with PETSc, the
+    kept MUMPS factorisation's GMRES stops at other iterates, and a step 9 iterations apart
+    over its β passes was seen). The nodal constraint
+    (``method="active_set"``) is refused on every rank with the same ValueError, before any step."""
+    launch(ranks, str(HERE / "distributed_loops.py"), ",".join(LOOPS), str(tmp_path / "loops.json"), timeout=300)
+    found = json.loads((tmp_path / "loops.json").read_text())
+    assert found["ranks"] == ranks
+    controlled = serial_loops["bdf2-rtol"]
+    assert controlled["rejections"] > 0 and "lift-off" in controlled["events"]
+    assert min(serial_loops["bdf2"]["beta"][-1]) < 0.5                   # the glue debonds: β's passes ran
+    for case in LOOPS[:-1]:
+        serial, distributed = serial_loops[case], found[case]
+        assert distributed["finished"] == [True] * ranks, case
+        assert len(distributed["times"]) == len(serial["times"]), case
+        assert np.abs(np.subtract(distributed["times"], serial["times"])).max() <= 1e-10 * serial["times"][-1], case
+        assert (distributed["rejections"], distributed["events"]) == (serial["rejections"], serial["events"]), case
+        for key in ("force", "charge", "beta"):
+            a, b = np.array(serial[key]), np.array(distributed[key])
+            assert a.shape == b.shape and np.abs(a).max() > 0, (case, key)
+            assert np.abs(a - b).max() <= 1e-10 * np.abs(a).max(), (case, key, np.abs(a - b).max() / np.abs(a).max())
+    messages = found["active_set"]["messages"]
+    assert serial_loops["active_set"]["messages"] == ["no error"]
+    assert len(messages) == ranks and len(set(messages)) == 1
+    assert messages[0] == (f"Contact.method 'active_set' (the nodal constraint) does not run on a distributed mesh "
+                           f"(mpiexec with {ranks} ranks): its saddle point systems are scipy matrices of one rank; "
+                           "use 'nitsche' or 'penalty'")
+
+
+def test_the_bdf2_demo_ends_distributed(serial_loops, tmp_path):
+    """``mpiexec -n 2 python -m ngcontact demo --steps 4 --scheme bdf2`` (maxh 20 mm) ends within
+    120 s with the serial run's steps, contact force, charge flux and final β (the same scene as
+    ``distributed_loops.py bdf2``; 1e-10 relative): before, rank 0 (no facets of Γ3) left BDF2's
+    passes of β at once and recorded the step while rank 1 waited in the next Newton solve, for
+    ever."""
+    command = ["-m", "ngcontact", "demo", "--steps", "4", "--scheme", "bdf2", "--maxh", "0.02"]
+    launch(2, *command, "--out", str(tmp_path), timeout=120)
+    distributed, serial = json.loads((tmp_path / "summary.json").read_text()), serial_loops["bdf2"]
+    assert distributed["ranks"] == 2 and distributed["times"] == serial["times"][1:]
+    for key, expected in (("contact_force_y", np.array(serial["force"])[1:, -1]),
+                          ("charge_flux", np.array(serial["charge"])[1:])):
+        found = np.array(distributed[key])
+        assert np.abs(expected).max() > 0 and np.abs(found - expected).max() <= 1e-10 * np.abs(expected).max(), key
+    assert abs(distributed["beta_min"] - min(serial["beta"][-1])) <= 1e-10 and distributed["beta_min"] < 0.1
 
 
 def run_script(*args):
@@ -280,7 +366,7 @@ def test_a_failed_write_on_one_rank_stops_every_rank(tmp_path):
 def test_what_does_not_run_distributed_says_so(tmp_path):
     """A serial mesh given to Body, more computing ranks than elements, the nodal active set,
     GMRES with NGSolve's multigrid, a serial inverse, the Jacobian as a scipy matrix, the
-    guesses that need the whole mesh, error-controlled steps, the error estimator, adaptive
+    guesses that need the whole mesh, the error estimator, adaptive
     refinement and refining a mesh raise a ValueError naming the feature under mpiexec; ``run(vtk=)``
     writes one ParaView file per computing rank and step (the initial state and 2 steps),
     with u and φ, collected by one .pvd."""
@@ -297,7 +383,6 @@ def test_what_does_not_run_distributed_says_so(tmp_path):
         "guess=Approach(depth) without a direction does not run on a distributed mesh")
     assert lines["ranks"] == ("mpiexec -n 3: the mesh has 1 elements for 2 computing ranks (rank 0 keeps none); "
                               "run on at most 2 ranks or refine the mesh")
-    assert lines["rtol"].startswith("run(rtol=...): error-controlled steps does not run on a distributed mesh")
     assert lines["estimator"].startswith("the equilibrated error estimator does not run on a distributed mesh")
     assert lines["adapt"].startswith("adapt.step: adaptive refinement does not run on a distributed mesh")
     assert lines["refined"] == "refined: a distributed mesh cannot be refined (NGSolve refines serial meshes only)"

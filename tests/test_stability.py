@@ -215,8 +215,9 @@ def test_conductive_foundation_meeting_a_flat_face(conductance, truncation):
     record = sim.run(dt=1.0, T=1.0, max_cutbacks=0)[-1]
     c = record.contact
     assert c.contact_area == pytest.approx(0.02)
-    if conductance:     # the shortened steps cycle; Newton's repeat with full steps converges
-        assert record.discarded_iterations == sim.newton.maxit and record.newton_iterations <= 3
+    if conductance:     # the shortened steps cycle (stopped as a cycle within 20 iterations, not at
+        # maxit); Newton's repeat with full steps converges
+        assert 0 < record.discarded_iterations <= 20 and record.newton_iterations <= 3
     if conductance:
         assert np.all(np.abs(c.potential - 10.0) < 1.0)
     else:

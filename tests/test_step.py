@@ -239,8 +239,8 @@ def test_eisenstat_walker_forcing_asks_for_no_more_than_the_contraction_can_use(
         asked.append((len(residuals) - 1, tol))      # the residual it answers, by its index
         return solve(*args, tol=tol, **kwargs)
 
-    def recording_test(x, history, rtol):
-        verdict = test(x, history, rtol)
+    def recording_test(x, history, rtol, *args):
+        verdict = test(x, history, rtol, *args)
         targets.append(verdict.target)
         return verdict
 

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """NGSolve's C++ GMRES against ngcontact's numpy GMRES (``linear_solver.gmres``) on a system
-of the kind the kept factorisation solves (docs/speed.md, issue 23): the Hertz half-disk's
+of the kind the kept factorisation solves (docs/speed.md): the Hertz half-disk's
 elasticity matrix (P2, two refinements) changed on Γ3 and made non-symmetric, preconditioned
 by the UMFPACK factorisation of the unchanged one. Prints, per repetition, both solvers'
 iterations and times and the time of as many products + preconditioner solves (what both must

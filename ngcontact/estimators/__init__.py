@@ -1,4 +1,4 @@
-"""A posteriori error estimators (issue 25): ``equilibration`` builds equilibrated fluxes on
+"""A posteriori error estimators: ``equilibration`` builds equilibrated fluxes on
 vertex patches; ``equilibrated`` turns them into element indicators of the step problem
 (``EquilibratedEstimator(sim)()`` -> ``Estimate``)."""
 from .equilibrated import EquilibratedEstimator, Estimate

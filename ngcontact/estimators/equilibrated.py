@@ -103,6 +103,24 @@ def _stress_matrix(voigt, dim):
     return ngs.CF((s[0], s[5], s[4], s[5], s[1], s[3], s[4], s[3], s[2]), dims=(3, 3))
 
 
+def check(sim):
+    """Refuse what the estimator cannot estimate (``adapt`` asks before each level's solve): ``sim``
+    not a Simulation (TypeError), a distributed mesh, a nonlinear law, weak 'normal' supports."""
+    from ..simulation import Simulation
+    if not isinstance(sim, Simulation):
+        raise TypeError(f"the equilibrated estimator estimates an ngcontact.Simulation (sim), got {type(sim).__name__}")
+    body = sim.body
+    parallel.serial_only(body.mesh, "the equilibrated error estimator", "its vertex patches cross the ranks' "
+                         "parts and are solved as one scipy system of one process")
+    if not body.tensors.linear:
+        raise ValueError("the equilibrated estimator needs linear tensors: with a nonlinear law "
+                         f"({(body.tensors.F_law or body.tensors.A_law).name}) its energy norm is not defined")
+    for support in body.supports:
+        if support.normal:
+            raise ValueError(f"the equilibrated estimator does not take weak 'normal' supports yet "
+                             f"(support {support.key!r}: its normal is not an axis)")
+
+
 class EquilibratedEstimator:
     """The estimator of the module docstring for the simulations on one mesh (its patch
     problems are set up once, ``__call__`` estimates the current step of a simulation).
@@ -113,16 +131,8 @@ class EquilibratedEstimator:
     """
 
     def __init__(self, sim):
+        check(sim)
         body = sim.body
-        parallel.serial_only(body.mesh, "the equilibrated error estimator", "its vertex patches cross the ranks' "
-                             "parts and are solved as one scipy system of one process")
-        if not body.tensors.linear:
-            raise ValueError("the equilibrated estimator needs linear tensors: with a nonlinear law "
-                             f"({(body.tensors.F_law or body.tensors.A_law).name}) its energy norm is not defined")
-        for support in body.supports:
-            if support.normal:
-                raise ValueError(f"the equilibrated estimator does not take weak 'normal' supports yet "
-                                 f"(support {support.key!r}: its normal is not an axis)")
         self.sim, self.body, self.dim = sim, body, body.dim
         T, dim = body.tensors, body.dim
         self.patches = Patches(body.mesh)

@@ -15,6 +15,7 @@ import ngsolve as ngs
 import numpy as np
 
 from .. import parallel
+from ..solver_restart import load_restart_state, restart_state
 
 
 @dataclass(frozen=True)
@@ -112,7 +113,8 @@ class BackwardEuler:
 
     def save(self):
         """The checkpoint as named arrays (the restart state of a step archive): ``t``,
-        ``state``, ``beta``, ``beta_unclipped``, ``hook``, ``last_state``, ``last_dt``."""
+        ``state``, ``beta``, ``beta_unclipped``, ``hook``, ``last_state``, ``last_dt``, and what
+        Newton's next solve decides by (``solver_restart.restart_state``: a resume is bitwise)."""
         saved = BackwardEuler.checkpoint(self)             # this class's part (a subclass adds its own)
         arrays = dict(t=np.asarray(saved.t), state=saved.state)
         if saved.beta is not None:
@@ -121,6 +123,7 @@ class BackwardEuler:
             arrays["hook"] = np.asarray(saved.hook)
         if saved.last is not None:
             arrays.update(last_state=saved.last[0], last_dt=np.asarray(saved.last[1]))
+        arrays.update(restart_state(self.newton))
         return arrays
 
     def load(self, arrays):
@@ -131,3 +134,7 @@ class BackwardEuler:
         last = (arrays["last_state"], float(arrays["last_dt"])) if "last_state" in arrays else None
         BackwardEuler.restore(self, Checkpoint(float(arrays["t"]), arrays["state"], arrays.get("beta"),
                                                arrays.get("beta_unclipped"), arrays.get("hook"), last))
+        if "solver_rate" in arrays:          # the step system as last assembled: the kept factorisation's c
+            self.coefficients.set(self.coefficients.t, float(arrays["solver_rate"]))
+            self.newton.system.begin_step(self.newton.gfu)
+        load_restart_state(self.newton, arrays)

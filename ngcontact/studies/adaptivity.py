@@ -295,9 +295,15 @@ def main(out, scenes=("manufactured", "hertz"), orders=(1, 2), stop_newton=None)
     for name in scenes:
         if name not in SCENES:
             raise ValueError(f"--scene must be among {', '.join(SCENES)}, got {name!r}")
+    scenes = list(dict.fromkeys(scenes))
     orders = checked_orders("--orders", list(orders))
     if stop_newton is not None:
         stop_newton = checks.number("--stop-newton", stop_newton, 0, 1, low_open=True)
+    if not any(name != "hertz3d" or order == 1 for name in scenes for order in orders):     # study's cases
+        raise ValueError(f"--scene {' '.join(scenes)} with --orders {' '.join(map(str, orders))}: nothing to run "
+                         "(hertz3d runs P1 only); add --orders 1 or another --scene")
+    if "hertz3d" in scenes and any(order > 1 for order in orders):
+        print(f"note: hertz3d runs P1 only; its P{', P'.join(str(p) for p in orders if p > 1)} skipped")
     out = checks.writable_directory(out)
     rows, references = study(scenes, orders, stop_newton)
     write_csv(rows, out / "errors.csv", COLUMNS)

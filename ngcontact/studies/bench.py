@@ -53,8 +53,8 @@ cases run in ascending size, so it is the case's own peak unless a comparison's 
 ran before it); ``hierarchy_s``: the multigrid solver's setup (replica hierarchy) inside the
 steps, s; ``ranks``: the MPI ranks of the run (1: serial)."""
 OLD_PATH = dict(reuse_factorization=False, limit_steps=False)
-"""The Simulation options of the path before issue 12: factorise at every Newton iteration,
-full Newton steps."""
+"""The Simulation options of the old path (main before the kept factorisation, 71be180):
+factorise at every Newton iteration, full Newton steps."""
 THREADS_FROM = 30_000
 """Below this many DOFs TaskManager made steps slower (docs/speed.md: the ds(skeleton=True)
 loops over all facets lose more to threading than assembly gains)."""
@@ -183,13 +183,15 @@ def run(out, *, orders=(1, 2, 3, 4), dim=2, max_ndof=1e6, steps=10, dt=2.5e-3, p
     old path, right after the new one. ``resume``: the cases already in ``out/bench.json``
     (same dim, steps and dt) are kept and not measured again. The arguments are checked
     before any case: orders in [1, 10], ``max_ndof`` finite, at least the coarsest mesh's
-    DOFs of each order and within the machine's memory, steps in [1, 10⁶], dt > 0."""
+    DOFs of each order and within the machine's memory, steps in [1, 10⁶], dt in
+    [``arguments.MIN_DT``, 0.5 s / steps] (the steps inside the load history)."""
     orders = common.orders("orders", orders)
     dim = checks.choice("dim", dim, (2, 3))
     max_ndof = checks.number("max_ndof", max_ndof, 1, unit="DOFs")
     checks.fits_in_memory(f"max_ndof = {max_ndof:g}", max_ndof)
     steps = checks.integer("steps", steps, 1, checks.MAX_STEPS)
     dt = checks.number("dt", dt, 0, low_open=True, unit="s")
+    common.time_window(steps, dt, reference.LOAD_HISTORY[-1][0])
     progress, compare, resume = (checks.flag(name, value) for name, value in
                                  (("progress", progress), ("compare", compare), ("resume", resume)))
     coarsest = {order: reference.body(order, MAXH[dim], dim=dim).ndof for order in orders}

@@ -1,5 +1,5 @@
-"""``python -m ngcontact cluster``: the measurements of issue 27 (docs/cluster.md), made
-reproducibly from a plain shell.
+"""``python -m ngcontact cluster``: serial against MPI ranks per solver (time per step, memory
+per rank, a scaling model; docs/cluster.md), measured reproducibly from a plain shell.
 
 Every run is a process of its own (``cluster_case``): ``python`` for one rank, ``mpiexec -n N
 python`` (the mpiexec next to ``sys.executable``) for N; under mpiexec rank 0 holds no
@@ -7,7 +7,7 @@ elements, so N ranks compute on p = N − 1. Per size (scene, order, refinement 
 configurations (ranks × solver) run in turn, ``repeat`` rounds of them (A B A B: the
 machine's drift spread over all). A configuration that cannot run (``masterinverse``
 serially, ``multigrid`` or ``umfpack`` under mpiexec, a PETSc solver without PETSc) is
-skipped with a note.
+skipped with a note; if none can run, the command is refused before any run.
 
 ``run`` writes into ``out``: ``runs/<run>.json`` (what the worker measured: per step the
 wall time, Newton and Krylov iterations and contact force; every rank's peak memory) and
@@ -30,13 +30,13 @@ import sys
 
 import numpy as np
 
-from ngcontact import checks, parallel
+from ngcontact import checks, parallel, petsc_solver
 from ngcontact.progress import bar
 from ngcontact.scenes import reference
 
 from . import cluster_report, common
 from .bench import MAXH
-from .cluster_case import DISTRIBUTED_ONLY, SCENES, SERIAL_ONLY, SOLVERS
+from .cluster_case import DISTRIBUTED_ONLY, NEEDS_PETSC, SCENES, SERIAL_ONLY, SOLVERS
 
 WORKER = "ngcontact.studies.cluster_case"
 """The module each run executes (``python -m``)."""
@@ -97,11 +97,15 @@ def _sizes(scene, orders, levels):
 
 
 def plan(ranks, solvers):
-    """(the (ranks, solver) configurations that can run, notes on those skipped)."""
+    """(the (ranks, solver) configurations that can run, notes on those skipped: a solver that
+    cannot run on that number of ranks, or that needs PETSc where it is not installed)."""
     configurations, notes = [], []
+    missing = common.petsc_missing()
     for n in ranks:
         for solver in solvers:
             why = SERIAL_ONLY.get(solver) if n > 1 else DISTRIBUTED_ONLY.get(solver)
+            if not why and solver in NEEDS_PETSC and missing:
+                why = f"it needs PETSc; not installed here: {', '.join(missing)}"
             if why:
                 notes.append(f"skipped: {solver} on {n} rank{'s' if n > 1 else ''} ({why})")
             else:
@@ -118,25 +122,32 @@ def run(out, *, scene="plate", orders=(1,), levels=(1,), ranks=(1, 2, 3), solver
     (``DT``; the defaults reach first contact at the second step, the third on the block at
     level 0); ``threads`` a serial run's steps under TaskManager (None: from 3·10⁴ DOFs);
     ``realcompile`` Simulation's (True: compiled as it is built, not inside the steps; None:
-    automatic); all checked before any run. Refused under mpiexec (it launches mpiexec
-    itself)."""
+    automatic); all checked before any run: the steps must stay inside the load history (dt
+    at most 0.5 s / steps), and at least one configuration must be able to run (``plan``).
+    Refused under mpiexec (it launches mpiexec itself)."""
     parallel.refuse_under_mpiexec("python -m ngcontact cluster")
     sizes = _sizes(scene, orders, levels)
     ranks = _integers("ranks", ranks, 1, MAX_RANKS)
     solvers = list(dict.fromkeys(_names("solvers", solvers, SOLVERS)))
     steps = checks.integer("steps", steps, 1, checks.MAX_STEPS)
     dt = checks.number("dt", dt, 0, low_open=True, unit="s")
+    common.time_window(steps, dt, reference.LOAD_HISTORY[-1][0])
     repeat = checks.integer("repeat", repeat, 1, 1000)
     threads = checks.flag("threads", threads, none=True)
     realcompile = checks.flag("realcompile", realcompile, none=True)
     resume, progress = checks.flag("resume", resume), checks.flag("progress", progress)
-    if any(n > 1 for n in ranks):
+    configurations, notes = plan(ranks, solvers)
+    if not configurations:
+        raise ValueError(f"solvers {' '.join(solvers)} on ranks {' '.join(map(str, ranks))}: no configuration can "
+                         "run here (" + "; ".join(note.removeprefix("skipped: ") for note in notes)
+                         + (f"; PETSc: {petsc_solver.INSTALL}" if any("PETSc" in note for note in notes) else "")
+                         + "); choose other --solvers or --ranks")
+    if any(n > 1 for n, _ in configurations):
         mpiexec()
     out = checks.writable_directory(out)
     for folder in ("runs", "logs"):
         (out / folder).mkdir(exist_ok=True)
     _same_window(out, steps, dt, realcompile)
-    configurations, notes = plan(ranks, solvers)
     missing = {}                                   # configurations a worker found unable to run (no PETSc)
     with bar(len(sizes) * repeat * len(configurations), "cluster runs", progress, unit="run") as shown:
         say = shown.write if progress else print
@@ -156,6 +167,10 @@ def run(out, *, scene="plate", orders=(1,), levels=(1,), ranks=(1, 2, 3), solver
                             say(common.line(cluster_report.row(result), SHOWN))
                     shown.update()
             summary = cluster_report.write(out)
+    if not any(s["runs"] or s.get("failed") for s in summary):       # every run skipped: nothing was measured
+        reasons = sorted(set(missing.values())) or [f"see {out / 'logs'}"]
+        raise ValueError(f"no run completed ({'; '.join(reasons)}); solvers {' '.join(solvers)} on ranks "
+                         f"{' '.join(map(str, ranks))}")
     print(common.table(summary, cluster_report.SHOWN))
     text = (out / "summary.md").read_text()
     print(text[text.index("## Scaling model"):].strip())
@@ -213,7 +228,7 @@ def launch(spec, ranks, path, log):
 
 
 def factorisations(out, *, scene="block", orders=(1,), levels=(3,), repeat=3, dt=DT, resume=False, progress=True):
-    """(a) of issue 27: per order and level, serially, the step Jacobian after the first step
+    """UMFPACK against MUMPS: per order and level, serially, the step Jacobian after the first step
     of ``dt`` s factorised ``repeat`` times each by UMFPACK, by MUMPS and by MUMPS with its
     analysis kept, interleaved (``cluster_case.factorisations``); writes ``factorisations/``,
     ``factorisations.csv`` and ``factorisations.md`` into ``out``, prints the table and returns
@@ -223,6 +238,7 @@ def factorisations(out, *, scene="block", orders=(1,), levels=(3,), repeat=3, dt
     sizes = _sizes(scene, orders, levels)
     repeat = checks.integer("repeat", repeat, 1, 1000)
     dt = checks.number("dt", dt, 0, low_open=True, unit="s")
+    common.time_window(1, dt, reference.LOAD_HISTORY[-1][0])
     resume, progress = checks.flag("resume", resume), checks.flag("progress", progress)
     out = checks.writable_directory(out)
     for folder in ("factorisations", "logs"):

@@ -17,13 +17,33 @@ from ngcontact import checks
 
 
 def orders(name, values):
-    """A study's polynomial orders: a nonempty list of integers in [1, ``checks.MAX_ORDER``]
-    (a TypeError or ValueError naming ``name`` otherwise)."""
+    """A study's polynomial orders: a nonempty list of integers in [1, ``checks.MAX_ORDER``],
+    each once in the order given (a TypeError or ValueError naming ``name`` otherwise)."""
     if isinstance(values, (str, bytes)) or not isinstance(values, (list, tuple, range)):
         raise TypeError(f"{name} must be a list of polynomial orders, got {values!r}")
     if not values:
         raise ValueError(f"{name} must name at least one polynomial order, got {list(values)}")
-    return [checks.order(name, p) for p in values]
+    return list(dict.fromkeys(checks.order(name, p) for p in values))      # each order once
+
+
+def petsc_missing():
+    """The modules of the PETSc engine (``ngcontact.petsc_solver``) that are not installed,
+    found without importing them (importing PETSc sets thread variables for MUMPS)."""
+    import importlib.util
+    return [name for name in ("petsc4py", "ngsPETSc") if importlib.util.find_spec(name) is None]
+
+
+def time_window(steps, dt, end, history="the reference scene's load history"):
+    """Refuse ``steps`` time steps of ``dt`` s from t = 0 that run past ``end`` s, where the
+    scene's ``history`` ends (beyond it the load is held: nothing the study measures), or
+    steps below ``ngcontact.MIN_DT``: a ValueError naming dt, its value and the allowed range."""
+    MIN_DT = ngc.MIN_DT
+    if not MIN_DT <= dt <= end / steps * (1 + 1e-12):
+        raise ValueError(f"dt = {dt:g} s: {steps} step{'s' if steps > 1 else ''} of it "
+                         + (f"end{'' if steps > 1 else 's'} at t = {steps * dt:g} s, past the end of {history} at "
+                            f"{end:g} s"
+                            if dt > end / steps else f"is below the smallest time step, {MIN_DT:g} s")
+                         + f"; with steps = {steps}, dt must be in [{MIN_DT:g}, {end / steps:g}] s")
 
 
 def fmt(value):
@@ -49,7 +69,7 @@ def write_csv(rows, path, columns=None):
 def table(rows, columns):
     """A plain-text table of the given columns of the rows."""
     cells = [[fmt(row[c]) for c in columns] for row in rows]
-    widths = [max(len(c), *(len(line[i]) for line in cells)) for i, c in enumerate(columns)]
+    widths = [max([len(c)] + [len(line[i]) for line in cells]) for i, c in enumerate(columns)]
     lines = ["  ".join(c.rjust(w) for c, w in zip(columns, widths))]
     lines += ["  ".join(v.rjust(w) for v, w in zip(line, widths)) for line in cells]
     return "\n".join(lines)

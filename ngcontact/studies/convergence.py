@@ -295,6 +295,10 @@ def command(orders, levels, case, smoothness, dt_halvings, out, resume=False, sc
     dt_halvings = checks.integer("--dt-halvings", dt_halvings, 0, MAX_HALVINGS)
     ngc.schemes.scheme_class(scheme)
     dt0 = checks.number("--dt0", dt0, 0, 1.0, low_open=True, unit="s")
+    if dt_halvings and 2 ** (dt_halvings - 1) / dt0 > checks.MAX_STEPS:      # T = 1 s (time_study)
+        raise ValueError(f"--dt0 {dt0:g} s halved {dt_halvings - 1} times (--dt-halvings {dt_halvings}): the finest "
+                         f"run takes {2 ** (dt_halvings - 1) / dt0:.3g} steps over T = 1 s; at most "
+                         f"{checks.MAX_STEPS:,} (--dt0 at least {2 ** (dt_halvings - 1) / checks.MAX_STEPS:g} s)")
     resume = checks.flag("resume", resume)
     manufactured = checks.estimated_vertices(MANUFACTURED_PLATE, MANUFACTURED_MAXH)
     if dt_halvings:                    # the finest run: the first order on level levels - 1

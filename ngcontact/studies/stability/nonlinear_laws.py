@@ -1,4 +1,4 @@
-"""Where Newton fails as a law's nonlinearity grows (issue 26): the reference plate pushed
+"""Where Newton fails as a law's nonlinearity grows (``ngcontact.laws``): the reference plate pushed
 onto the foundation with the projection law F(ε) = ℰε + ζ(ε − P_K ε) (K a von Mises ball) or
 the power viscosity A(ε̇) = τℰε̇ + ζ (δ² + |dev ε̇|²)^((r−2)/2) dev ε̇, over decades of ζ (and
 of δ), without and with time-step cut-backs.
