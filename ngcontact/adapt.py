@@ -30,7 +30,6 @@ level would write into one directory). A target not reached within the limits st
 level kept and the reason; a zero estimate (an exact discrete solution) stops as "target
 reached" (its relative estimate is 0), or, without a target, as "nothing to refine".
 """
-import inspect
 import time as wallclock
 from dataclasses import dataclass, field
 
@@ -161,16 +160,7 @@ def _inputs(where, scene, mesh, max_levels, polygonal, on_level, stop_newton):
         raise ValueError(f"{where}: the mesh cannot be refined: it has no geometry to place new boundary points on "
                          "(made point by point or read from another mesher); mesh a geometry (netgen.occ, geom2d, "
                          "csg), pass polygonal=True if its boundary is polygonal, or max_levels=1")
-    if on_level is not None:
-        if not callable(on_level):
-            raise TypeError(f"{where}: on_level must be a function of the Level or None, got "
-                            f"{type(on_level).__name__}")
-        try:
-            inspect.signature(on_level).bind(None)
-        except TypeError:
-            raise TypeError(f"{where}: on_level must take one argument (the Level); {on_level!r} cannot") from None
-        except ValueError:                           # a builtin without a signature: not checked
-            pass
+    checks.callback(f"{where}: on_level", on_level, "the Level")
     return None if stop_newton is None else checks.number("stop_newton", stop_newton, 0, 1, low_open=True)
 
 

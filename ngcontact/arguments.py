@@ -6,7 +6,6 @@ the value and what is allowed. The bounds: at most ``checks.MAX_STEPS`` nominal 
 ``MAX_CUTBACKS`` halvings of a step, and a step of at least ``MIN_DT`` and ``RESOLUTION`` of
 the time it reaches.
 """
-import inspect
 import math
 import numbers
 import os
@@ -15,7 +14,7 @@ import pathlib
 import ngsolve as ngs
 import numpy as np
 
-from . import parallel
+from . import checks, parallel
 from .body import Body
 from .checks import MAX_STEPS, flag, integer, number, writable_directory
 from .contact import Contact
@@ -102,17 +101,7 @@ def cutbacks(max_cutbacks):
 
 def callback(on_step):
     """on_step: a function of one argument (the StepRecord) or None."""
-    if on_step is None:
-        return None
-    if not callable(on_step):
-        raise TypeError(f"on_step must be a function of the StepRecord or None, got {type(on_step).__name__}")
-    try:
-        inspect.signature(on_step).bind(None)
-    except TypeError:
-        raise TypeError(f"on_step must take one argument (the StepRecord); {on_step!r} cannot") from None
-    except ValueError:                                   # a builtin without a signature: not checked
-        pass
-    return on_step
+    return checks.callback("on_step", on_step, "the StepRecord")
 
 
 def run(sim, dt, T, max_cutbacks, progress, vtk, on_step, out):

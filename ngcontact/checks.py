@@ -5,6 +5,7 @@ Each failure names the parameter, the value and the allowed range, before any wo
 a TypeError for a value of the wrong type (a string, None or a boolean for a number, a
 number for a boolean), a ValueError for one of the right type out of its range.
 """
+import inspect
 import math
 import numbers
 import os
@@ -81,6 +82,22 @@ def flag(name, value, none=False):
         return None if value is None else bool(value)
     allowed = "True, False or None (automatic)" if none else "True or False"
     raise TypeError(f"{name} must be {allowed}, got {value!r} ({type(value).__name__})")
+
+
+def callback(name, function, what):
+    """``function``: None or a function of one argument (``what``, e.g. "the StepRecord"); a
+    TypeError naming ``name`` otherwise."""
+    if function is None:
+        return None
+    if not callable(function):
+        raise TypeError(f"{name} must be a function of {what} or None, got {type(function).__name__}")
+    try:
+        inspect.signature(function).bind(None)
+    except TypeError:
+        raise TypeError(f"{name} must take one argument ({what}); {function!r} cannot") from None
+    except ValueError:                                   # a builtin without a signature: not checked
+        pass
+    return function
 
 
 def writable_directory(out, name="output directory"):
