@@ -22,18 +22,8 @@ Both solvers have ``solve(matrix, freedofs, r, w, generation=..., timer=..., wei
 terms, e.g. a new time step size; ``weights`` per DOF for GMRES's inner product) and count
 ``factorizations``, ``krylov_iterations`` and ``krylov_failures``.
 
-A run resumed from disk continues bitwise (``results``): ``restart_state(newton)`` gives, as
-named arrays for the time scheme's restart state, what the next Newton solve's decisions read
-besides the state: Newton's norm scales (set once, at the first solve of a run) and the kept
-factorisation (``KeptFactorization.save``: the values it factorised where they may differ from
-the system's bulk, and the step system's rate c, so that its ``generation`` counts on as in the
-run that was not interrupted); ``load_restart_state`` puts them back, and the factorisation is
-made again, of the same values, at the first solve. Without this the default demo resumed at
-step 100 differed from the uninterrupted one by up to 2.2e-11 of the state (relative; the
-factorisation made anew from the first Jacobian after the resume: other Krylov counts), and the
-BDF2 demo with rtol 1e-3 resumed at step 60 (its first step there of another c than the run's
-first: other norm scales; and the rule of ``machine_code`` counted from 0, which ``Simulation``
-now saves too) took steps up to 2.7e-7 (relative) apart.
+A resumed run continues bitwise: ``KeptFactorization.save``/``load`` keep what its next
+decision reads (``solver_restart``; measured in docs/time.md).
 """
 from contextlib import contextmanager, nullcontext
 
