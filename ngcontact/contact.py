@@ -40,6 +40,9 @@ class Contact:
         potential_truncation : L_φ > 0 in V.
         foundation_potential : φ_Γ in V, number or CoefficientFunction (may use the time
             Parameter).
+        gating : what ψ reads: "gap" (the paper's ψ(u_ν − g), (2.7)) or "pressure" (ψ of the
+            enforcement's contact state, Nitsche's −P_γ/γ: full conductance wherever the method
+            presses, the same ψ(u_ν − g) where the body is free; docs/model.md).
     Enforcement of the Signorini condition (``ngcontact.enforcement``):
         method : a name of ``enforcement.METHODS``: "nitsche" (Chouly-Hild θ-family, the
             default), "penalty" (a stiff normal compliance) or "active_set" (the paper's
@@ -60,6 +63,7 @@ class Contact:
     ramp_width: float = 1e-7
     potential_truncation: float = 1e4
     foundation_potential: object = 0.0
+    gating: str = "pressure"
     theta: int = 1
     gamma0: float = 10.0
     method: str = "nitsche"
@@ -67,6 +71,7 @@ class Contact:
 
     def __post_init__(self):
         for name, allowed, words in (("method", tuple(METHODS), "one of " + ", ".join(map(repr, METHODS))),
+                                     ("gating", ("gap", "pressure"), "'gap' or 'pressure'"),
                                      ("beta_update", ("explicit", "implicit"), "'explicit' or 'implicit'")):
             value = getattr(self, name)
             if not isinstance(value, str) or value not in allowed:
@@ -118,9 +123,11 @@ class Contact:
         self.p = laws.checked("Contact.compliance", self.compliance, "p", 0.0) \
             if callable(self.compliance) else laws.compliance_law(self.compliance)
         self.R = laws.bond_truncation(self.bond_length)
-        self.phi_L = laws.potential_truncation(self.potential_truncation)
+        self.truncation_widening = ngs.Parameter(1.0)    # of φ_L's level, for ``continuation``
+        self.phi_L = laws.potential_truncation(self.potential_truncation, self.truncation_widening)
+        self.widening = ngs.Parameter(1.0)      # of ψ's ramp, for ``continuation`` (1: as given)
         self.psi = laws.checked("Contact.conductance", self.conductance, "ψ", -1.0) if callable(self.conductance) else \
-            laws.conductance_ramp(self.conductance, self.ramp_width)
+            laws.conductance_ramp(self.conductance, self.ramp_width, self.widening)
 
     def coefficients(self):
         """(name, CoefficientFunction) of its data, for the checks of ``Simulation``."""
@@ -133,6 +140,14 @@ class Contact:
                 named += [(f"Contact.obstacle.{attribute}", v)
                           for v in (value if isinstance(value, (tuple, list)) else [value])]
         return [(n, v) for n, v in named if isinstance(v, ngs.CoefficientFunction)]
+
+    def regularised(self):
+        """[(name, widening Parameter, unit, width)] of the laws ``continuation`` may widen where
+        the foundation conducts: ψ's ramp δ (m; the default law) and φ_L's level L_φ (V)."""
+        if not self.conducts:
+            return []
+        ramp = [] if callable(self.conductance) else [("the conduction ramp δ", self.widening, "m", self.ramp_width)]
+        return ramp + [("the potential truncation L_φ", self.truncation_widening, "V", self.potential_truncation)]
 
     @property
     def conducts(self):

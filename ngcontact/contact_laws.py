@@ -37,18 +37,20 @@ def bond_truncation(L):
     return lambda s: clip(-s, 0, L)
 
 
-def potential_truncation(L_phi):
-    """φ_L(s) = max(-L_φ, min(s, L_φ)) (2.7, increasing as docs/model.md fixes it); L_φ in V."""
+def potential_truncation(L_phi, widening=1.0):
+    """φ_L(s) = max(-L_φ, min(s, L_φ)) (2.7, increasing as docs/model.md fixes it); L_φ in V.
+    ``widening`` (a number or Parameter w > 0) makes the level L_φ w (``continuation``)."""
     _positive("potential truncation L_phi", L_phi, "V")
-    return lambda s: clip(s, -L_phi, L_phi)
+    return lambda s: clip(s, -L_phi * widening, L_phi * widening)
 
 
-def conductance_ramp(k_e, delta):
+def conductance_ramp(k_e, delta, widening=1.0):
     """ψ(r) = k_e for r >= 0, k_e (1 + r/δ) for -δ <= r < 0, 0 for r < -δ (docs/model.md's default):
-    full conductance k_e when the body touches the foundation (r = u_ν - g = 0)."""
+    full conductance k_e when the body touches the foundation (r = u_ν - g = 0). ``widening``
+    (a number or Parameter w > 0) makes the ramp δ w (``continuation``)."""
     _nonnegative("conductance k_e", k_e, "")
     _positive("conductance ramp width delta", delta, "m")
-    return lambda r: k_e * clip(1 + r / delta, 0, 1)
+    return lambda r: k_e * clip(1 + r / (delta * widening), 0, 1)
 
 
 def conductance_literal(k_e, delta):

@@ -14,7 +14,7 @@ never continued with another scene. Its fields (one key each, e.g. ``contact.gam
   ``contact.obstacle.*``, the obstacle's own data;
 * ``loads.*``: every entry of ``Loads``, keyed by its boundary;
 * ``options.*``: the options of ``Simulation`` that change the results: Newton's rtol and
-  maxit, the electric choice (``Simulation.electric``), the predictor, Newton's step limit,
+  maxit, the electric choice (``Simulation.electric``), the predictor, Newton's step limit and globalisation,
   static condensation, the linear solver as used (its name, ``inverse``: the factorisation,
   ``reuse_factorization``: kept as GMRES's preconditioner, ``iterative``: "multigrid", "gamg"
   or False) and ``realcompile`` (True, False, or None: by the rule of ``machine_code``);
@@ -89,6 +89,7 @@ def fingerprint(sim, T):
     found.update({"options.rtol": sim.newton.rtol, "options.maxit": sim.newton.maxit,
                   "options.electric": bool(sim.electric), "options.predictor": bool(sim.scheme.predictor),
                   "options.limit_steps": sim.newton.step_length is not None,
+                  "options.globalise": sim.newton.line_search is not None,
                   "options.condense": bool(sim.condense), "options.solver": sim.solver, **_solver(sim),
                   "scheme": sim.scheme.name})
     return found

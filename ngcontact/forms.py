@@ -179,15 +179,27 @@ def adhesion_traction(contact, beta, u_normal):
     return contact.p(u_normal) - contact.adhesion * beta ** 2 * contact.R(u_normal)
 
 
-def charge_flux_density(contact, u, phi, gap, foundation_potential, n):
-    """ψ(u_ν − g) φ_L(φ − φ_Γ) = D·ν on Γ3 (2.7), C/m²: the charge flux out of the body;
-    u_ν = u·n with n the contact normal (ν, or an obstacle's n_o)."""
-    return contact.psi(u * n - gap) * contact.phi_L(phi - foundation_potential)
+def conduction_distance(contact, enforcement, u, phi, gap, n, traction):
+    """The argument r of ψ on Γ3 (m): u_ν − g, the paper's (2.7) (``Contact.gating = "gap"``),
+    or, with ``gating = "pressure"``, the enforcement's own contact state
+    (``contact_distance``: Nitsche's −P_γ/γ = (u_ν − g) − σ̃_ν/γ), which equals u_ν − g
+    wherever the Signorini conditions hold and is >= 0 exactly where the method presses."""
+    if contact.gating == "pressure" and enforcement is not None:
+        return enforcement.contact_distance(u, phi, traction)
+    return u * n - gap
 
 
-def j_e(contact, u, phi, xi, gap, foundation_potential, n):
+def charge_flux_density(contact, u, phi, gap, foundation_potential, n, enforcement=None, traction=None):
+    """ψ(r) φ_L(φ − φ_Γ) = D·ν on Γ3 (2.7), C/m²: the charge flux out of the body; r the
+    ``conduction_distance`` (u_ν − g with u_ν = u·n, n the contact normal: ν, or an obstacle's
+    n_o; with pressure gating the ``enforcement``'s contact state at the ``traction`` of j_a)."""
+    r = conduction_distance(contact, enforcement, u, phi, gap, n, traction)
+    return contact.psi(r) * contact.phi_L(phi - foundation_potential)
+
+
+def j_e(contact, u, phi, xi, gap, foundation_potential, n, enforcement=None, traction=None):
     """j_e(u, φ, ξ) (2.29), integrand on Γ3."""
-    return charge_flux_density(contact, u, phi, gap, foundation_potential, n) * xi
+    return charge_flux_density(contact, u, phi, gap, foundation_potential, n, enforcement, traction) * xi
 
 
 def contact_terms(contact, enforcement, beta, gap, foundation_potential, state, test, n):
@@ -200,7 +212,7 @@ def contact_terms(contact, enforcement, beta, gap, foundation_potential, state, 
     traction = adhesion_traction(contact, beta, u * n)
     terms = traction * (v * n) + enforcement.signorini(u, phi, v, xi, traction)     # j_a + S
     if contact.conducts:
-        terms = terms - j_e(contact, u, phi, xi, gap, foundation_potential, n)
+        terms = terms - j_e(contact, u, phi, xi, gap, foundation_potential, n, enforcement, traction)
     return terms
 
 

@@ -286,6 +286,10 @@ class KeptFactorization:
             self._baseline = iterations / decades
         self._stale = iterations - self._baseline * decades > budget / 2   # next time, a factorisation pays
 
+    def forget(self):
+        """Factorise anew at the next solve (Newton's last try of a step starts afresh)."""
+        self._stale = True
+
     def save(self, generation, whole=False):
         """What the next solve's decision needs of the factorisation, as named arrays (for a
         restart from disk): none when the next solve factorises anyway (none made, marked

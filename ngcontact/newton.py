@@ -17,7 +17,7 @@ solve fails at once and says so. Such failures, and an uncertifiable residual, a
 ``Simulation.advance`` does not retry them.
 
 Every enforcement method runs in this one loop; a method with unknowns of its own (the
-nodal multipliers of the active set method) takes part through a ``Hook``, and a
+nodal multipliers of the active set method) takes part through an ``enforcement.NewtonHook``, and a
 ``step_length`` callback may shorten a correction (``step_length``). Wall time goes
 to a ``timer`` callback per phase ("residual", "assembly", "factorization", "solve").
 Unlike ``ngsolve.solvers.Newton``, a failure raises ``NewtonError``.
@@ -25,7 +25,6 @@ Unlike ``ngsolve.solvers.Newton``, a failure raises ``NewtonError``.
 import time as wallclock
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Protocol
 
 import numpy as np
 import scipy.sparse as sp
@@ -35,13 +34,11 @@ from .linear_solver import DirectSolver, untimed
 from .residual_norm import ResidualNorm
 from .stopping import ConvergenceTest
 from .cycles import CycleWatch
+from .line_search import LineSearch
+from .inexact import ALGEBRAIC, correction_tolerance, forcing_term      # noqa: F401 (ALGEBRAIC, forcing_term: public here)
 
 LINEAR_COUNTS = ("factorizations", "krylov_iterations", "krylov_failures")
 """The linear solver's counters that a solve reports."""
-ALGEBRAIC = 0.5
-"""With an energy target, the linear solver is asked for the correction to the share
-ALGEBRAIC × target / (the last correction's energy) (the algebraic error a fraction of the
-linearisation error allowed)."""
 SINGULAR_RATIO = 1e-12
 """A correction w with ‖r‖/‖w‖ below this (scaled dual over primal norm: the smallest singular
 value of the scaled Jacobian it reveals, 5e-5 to 6e-2 on the meshes of the test suite) comes
@@ -49,25 +46,6 @@ from a singular Jacobian: the factorisation divided by a pivot at round-off."""
 SINGULAR = "stopped: the system is singular (the Jacobian has no unique solution)"
 SINGULAR_HINT = ("supports that hold the body: a body held only by the contact has no unique displacement "
                  "while the contact is open; or a start u0 that touches the obstacle")
-
-
-def forcing_term(gamma, ratio):
-    """The relative accuracy a correction needs no more than, for a linear solver with the
-    forcing γ, after the correction that changed the residual by ``ratio`` = ‖r_k‖ / ‖r_{k−1}‖:
-
-      γ ratio²   if the residual fell (Eisenstat–Walker's choice 2: S. C. Eisenstat, H. F. Walker,
-                 SIAM J. Sci. Comput. 17 (1996) 16–32), the contraction the next linearisation
-                 can use;
-      γ / ratio  if it rose (the contact set changed): the linearised residual back to γ times
-                 the level before the rise, no further. Choice 2 itself gives ≥ γ there (capped at
-                 1e-3 by Newton), which on 2 ranks cut the 3D block's first step back where
-                 the serial run did not; asking the step's final accuracy instead made the
-                 GMRES of a rise run to its iteration limit (3D block P1, 142 404 DOFs:
-                 300 iterations for a 3e-12 reduction, 726 against 395 GMRES iterations over 3
-                 steps into first contact; docs/scale.md).
-
-    Both give γ at ratio 1."""
-    return gamma * (ratio ** 2 if ratio <= 1.0 else 1.0 / ratio)
 
 
 class NewtonError(RuntimeError):
@@ -87,6 +65,7 @@ class NewtonError(RuntimeError):
         self.reason, self.iteration, self.residuals = reason, iteration, residuals
         self.step, self.time, self.history = step, time, None
         self.recoverable, self.hint, self.tried = recoverable, hint, []
+        self.early = False               # a line search given up: the continuation or full steps follow
         self.residuals_limited = None    # the history of a first try with shortened steps
         self.factorizations = self.krylov_iterations = self.krylov_failures = 0   # the linear solver's work
         self.linear_history = []    # per Newton iteration: the linear solver's counts (LINEAR_COUNTS)
@@ -131,28 +110,6 @@ class Timings(dict):
         self[phase] += wallclock.perf_counter() - start
 
 
-class Hook(Protocol):
-    """Unknowns of an enforcement method solved inside Newton (e.g. nodal multipliers).
-
-    ``forces``: its contribution to the residual (a vector); ``solver``: the name of the
-    linear solver it uses."""
-
-    def start(self):
-        """A new solve begins."""
-
-    def residual(self, x, r, norm) -> tuple:
-        """Add ``forces`` to the residual r = R(x); return (the scaled norm of the whole
-        residual, with the ``ResidualNorm`` norm, and whether its own unknowns have settled,
-        so that the solve may stop)."""
-
-    def correct(self, system, x, r, timer):
-        """The Newton correction: update x (and its own unknowns) in place; the Jacobian
-        R'(x) is assembled in ``system.mat``."""
-
-    def finish(self):
-        """The solve converged."""
-
-
 class Newton:
     """Newton on ``system`` for the state ``gfu``, solved in place.
 
@@ -173,7 +130,7 @@ class Newton:
     freedofs : BitArray of the unknowns (default: the space's free DOFs).
     rtol : the residual to reach, relative to the step's force scale (``stopping``).
     maxit : maximum number of linear solves per solve.
-    hook : a ``Hook`` of the enforcement method, or None.
+    hook : an ``enforcement.NewtonHook`` of the enforcement method, or None.
     step_length : None, or a callable w ↦ α ∈ (0, 1]: the correction is x − α w (with
         optional ``start()``, called when a solve begins, and ``cut``, whether the solve
         shortened a step).
@@ -199,6 +156,8 @@ class Newton:
         self.energy_target = None      # J^½: stop once the last correction's energy is below it (``adapt``)
         self.estimate_stops = 0        # solves stopped by ``energy_target`` (NewtonResult.stopped = "estimate")
         self.switches = None           # the laws' pieces at the state (``switches.Switches``): a cycle's account
+        self.line_search = LineSearch()   # engaged when full steps stop making progress; None: full steps only
+        self.continuation = None       # ``continuation.Continuation``: the path a solve without progress follows
         self.solver = solver or DirectSolver("umfpack")
         self.rtol, self.maxit = rtol, int(maxit)
         space = gfu.space
@@ -223,7 +182,40 @@ class Newton:
         context manager that times a phase (e.g. a ``Timings``). A solve whose shortened
         steps did not converge is repeated from its start with full steps (the result's
         ``discarded`` counts the first try's iterations); the error of a second failure
-        gives both residual histories."""
+        gives both residual histories. Where full steps stop making progress (globalisation:
+        ``line_search`` not None), the line search takes over; where it gives up, the
+        ``continuation`` (if any) follows its path from the start, and, last, full steps
+        without the search from the start (a step Newton solved without globalisation is never
+        lost to it); the result's ``discarded`` counts the iterations of every try given up."""
+        if self.line_search is None:
+            return self.tries(step, time, timer)
+        start = self.gfu.vec.CreateVector()
+        start.data = self.gfu.vec
+        try:
+            return self.tries(step, time, timer)
+        except NewtonError as first:
+            if not first.early:             # (a try out of iterations while it progressed: a shorter step may do)
+                raise
+            spent, failure = first.iteration, first
+        if self.continuation:
+            try:
+                return self.continuation.solve(self, failure, start, step, time, timer)
+            except NewtonError as err:
+                spent, failure = spent + err.spent, err
+        self.gfu.vec.data = start
+        search, self.line_search = self.line_search, None
+        getattr(self.solver, "forget", lambda: None)()    # (a fresh factorisation, as the step's first)
+        try:
+            result = self.tries(step, time, timer)
+        except NewtonError:
+            raise failure from None
+        finally:
+            self.line_search = search
+        result.discarded += spent
+        return result
+
+    def tries(self, step, time, timer):
+        """``solve`` without what follows a search given up (``NewtonError.early``)."""
         if self.step_length is None:
             return self._solve(step, time, timer, limit=False)
         start = self.gfu.vec.CreateVector()
@@ -231,7 +223,7 @@ class Newton:
         try:
             return self._solve(step, time, timer, limit=True)
         except NewtonError as limited:
-            if not getattr(self.step_length, "cut", True):
+            if not getattr(self.step_length, "cut", True) or limited.early:
                 raise
             self.gfu.vec.data = start
             try:
@@ -256,11 +248,12 @@ class Newton:
         if limit and hasattr(self.step_length, "start"):
             self.step_length.start()
 
-        def fail(reason, it, hint, recoverable=True):
+        def fail(reason, it, hint, recoverable=True, early=False):
             if getattr(self.system, "laws", None) is not None:     # a nonlinear law the cause? (``law_terms``)
                 reason, hint = self.system.laws.explain(x, reason, hint)
             error = NewtonError(reason, iteration=it, residuals=residuals, step=step, time=time, hint=hint,
                                 recoverable=recoverable)
+            error.early = early
             for name, value in self._linear_counts(since=counts).items():
                 setattr(error, name, value)
             error.linear_history = linear
@@ -268,9 +261,16 @@ class Newton:
 
         correction = None                # the energy of the last correction (J^½), for the adaptive stop
         cycling = CycleWatch(self.switches)   # iterates that repeat: a cycle, named by the laws that flip
+        search = self.line_search if hook is None else None
+        if search is not None:
+            search.start()
+        ready = False                    # r = R(x) already (the line search evaluated it)
+        pieces = []                      # the laws' pieces where the line search began (``switches``)
         for it in range(self.maxit + 1):
-            with timer("residual"):
-                self.system.Apply(x, r)
+            if not ready:
+                with timer("residual"):
+                    self.system.Apply(x, r)
+            ready = False
             if self.norm.scales is None:
                 self.norm.set_scales(self._diagonal(x))
             value, settled = hook.residual(x, r, self.norm) if hook is not None else (self.norm.dual(r), True)
@@ -291,7 +291,15 @@ class Newton:
             if verdict.uncertifiable:
                 reason, hint = verdict.explain()
                 raise fail(reason, it, hint, recoverable=False)
-            cycle = cycling(residuals)
+            engaged = search is not None and search.engaged
+            if search is not None:
+                search.observe(residuals)
+                if search.engaged and not engaged and self.switches is not None:
+                    pieces = [self.switches()]                  # the laws' pieces where the search began
+                if search.exhausted:
+                    reason, hint = search.explain("made no progress with full steps", self.switches, pieces)
+                    raise fail(reason, it, hint, early=True)
+            cycle = cycling(residuals) if engaged or search is None or not search.engaged else None
             if cycle is not None:
                 raise fail(cycle[0], it, cycle[1])
             if it == self.maxit:
@@ -303,29 +311,30 @@ class Newton:
                 if not np.all(np.isfinite(x.FV().NumPy())):
                     raise fail(SINGULAR + " (the correction is not finite)", it + 1, SINGULAR_HINT, False)
             else:
-                # inexact Newton: the accuracy that brings ‖r‖ to the target, with the solver's margin;
-                # with an energy target, no more than a share of it is asked of the linear solver
                 before = self._linear_counts()
-                margin = getattr(self.solver, "margin", 0.1)
-                tol = margin * verdict.target / value
-                forcing = getattr(self.solver, "forcing", None)
-                if forcing is not None and it > 0:
-                    # Eisenstat–Walker (their choice 2) after a fall: while Newton contracts slowly
-                    # (the contact set still moving) a tighter correction is wasted on the next
-                    # linearisation; after a rise (the set changed) only back below γ times the
-                    # residual before it (``forcing_term``)
-                    tol = max(tol, forcing_term(forcing, value / residuals[-2]))
-                if self.energy_target is not None and correction:
-                    tol = max(tol, ALGEBRAIC * self.energy_target / correction)
-                self.linear_solve(x, timer, tol=min(1e-3, max(1e-12, tol)))
+                tol = correction_tolerance(self.solver, verdict.target, residuals, self.energy_target, correction)
+                self.linear_solve(x, timer, tol=tol)
                 linear.append(self._linear_counts(since=before))
                 self._check_correction(fail, it)
                 alpha = self.step_length(self.w) if limit else 1.0
                 # a shortened correction says nothing of the error left: no adaptive stop after it
                 correction = self._energy(self.w, r) if alpha == 1.0 else None
-                x.data -= alpha * self.w
+                if search is not None and search.engaged:
+                    alpha, _ = search.search(x, self.w, alpha, value, lambda: self._merit(x, timer))
+                    correction, ready = correction if alpha == 1.0 else None, True
+                else:
+                    x.data -= alpha * self.w
+        if search is not None and search.engaged:
+            reason, hint = search.explain(f"did not converge in {self.maxit} iterations", self.switches, pieces)
+            raise fail(reason, self.maxit, hint)
         raise fail(f"did not converge in {self.maxit} iterations", self.maxit,
                    "a smaller time step, a larger Nitsche parameter gamma0, theta = -1, or a larger maxit")
+
+    def _merit(self, x, timer):
+        """R(x) into ``self.r``; returns its scaled norm (the line search's merit)."""
+        with timer("residual"):
+            self.system.Apply(x, self.r)
+        return self.norm.dual(self.r)
 
     def _energy(self, w, r):
         """|||w||| = |w_u·r_u − w_φ·r_φ|^½ (J^½) of the correction w that answers the residual r

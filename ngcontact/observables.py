@@ -125,8 +125,8 @@ class Recorder:
         pressure = lam + traction                               # −σ_ν = λ_h + p − γ_ν β² R_ν
         opening = u * n - g.gap
         fields = dict(pressure=pressure, multiplier=lam, potential=phi,
-                      charge_flux_density=forms.charge_flux_density(g.contact, u, phi, g.gap,
-                                                                    g.foundation_potential, n),
+                      charge_flux_density=forms.charge_flux_density(g.contact, u, phi, g.gap, g.foundation_potential,
+                                                                    n, g.enforcement, traction),
                       contact_area=ngs.IfPos(pressure, 1, 0),
                       complementarity=ngs.IfPos(lam * opening, lam * opening, -lam * opening))
         residual = ("pressure", "multiplier", "contact_area", "complementarity")   # as R_Γ3 integrates

@@ -13,11 +13,10 @@ from functools import partial
 import ngsolve as ngs
 import numpy as np
 
-from . import arguments, gamma3, parallel, paraview, results, stepping
+from . import arguments, continuation, gamma3, parallel, paraview, results, stepping
 from .fingerprint import fingerprint
 from .admissible import PhysicsWarning, check_initial_displacement, check_supports_at_start, flags, scene_flags
 from .checks import integer, number, uses_only
-from .switches import Switches
 from .electric_part import electric_parts, solves_potential
 from .enforcement import METHODS
 from .loads import Loads, as_cf
@@ -92,6 +91,9 @@ class Simulation:
         or BDDC (P2+) instead of a factorisation (``multigrid``): None (default) in 3D from
         10⁵ DOFs, for P1 when the mesh was made by ``meshes.nested_mesh``
         (``ngcontact.geometries`` do), without condensation (``solver_choice``); True or False.
+    globalise : where Newton's full steps stop making progress, a line search on the residual
+        norm and then a path through smoother laws of Γ3 (``line_search``, ``continuation``);
+        False: full steps only.
 
     The arguments are checked before any work (``arguments``): the options True or False
     (None where it means automatic), else a TypeError naming the option.
@@ -103,13 +105,13 @@ class Simulation:
     def __init__(self, body, loads=None, *, contact=None, time=None, u0=None, inverse=None,
                  rtol=1e-10, maxit=50, keep_states=True, predictor=False, condense=None, realcompile=None,
                  limit_steps=True, reuse_factorization=True, iterative=None, electric=None, physical_checks=True,
-                 scheme=DEFAULT):
+                 scheme=DEFAULT, globalise=True):
         options = arguments.simulation(body, loads, contact, time, inverse, dict(
             keep_states=keep_states, predictor=predictor, condense=condense, realcompile=realcompile,
             limit_steps=limit_steps, reuse_factorization=reuse_factorization, iterative=iterative,
-            electric=electric, physical_checks=physical_checks))
+            electric=electric, physical_checks=physical_checks, globalise=globalise))
         keep_states, predictor, condense, realcompile, limit_steps, reuse_factorization, iterative, electric, \
-            physical_checks = options.values()
+            physical_checks, globalise = options.values()
         Scheme = scheme_class(scheme)
         self.body = body
         self.parallel_notes = parallel.check_simulation(body.mesh, contact, inverse, condense, reuse_factorization,
@@ -154,7 +156,7 @@ class Simulation:
             limit = StepLength(self.gamma3.side, self.gfu, self.gamma3.gap, normal=self.gamma3.sampled_normal)
         self.newton = Newton(self.system, self.gfu, solver=solver, rtol=rtol, maxit=maxit, hook=hook,
                              step_length=limit)
-        self.newton.switches = Switches(self.gamma3, self.gfu) if contact is not None else None   # a cycle's account
+        continuation.build(self.newton, self.gamma3, self.gfu, body.size, globalise)
         self.scheme = Scheme(coefficients, self.system, self.newton, self.gfu,
                              self.gamma3.beta if contact is not None else None, predictor,
                              self.gamma3.normal if contact is not None else None)
@@ -192,15 +194,9 @@ class Simulation:
     gap = property(lambda self: self.gamma3.gap, doc="The gap g, a CoefficientFunction (m).")
     enforcement = property(lambda self: self.gamma3.enforcement, doc="The enforcement method on Γ3.")
 
-    @property
-    def t(self):
-        """The time of the last step, s."""
-        return self.scheme.t
-
-    @property
-    def solver(self):
-        """The linear solver of the Newton corrections, as it is actually used."""
-        return self.newton.solver_name
+    t = property(lambda self: self.scheme.t, doc="The time of the last step, s.")
+    solver = property(lambda self: self.newton.solver_name,
+                      doc="The linear solver of the Newton corrections, as it is actually used.")
 
     def _start(self, u0):
         """Step 0: u0 (checked), φ0 from the electric equation at t = 0, and its record."""

@@ -40,6 +40,7 @@ class Switches:
         if contact.adhesion > 0:
             cfs["the glue R_ν"] = step(u_n + contact.bond_length) + step(u_n)
         if contact.conducts:
+            r = forms.conduction_distance(contact, g.enforcement, u, phi, g.gap, g.normal, traction)
             cfs["the conduction ψ"] = step(contact.psi(r)) if callable(contact.conductance) else \
                 step(r + contact.ramp_width) + step(r)
             drop = phi - g.foundation_potential
@@ -66,10 +67,11 @@ class Switches:
         return found
 
 
-def describe(flips, dim):
-    """(what flips, where, in words; the remedies), for a cycle's ``NewtonError``."""
+def describe(flips, dim, over="cycle"):
+    """(what flips, where, in words; the remedies), for the ``NewtonError`` of a cycle (or of a
+    line ``search`` that stalled)."""
     if not flips:
-        return "no law of Γ3 changes piece between the iterates of the cycle", \
+        return f"no law of Γ3 changes piece between the iterates of the {over}", \
             "a smaller time step, or a larger maxit"
     axes = "xyz"[:dim]
     parts = []

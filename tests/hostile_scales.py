@@ -35,10 +35,9 @@ def register(h):
 
     def grounded_at_the_clamp(ctx):
         t = ngs.Parameter(0.0)
-        sim = ngc.Simulation(h.body(grounded="left"), h.scene.loads(t), contact=h.scene.contact(), time=t,
-                             limit_steps=False)
+        sim = ngc.Simulation(h.body(grounded="left"), h.scene.loads(t), contact=h.scene.contact(), time=t)
         sim.step(0.00625)
         sim.step(0.00625)
         return h.measure(sim, h.applied(sim.t))
     h.case("held", "plate grounded at its clamped end", grounded_at_the_clamp,
-           h.NewtonFailure("cycles"), h.Correct(lambda v, references: h._balance(v)))
+           h.Correct(lambda v, references: h._balance(v)))

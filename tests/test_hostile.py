@@ -395,10 +395,12 @@ for p in (1e30, 1e300, 1e-300):
     extreme(f"penalty={p:g}", dict(method="penalty", penalty=p), *SOUND("penalty", matches("default")))
 for name, values in dict(adhesion=(1e30, 1e300), eps_a=(1e30, 1e300), compliance=(1e30, 1e300),
                          conductance=(1e30, 1e300), bond_length=(1e-300, 5e-324, 1e300),
-                         ramp_width=(1e-300, 5e-324, 1e300), potential_truncation=(1e-300, 1e300),
-                         foundation_potential=(1e30, -1e30, 1e300)).items():
+                         ramp_width=(1e-300, 5e-324, 1e300), potential_truncation=(1e-300, 1e300)).items():
     for value in values:
         extreme(f"{name}={value:g}", {name: value}, *SOUND(name, matches("default")))
+for value in (1e30, -1e30, 1e300):      # φ_L(φ − φ_Γ) saturates at ∓L_φ: as a foundation at ±1 MV
+    extreme(f"foundation_potential={value:g}", dict(foundation_potential=value),
+            *SOUND("foundation_potential", matches("default" if value > 0 else "phi_low")))
 for name in ("adhesion", "compliance", "conductance"):
     extreme(f"{name}=1e-300", {name: 1e-300}, Correct(matches("default")))
 extreme("compliance=law 1e30[r]+", dict(compliance=lambda r: 1e30 * ngs.IfPos(r, r, 0.0)),
@@ -1318,9 +1320,10 @@ def _tail(path):
 @pytest.fixture(scope="module")
 def references():
     """The runs the extreme cases are compared with: the coarse reference scene with its own
-    data (default), with gap 0 (gap0), without contact (free), and to t = 0.15 s (t=0.15)."""
+    data (default), with gap 0 (gap0), without contact (free), to t = 0.15 s (t=0.15), and with the
+    foundation at −1 MV (phi_low: the potential drop saturates the truncation L_φ)."""
     return {"default": reference_run(), "gap0": reference_run(scene.contact(gap=0.0)), "free": free_run(),
-            "t=0.15": reference_run(T=0.15)}
+            "t=0.15": reference_run(T=0.15), "phi_low": reference_run(scene.contact(foundation_potential=-1e6))}
 
 
 @pytest.fixture(scope="module")

@@ -14,26 +14,30 @@ def reference(maxh=0.01, **options):
 
 
 def test_cutback_recovers_the_load_reversal():
-    """k = 20 ms with full Newton steps: Newton cycles at the load reversal (t = 0.2 s)
-    without cut-back; with it the run reaches T, the failed steps are halved, and every
-    record is in equilibrium. With the step-length limit (the default) no cut-back is needed,
-    and its records are in equilibrium too."""
-    sim, _ = reference(limit_steps=False)
+    """k = 20 ms with full Newton steps only (no step-length limit, no globalisation): Newton
+    cycles at the load reversal (t = 0.2 s) without cut-back; with it the run reaches T, the
+    failed steps are halved, and every record is in equilibrium. With the step-length limit,
+    or with the globalisation alone (the line search engages on the cycle), no cut-back is
+    needed, and their records are in equilibrium too."""
+    sim, _ = reference(limit_steps=False, globalise=False)
     with pytest.raises(ngc.NewtonError, match="cycles: the iterates repeat"):
         sim.run(dt=0.02, T=0.3, max_cutbacks=0)
-    limited, _ = reference()
+    limited, _ = reference(globalise=False)
     limited.run(dt=0.02, T=0.3, max_cutbacks=0)
-    sim, t = reference(limit_steps=False)
+    searched, _ = reference(limit_steps=False)
+    searched.run(dt=0.02, T=0.3, max_cutbacks=0)
+    sim, t = reference(limit_steps=False, globalise=False)
     h = sim.run(dt=0.02, T=0.3)
     assert h.times[-1] == pytest.approx(0.3, abs=1e-12) and len(sim.cutbacks) >= 1
     assert len(h) - 1 > 15                                     # more records than nominal steps
     dts = np.diff(h.times)
     assert dts.min() < 0.02 - 1e-12 and np.all(dts > 0)
     assert np.isclose(dts, 0.02).sum() >= 10                   # recovery: back to k after the cut-back
-    for rec in list(h[1:]) + list(limited.history[1:]):
+    for rec in list(h[1:]) + list(limited.history[1:]) + list(searched.history[1:]):
         t.Set(rec.time)
         applied = scene.pressure(t)(sim.body.mesh(0.05, 0.02)) * scene.L1
         assert rec.reaction[1] + rec.contact.force[1] == pytest.approx(applied, abs=1e-6 * scene.PRESSURE * scene.L1)
+    assert len(searched.history) - 1 == 15 and max(r.newton_iterations for r in searched.history) <= 30
 
 
 def test_unrecoverable_step_reports_the_attempts_and_keeps_the_steps():

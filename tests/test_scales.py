@@ -113,15 +113,17 @@ def test_a_cycle_is_recognised_by_its_period_only():
 
 
 def test_newton_names_the_laws_that_flip_when_it_cycles():
-    """The plate grounded at its clamped end (the reference contact): Newton cycles between
-    four iterates; the error says so after a few periods, not at maxit, names the laws of Γ3
-    that change piece between them (the contact set and the conduction among them) with
-    their remedies."""
+    """The plate grounded at its clamped end (the reference contact, ψ of the gap), full Newton
+    steps only (no step-length limit, no globalisation): Newton cycles between four iterates; the error
+    says so after a few periods, not at maxit, names the laws of Γ3 that change piece between
+    them (the contact set and the conduction among them) with their remedies. (Globalised, the
+    scene converges: ``test_globalisation``.)"""
     from ngcontact.geometries import plate
     t = ngs.Parameter(0.0)
     body = ngc.Body(plate(maxh=0.01, maxh_contact=0.005), ngc.pzt5a(2e-3), clamped="left", grounded="left",
                     contact_side="bottom")
-    sim = ngc.Simulation(body, scene.loads(t), contact=scene.contact(), time=t, limit_steps=False)
+    sim = ngc.Simulation(body, scene.loads(t), contact=scene.contact(gating="gap"), time=t, limit_steps=False,
+                         globalise=False)
     sim.step(0.00625)
     with pytest.raises(ngc.NewtonError) as caught:
         sim.step(0.00625)

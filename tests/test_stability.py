@@ -14,6 +14,8 @@
 * Nonlinear laws: ζ = 0 is the linear plate, the force falls as ζ stiffens the plate; Newton
   fails without cut-backs at κ ≈ 2e5 (projection) and where a sharp power viscosity's yield
   stress meets the load.
+* Electrode contact: a narrow conduction ramp on a weak conductance defeats the previous
+  solver and law, not the globalised Newton with the pressure-gated ψ.
 """
 import math
 
@@ -27,8 +29,8 @@ from ngcontact import cli
 from ngcontact.scenes import column, reference
 from ngcontact.studies import common
 from ngcontact.studies import stability as st
-from ngcontact.studies.stability import (debonding, incompressibility, load_cycles, nitsche_map, nonlinear_laws,
-                                         penalty_sweep, shared, strong_coupling, time_step_sweep)
+from ngcontact.studies.stability import (debonding, electrode_map, incompressibility, load_cycles, nitsche_map,
+                                         nonlinear_laws, penalty_sweep, shared, strong_coupling, time_step_sweep)
 
 
 # ------------------------------------------------------------------------------- helpers
@@ -71,12 +73,13 @@ def nitsche():
 
 def test_theta_one_fails_for_tiny_gamma0_theta_minus_one_converges(nitsche):
     """γ0 = 0.01: θ = 1 gives no usable force (with full Newton steps it failed; with the
-    step-length limit it converges 31 % off), θ = 0 converges to a force 47 % off, θ = −1
-    converges but carries 21 % too little; θ = −1 converges for every γ0 tried. At γ0 = 100
-    all three agree with the reference (θ = −1, γ0 = 1000) to 0.1 %."""
+    step-length limit it converges 31 % off), θ = 0 converges to a force 7 % off (47 % before
+    the globalisation: another of its many solutions), θ = −1 converges but carries 21 % too
+    little; θ = −1 converges for every γ0 tried. At γ0 = 100 all three agree with the reference
+    (θ = −1, γ0 = 1000) to 0.1 %."""
     low = nitsche[1, 0.01]
     assert low["status"] == "failed" or (low["status"] == "wrong" and low["force_error"] > 0.2)
-    assert nitsche[0, 0.01]["status"] == "wrong" and nitsche[0, 0.01]["force_error"] > 0.3
+    assert nitsche[0, 0.01]["status"] == "wrong" and nitsche[0, 0.01]["force_error"] > 0.05
     assert all(nitsche[-1, g]["status"] != "failed" for g in (0.01, 1.0, 100.0))
     assert nitsche[-1, 0.01]["force_error"] > 0.1
     for theta in (1, 0, -1):
@@ -168,9 +171,11 @@ def test_complete_debonding_leaves_the_glue_free_contact_force():
 # ------------------------------------------------------------------------------- load cycles
 
 def test_load_cycles_complete_with_cutbacks_and_force_balance():
+    """k = 25 ms, two push-pull cycles: the full Newton steps cycled at the reversals and
+    needed cut-backs; the globalised Newton needs none."""
     (row,) = load_cycles.run(dts=(0.025,), cycles=2, progress=False)
-    assert row["failure"] == "" and row["cutbacks"] >= 1 and row["cycling"] >= 1
-    assert row["records"] > 0.2 / 0.025 and row["openings"] == 2
+    assert row["failure"] == "" and row["cutbacks"] == 0 and row["cycling"] == 0
+    assert row["records"] >= 0.2 / 0.025 and row["openings"] == 2
     assert row["balance"] < 1e-10
 
 
@@ -180,7 +185,8 @@ def test_newton_fails_where_a_law_becomes_a_constraint_and_cutbacks_recover_the_
     """ζ = 0 gives the linear force (1e-9); the force falls monotonically as ζ grows (a
     stiffer plate presses less); the projection law at ζ = 1e16 Pa (κ ≈ 2.4e5) fails without
     cut-backs and converges with them; the power viscosity at r = 1 with ζ = 1e6 Pa (the
-    order of the 2 MPa load) and δ = 1e-6 1/s fails either way, with δ = 1e-3 it converges."""
+    order of the 2 MPa load) converges with δ = 1e-3 1/s and, with the globalised Newton (full
+    steps failed either way), with δ = 1e-6, the sharper law carrying a little less force."""
     rows = nonlinear_laws.run(zetas=(0.0, 1e11, 1e12, 1e16), power=((1e6, 1e-3), (1e6, 1e-6)), progress=False)
     projection = {(r["zeta"], r["cutbacks"]): r for r in rows if r["law"] == "projection"}
     assert abs(projection[0.0, 0]["force_change"]) < 1e-9
@@ -189,7 +195,8 @@ def test_newton_fails_where_a_law_becomes_a_constraint_and_cutbacks_recover_the_
     assert not projection[1e16, 0]["converged"] and projection[1e16, 6]["converged"]
     assert projection[1e16, 0]["kappa"] > 1e5
     power = {(r["delta"], r["cutbacks"]): r for r in rows if r["law"] == "power"}
-    assert power[1e-3, 0]["converged"] and not power[1e-6, 0]["converged"] and not power[1e-6, 6]["converged"]
+    assert power[1e-3, 0]["converged"] and power[1e-6, 0]["converged"]
+    assert power[1e-6, 0]["force_change"] < power[1e-3, 0]["force_change"] < 0 < power[1e-6, 0]["force_change"] + 0.05
     assert nonlinear_laws.first_failure(rows, "projection") == projection[1e16, 0]["kappa"]
 
 
@@ -201,27 +208,60 @@ def test_conductive_foundation_meeting_a_flat_face(conductance, truncation):
     is pushed flat onto the conductive foundation (k_e = 1e-4 F/m², φ_Γ = 10 V) in one step.
     Without conduction its bottom face floats at about −1.1e4 V, beyond the truncation
     L_φ = 1e3 V of the scene: where φ_L is saturated, the Newton Jacobian has no conduction
-    term in φ, each step overshoots, and Newton cycles even with cut-backs. With L_φ = 1e6 V
-    it converges in 2–3 iterations, to φ ≈ φ_Γ on Γ3 (with the step-length limit after a first
-    try with shortened steps that cycles). If the first case starts converging,
-    update docs/stability.md."""
+    term in φ, each step overshoots, and full Newton steps cycle even with cut-backs. The
+    globalised Newton follows a path through wider levels L_φ (and ramps) and converges to
+    φ ≈ φ_Γ on Γ3, as with L_φ = 1e6 V directly."""
     contact = reference.contact(adhesion=0.0, conductance=conductance, potential_truncation=truncation)
-    sim = column.simulation(lambda t: -1e9 * t, contact, viscous=False, keep_states=False)
     if conductance and truncation < 1e4:
+        full = column.simulation(lambda t: -1e9 * t, contact, viscous=False, keep_states=False, globalise=False)
         with pytest.raises(ngc.NewtonError) as err:
-            sim.run(dt=1.0, T=1.0, max_cutbacks=2)
-        assert common.failure_kind(err.value.residuals).startswith("cycle")
-        return
+            full.run(dt=1.0, T=1.0, max_cutbacks=2)
+        assert "cycles: the iterates repeat" in str(err.value)
+    sim = column.simulation(lambda t: -1e9 * t, contact, viscous=False, keep_states=False)
     record = sim.run(dt=1.0, T=1.0, max_cutbacks=0)[-1]
     c = record.contact
     assert c.contact_area == pytest.approx(0.02)
-    if conductance:     # the shortened steps cycle (stopped as a cycle within 20 iterations, not at
-        # maxit); Newton's repeat with full steps converges
-        assert 0 < record.discarded_iterations <= 20 and record.newton_iterations <= 3
+    if conductance:
+        assert record.newton_iterations + record.discarded_iterations <= 20
     if conductance:
         assert np.all(np.abs(c.potential - 10.0) < 1.0)
     else:
         assert np.all(c.potential < -1e4)
+
+
+# ------------------------------------------------------------------------------- electrode
+
+def test_electrode_narrow_ramp_fails_before_and_converges_after():
+    """k_e = 1e-3 F/m², δ = 1e-8 m, h_contact = 2e-4 m, P2: full Newton steps with ψ(u_ν − g)
+    (before) cycle with period 2 (Newton's detector; ``failure_kind`` sees no convergence);
+    the globalised Newton with the pressure-gated ψ (after) converges, to the force of the
+    wide ramp δ = 1e-6 m (6.108e6 N/m, within 1e-4) and its potential on the fully pressed
+    facets (about 1.06 kV: a weak conductance does not ground the contact; k_e = 1 gives 1 V)."""
+    cell = dict(conductances=(1e-3,), discretisations=((2e-4, 2),), adhesions=(), grounded_steps=0, progress=False)
+    rows = electrode_map.run(ramp_widths=(1e-8,), variants=("before",), **cell) + \
+        electrode_map.run(ramp_widths=(1e-6, 1e-8), variants=("after",), **cell)
+    runs = {(r["variant"], r["ramp_width"]): r for r in rows}
+    assert len(rows) == 3 and all(r["scene"] == "electrode" for r in rows)
+    before, after, wide = runs["before", 1e-8], runs["after", 1e-8], runs["after", 1e-6]
+    assert before["status"] == "failed" and before["reason"] == "cycle 2"
+    assert after["status"] == "ok" and wide["status"] == "ok"
+    assert abs(after["force_change"]) < 0.01
+    assert after["force"] == pytest.approx(wide["force"], rel=1e-3)
+    assert after["phi_pressed_inner"] == pytest.approx(wide["phi_pressed_inner"], rel=0.05)
+    assert 500 < after["phi_pressed_inner"] < after["phi_pressed"] + 1e-9
+    assert after["pressed"] >= 5
+    assert "c2" in electrode_map.summary(rows)         # the before cell: nc/c2 (or c2)
+
+
+def test_pressed_potentials_leave_out_the_edges_of_the_contact_zone():
+    class Side:
+        midpoints = np.column_stack([np.array([3.0, 0.0, 1.0, 2.0, 4.0, 5.0]), np.zeros(6)])
+    pressure = [1.0, 0.0, 1.0, 1.0, 1.0, 0.0]          # pressed: x = 1, 2, 3, 4; fully: x = 2, 3
+    potential = [-3.0, 100.0, 50.0, 2.0, -40.0, 7.0]
+    assert electrode_map.pressed_potentials(Side, pressure, potential) == (3.0, 50.0, 4)
+    assert electrode_map.pressed_potentials(Side, pressure, potential, foundation=2.0)[:2] == (5.0, 48.0)
+    inner, pressed, count = electrode_map.pressed_potentials(Side, np.zeros(6), potential)
+    assert math.isnan(inner) and math.isnan(pressed) and count == 0
 
 
 # ------------------------------------------------------------------------------- CLI

@@ -25,7 +25,7 @@ class Enforcement(Protocol):
     """
 
     newton_hook: object
-    """None, or an object that takes part in every Newton iteration (``newton.Hook``):
+    """None, or an object that takes part in every Newton iteration (``NewtonHook``):
     extra unknowns such as the nodal multipliers of the active set method."""
 
     condensable: bool
@@ -45,6 +45,32 @@ class Enforcement(Protocol):
     def active(self, u, phi, traction):
         """1 where the constraint is active (u_ν reaches g), else 0."""
 
+    def contact_distance(self, u, phi, traction):
+        """The method's contact state as a distance (m): >= 0 where it presses, u_ν − g where the
+        body is free; the argument of ψ with ``Contact(gating="pressure")``."""
+
+
+class NewtonHook(Protocol):
+    """Unknowns of an enforcement method solved inside Newton (e.g. nodal multipliers).
+
+    ``forces``: its contribution to the residual (a vector); ``solver``: the name of the
+    linear solver it uses."""
+
+    def start(self):
+        """A new solve begins."""
+
+    def residual(self, x, r, norm) -> tuple:
+        """Add ``forces`` to the residual r = R(x); return (the scaled norm of the whole
+        residual, with the ``ResidualNorm`` norm, and whether its own unknowns have settled,
+        so that the solve may stop)."""
+
+    def correct(self, system, x, r, timer):
+        """The Newton correction: update x (and its own unknowns) in place; the Jacobian
+        R'(x) is assembled in ``system.mat``."""
+
+    def finish(self):
+        """The solve converged."""
+
 
 METHODS = {
     "nitsche": Nitsche,
@@ -53,4 +79,4 @@ METHODS = {
 }
 """The enforcement methods by the name ``Contact(method=...)`` takes."""
 
-__all__ = ["Enforcement", "METHODS", "Nitsche", "Penalty", "NodalConstraint"]
+__all__ = ["Enforcement", "NewtonHook", "METHODS", "Nitsche", "Penalty", "NodalConstraint"]

@@ -11,7 +11,7 @@ term: S = 0. λ_i are nodal forces; the recorded pressure is the P1 field with n
 of the contact force is in the reaction) it takes the mean of its free neighbours on Γ3.
 
 ``NodalConstraint`` is the enforcement method; its ``newton_hook``, ``PrimalDualActiveSet``,
-takes part in the one Newton loop (``newton.Hook``): it adds Bᵀλ to the residual, measures
+takes part in the one Newton loop (``enforcement.NewtonHook``): it adds Bᵀλ to the residual, measures
 the nodal gap on the active set, and makes the Newton correction of (x, λ) itself.
 """
 import ngsolve as ngs
@@ -31,6 +31,7 @@ class NodalConstraint:
             raise ValueError(f"Contact.method 'active_set' is the paper's P1 scheme: it needs "
                              f"Body order 1, got {body.order}")
         self.pressure = ngs.GridFunction(ngs.H1(body.mesh, order=1), name="nodal_pressure")
+        self.gap, self.n = gap, normal
         self.newton_hook = PrimalDualActiveSet(body, side, gap, self.pressure)
 
     @classmethod
@@ -46,9 +47,13 @@ class NodalConstraint:
     def active(self, u, phi, traction):
         return ngs.IfPos(self.pressure, 1, 0)
 
+    def contact_distance(self, u, phi, traction):
+        """u_ν − g (m): 0 on the nodes the constraint holds, between them too (P1)."""
+        return u * self.n - self.gap
+
 
 class PrimalDualActiveSet:
-    """The Newton hook of the nodal constraint (``newton.Hook``).
+    """The Newton hook of the nodal constraint (``enforcement.NewtonHook``).
 
     ``B`` (nodes × DOFs) takes the normal displacement at the free P1 vertices of Γ3, ``g``
     the gap there (m), ``lam`` the nodal multipliers (N; N/m in 2D), ``forces`` = Bᵀλ."""

@@ -30,6 +30,7 @@ class Nitsche:
         self.coefficients = coefficients                    # the time scheme's c and û
         self.n = normal
         self.gamma = contact.gamma0 * boundary_stiffness(body, coefficients.rate)
+        self._effective = {}                                # σ̃_ν and P by their arguments
 
     @classmethod
     def keeps_symmetry(cls, contact):
@@ -40,20 +41,36 @@ class Nitsche:
         """σ_ν of the step at (u, φ), Pa."""
         return step_normal_stress(self.tensors, u, phi, self.coefficients.rate, self.coefficients.anchor, self.n)
 
+    def effective(self, u, phi, traction):
+        """σ̃_ν = σ_ν + traction (Pa), one CoefficientFunction per (u, φ, traction), so that the
+        Signorini term and ψ's argument share it (``Compile`` evaluates it once)."""
+        key = (id(u), id(phi), id(traction))
+        if key not in self._effective:                  # (the arguments kept: their ids stay theirs)
+            self._effective[key] = (u, phi, traction, self.sigma_n(u, phi) + traction)
+        return self._effective[key][-1]
+
     def P(self, u, phi, traction):
         """P = σ̃_ν − γ (u_ν − g); [P]_- = min(P, 0) is the Nitsche contact stress."""
-        return self.sigma_n(u, phi) + traction - self.gamma * (u * self.n - self.gap)
+        key = (id(u), id(phi), id(traction), "P")
+        if key not in self._effective:
+            self._effective[key] = (u, phi, traction, self.effective(u, phi, traction)
+                                    - self.gamma * (u * self.n - self.gap))
+        return self._effective[key][-1]
 
     def signorini(self, u, phi, v, xi, traction):
         theta, gamma = self.theta, self.gamma
-        effective = self.sigma_n(u, phi) + traction
-        P = effective - gamma * (u * self.n - self.gap)
+        effective, P = self.effective(u, phi, traction), self.P(u, phi, traction)
         negative_part = ngs.IfPos(P, 0, P)
         terms = -negative_part * (v * self.n)
         if theta != 0:
             variation = step_normal_stress_variation(self.tensors, v, xi, self.coefficients.rate, self.n)
             terms = terms + theta / gamma * (negative_part - effective) * variation
         return terms
+
+    def contact_distance(self, u, phi, traction):
+        """−P/γ = (u_ν − g) − σ̃_ν/γ (m): >= 0 where the method presses ([P]_- < 0), u_ν − g
+        where the body is free (σ̃_ν = 0); conduction's argument with pressure gating."""
+        return -self.P(u, phi, traction) / self.gamma
 
     def multiplier(self, u, phi, traction):
         """λ_h = −[P]_-, the Nitsche contact pressure (>= 0), Pa."""

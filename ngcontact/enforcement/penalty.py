@@ -30,6 +30,10 @@ class Penalty:
     def signorini(self, u, phi, v, xi, traction):
         return self.multiplier(u, phi, traction) * (v * self.n)
 
+    def contact_distance(self, u, phi, traction):
+        """u_ν − g (m): >= 0 exactly where the penalty presses (conduction's argument)."""
+        return u * self.n - self.gap
+
     def multiplier(self, u, phi, traction):
         """λ_h = ε [u_ν − g]_+, the penalty contact pressure (Pa)."""
         return self.epsilon * positive_part(u * self.n - self.gap)

@@ -41,11 +41,12 @@ def material():
     return ngc.Material.isotropic(E, NU, permittivity=1.0, name="hertz")
 
 
-def mesh(dim=2, h_contact=None, refine=0, curve=1):
-    """The half-disk (half-ball) with mesh size h_contact (m) near the contact point over
-    |x| < 0.25 R (default 0.02 R in 2D, 0.04 R in 3D), coarser away, ``refine`` uniform
-    refinements (``meshes.nested_mesh``: boundary points on the circle or sphere, the coarse
-    mesh kept for multigrid and nested iteration) and ``mesh.Curve(curve)``."""
+def mesh(dim=2, h_contact=None, refine=0, curve=1, radius=None):
+    """The half-disk (half-ball) of radius ``radius`` (m, default R) with mesh size h_contact
+    (m) near the contact point over |x| < 0.25 R (default 0.02 R in 2D, 0.04 R in 3D), coarser
+    away, ``refine`` uniform refinements (``meshes.nested_mesh``: boundary points on the circle
+    or sphere, the coarse mesh kept for multigrid and nested iteration) and ``mesh.Curve(curve)``."""
+    R = globals()["R"] if radius is None else radius
     h_contact = (0.02 if dim == 2 else 0.04) * R if h_contact is None else h_contact
     if dim == 2:
         shape = Circle(Pnt(0, R), R).Face() * Rectangle(2 * R, R).Face().Move((-R, 0, 0))

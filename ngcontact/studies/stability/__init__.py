@@ -13,6 +13,9 @@ returning its rows (flat dicts, one per run or per step) and drawing its charts 
 * ``load_cycles``: push-pull cycles that open and close the contact.
 * ``penalty_sweep``: the penalty factor over decades against Nitsche's γ0.
 * ``nonlinear_laws``: where Newton fails as a law's ζ grows (projection law, power viscosity).
+* ``electrode_map``: Newton before and after its globalisation (and ψ gated by the gap or by
+  the contact state): the electrode contact's k_e × δ on three meshes, the glue's γ_ν × the
+  push's steps on the reference plate, the plate grounded at its clamped end.
 
 Runs are made without time-step cut-backs unless stated, so that failures show; a failed
 Newton solve is classified by ``common.failure_kind``. Units are SI, per metre of depth.
@@ -22,12 +25,12 @@ import time as wallclock
 from ngcontact import checks, parallel
 
 from ..common import write_csv
-from . import (debonding, incompressibility, load_cycles, nitsche_map, nonlinear_laws, penalty_sweep,
-               strong_coupling, time_step_sweep)
+from . import (debonding, electrode_map, incompressibility, load_cycles, nitsche_map, nonlinear_laws,
+               penalty_sweep, strong_coupling, time_step_sweep)
 
 STUDIES = dict(nitsche_map=nitsche_map, time_step_sweep=time_step_sweep, incompressibility=incompressibility,
                strong_coupling=strong_coupling, debonding=debonding, load_cycles=load_cycles,
-               penalty_sweep=penalty_sweep, nonlinear_laws=nonlinear_laws)
+               penalty_sweep=penalty_sweep, nonlinear_laws=nonlinear_laws, electrode_map=electrode_map)
 """The studies in the order ``python -m ngcontact stability`` runs them."""
 
 
