@@ -26,7 +26,7 @@ import math
 from .cycles import repeating
 from .switches import describe
 
-PATIENCE = 5
+PATIENCE = 6
 """Full steps in a row without progress after which the line search engages."""
 PROGRESS = 0.5
 """Progress: a residual below this fraction of the last residual of progress."""
