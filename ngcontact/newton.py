@@ -35,7 +35,7 @@ from .residual_norm import ResidualNorm
 from .stopping import ConvergenceTest
 from .cycles import CycleWatch
 from .line_search import LineSearch
-from .inexact import ALGEBRAIC, correction_tolerance, forcing_term      # noqa: F401 (ALGEBRAIC, forcing_term: public here)
+from .inexact import correction_tolerance
 
 LINEAR_COUNTS = ("factorizations", "krylov_iterations", "krylov_failures")
 """The linear solver's counters that a solve reports."""
@@ -124,7 +124,7 @@ class Newton:
     solver : the linear solver of the corrections, ``linear_solver.DirectSolver`` (default:
         UMFPACK) or ``KeptFactorization``; an iterative one is asked for ``margin`` (its
         attribute, default 0.1) × (the target residual / the current one), inexact Newton,
-        and, if it has a ``forcing`` γ, for no more than ``forcing_term`` (Eisenstat and
+        and, if it has a ``forcing`` γ, for no more than ``inexact.forcing_term`` (Eisenstat and
         Walker's γ (‖r_k‖ / ‖r_{k−1}‖)² after a correction that made the residual fall; γ
         ‖r_{k−1}‖ / ‖r_k‖ after one that made it rise); at most 1e-3 either way.
     freedofs : BitArray of the unknowns (default: the space's free DOFs).
@@ -140,7 +140,7 @@ class Newton:
     correction whose energy ``|||w|||`` (``_energy``) was at most the target, if that residual
     fell: the linearisation
     error is then below a share of the discretisation error the target stands for (``adapt``
-    sets it from the estimate). The linear solver is then asked for no more than ``ALGEBRAIC``
+    sets it from the estimate). The linear solver is then asked for no more than ``inexact.ALGEBRAIC``
     of the target. The convergence test of ``stopping`` still stops a solve first where it
     holds. ``estimate_stops`` counts the solves the target stopped.
     """
@@ -299,7 +299,7 @@ class Newton:
                 if search.exhausted:
                     reason, hint = search.explain("made no progress with full steps", self.switches, pieces)
                     raise fail(reason, it, hint, early=True)
-            cycle = cycling(residuals) if engaged or search is None or not search.engaged else None
+            cycle = cycling(residuals) if search is None or engaged else None   # (else ``observe`` looked)
             if cycle is not None:
                 raise fail(cycle[0], it, cycle[1])
             if it == self.maxit:

@@ -74,7 +74,7 @@ class GamgSolver:
         None: from ``machine_code.BULK_COMPILED_FROM`` elements).
 
     ``forcing`` (0.01): after every correction but a step's first Newton asks for no more
-    than ``newton.forcing_term`` (0.01 (‖r_k‖ / ‖r_{k−1}‖)² after a fall, Eisenstat–Walker;
+    than ``inexact.forcing_term`` (0.01 (‖r_k‖ / ‖r_{k−1}‖)² after a fall, Eisenstat–Walker;
     0.01 ‖r_{k−1}‖ / ‖r_k‖ after a rise), so that corrections while the contact set still
     moves are not solved to the step's final accuracy. 3D block P1, 142 404 DOFs, 3 steps of
     2⁻⁸ s into first contact (2 threads): 17 Newton and 395 GMRES iterations, 16.2 s per step,

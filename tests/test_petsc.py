@@ -378,7 +378,7 @@ def test_distributed_gamg_equals_the_serial_run(serial_runs, serial_indenter, tm
     failure (the block's first step, 50 ms into deep first contact, takes 13 Newton iterations
     after 50 discarded ones with every solver; asked for the step's final accuracy after each
     rise of the residual, GMRES failed there 1-2 times and a factorisation solved:
-    ``newton.forcing_term``, ``krylov_failures``); u's GAMG block is ordered node by node on
+    ``inexact.forcing_term``, ``krylov_failures``); u's GAMG block is ordered node by node on
     every rank where every node has all components free (the block), not under rollers."""
     launch(ranks, str(HERE / "distributed_scenes.py"), scene, "gamg", str(tmp_path / "run.json"), timeout=900)
     distributed = json.loads((tmp_path / "run.json").read_text())

@@ -220,7 +220,7 @@ went untested)."""
 
 def test_eisenstat_walker_forcing_asks_for_no_more_than_the_contraction_can_use():
     """A linear solver with a ``forcing`` γ is asked, after every correction but a step's first,
-    for the looser of inexact Newton's margin × target / ‖r_k‖ and ``newton.forcing_term``: γ
+    for the looser of inexact Newton's margin × target / ‖r_k‖ and ``inexact.forcing_term``: γ
     (‖r_k‖ / ‖r_{k−1}‖)² after a fall (Eisenstat–Walker's choice 2), γ ‖r_{k−1}‖ / ‖r_k‖ after
     a rise; at most 1e-3; at a step's first correction for the margin's accuracy: checked against
     that formula at every correction of the steps into first contact, where the contact set moves

@@ -46,28 +46,28 @@ def mesh(dim=2, h_contact=None, refine=0, curve=1, radius=None):
     (m) near the contact point over |x| < 0.25 R (default 0.02 R in 2D, 0.04 R in 3D), coarser
     away, ``refine`` uniform refinements (``meshes.nested_mesh``: boundary points on the circle
     or sphere, the coarse mesh kept for multigrid and nested iteration) and ``mesh.Curve(curve)``."""
-    R = globals()["R"] if radius is None else radius
-    h_contact = (0.02 if dim == 2 else 0.04) * R if h_contact is None else h_contact
+    size = R if radius is None else radius
+    h_contact = (0.02 if dim == 2 else 0.04) * size if h_contact is None else h_contact
     if dim == 2:
-        shape = Circle(Pnt(0, R), R).Face() * Rectangle(2 * R, R).Face().Move((-R, 0, 0))
+        shape = Circle(Pnt(0, size), size).Face() * Rectangle(2 * size, size).Face().Move((-size, 0, 0))
         shape.edges.Max(Y).name = "top"
         for edge in shape.edges:
             if edge.name != "top":
                 edge.name = "contact"
     else:
-        shape = Sphere(Pnt(0, 0, R), R) * Box(Pnt(-R, -R, 0), Pnt(R, R, R))
+        shape = Sphere(Pnt(0, 0, size), size) * Box(Pnt(-size, -size, 0), Pnt(size, size, size))
         shape.faces.Max(Z).name = "top"
         for face in shape.faces:
             if face.name != "top":
                 face.name = "contact"
-    parameters = MeshingParameters(maxh=10 * h_contact if dim == 2 else 0.4 * R)
-    for x in np.linspace(-0.25 * R, 0.25 * R, 26):
+    parameters = MeshingParameters(maxh=10 * h_contact if dim == 2 else 0.4 * size)
+    for x in np.linspace(-0.25 * size, 0.25 * size, 26):
         if dim == 2:
-            parameters.RestrictH(x, R - math.sqrt(R * R - x * x), 0, h_contact)
+            parameters.RestrictH(x, size - math.sqrt(size * size - x * x), 0, h_contact)
         else:
-            for y in np.linspace(-0.25 * R, 0.25 * R, 26):
-                if x * x + y * y <= (0.25 * R) ** 2:
-                    parameters.RestrictH(x, y, R - math.sqrt(R * R - x * x - y * y), h_contact)
+            for y in np.linspace(-0.25 * size, 0.25 * size, 26):
+                if x * x + y * y <= (0.25 * size) ** 2:
+                    parameters.RestrictH(x, y, size - math.sqrt(size * size - x * x - y * y), h_contact)
     m = nested_mesh(OCCGeometry(shape, dim=dim).GenerateMesh(mp=parameters), refine)
     if curve > 1:
         m.Curve(curve)
