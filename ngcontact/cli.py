@@ -93,6 +93,9 @@ def parser():
     stab.add_argument("--out", metavar="DIR", default="stability", help="output directory")
     stab.add_argument("--quick", action="store_true", help="fewer runs per study (about a third)")
     stab.add_argument("--resume", action="store_true", help="skip the studies whose <study>.csv is in OUT")
+    stab.add_argument("--study", metavar="NAME", nargs="+", default=None,
+                      help="run only these studies (nitsche_map, time_step_sweep, incompressibility, strong_coupling, "
+                           "debonding, load_cycles, penalty_sweep, nonlinear_laws, electrode_map)")
 
     hertz = commands.add_parser("hertz", parents=[common], help="contact on a curved side against Hertz (half-disk "
                                 "on a plane), obstacle normal and body normal: hertz.csv, hertz.md, a chart")
@@ -293,7 +296,7 @@ def _dispatch(args):
                             args.resume, scheme=args.scheme, dt0=args.dt0)
     elif args.command == "stability":
         from .studies import stability
-        stability.command(args.out, args.quick, args.resume)
+        stability.command(args.out, args.quick, args.resume, args.study)
     elif args.command == "hertz":
         from .studies import hertz
         hertz.command(args.out, args.orders, args.levels, args.dim, args.resume)

@@ -14,8 +14,13 @@ right, and takes a few iterations.
 1 for the law as given) and the stages of the path: w from the widest (the ramp as wide as Γ3
 moved in the failed try, at most ``SMOOTH`` times the body's size; the level ``TRUNCATION``
 times higher) down to 1 by factors of at most ``FACTOR``; a stage that fails is bisected.
-``Newton.solve`` follows the path after its line search gave up; the time scheme does not see
-it (t, c and û are those of the step).
+``Newton.solve`` follows the path as soon as full steps stop making progress, from the
+iterate of least residual of its first try; the time scheme does not see it (t, c and û are
+those of the step). A stage before the last only starts the next one: it is done once its
+residual is ``REDUCTION`` of its first (the next stage's first residual, made by the change of
+the laws, is about as large as this stage's). The widest stage takes the line search where full
+steps stop making progress; a later stage does so as the first try did: it is given up (and
+bisected) at once where the laws of the path flip, and searches otherwise.
 """
 import math
 
@@ -34,6 +39,11 @@ TRUNCATION = 1e3
 """The widest truncation of the path, relative to L_φ: a truncation that does not act where the
 potentials of a step's iterates go (on the column pressed flat onto the conducting foundation,
 docs/stability.md, L_φ = 10⁶ V converges in 2–3 iterations where 10³ V cycles)."""
+REDUCTION = 1e-2
+"""A stage before the last is done at this fraction of its first residual (``Newton.reduction``).
+On the electrode contact (P2, h = R/200 and R/50) solving those stages to Newton's tolerance cost
+9–15 more iterations in all; one of them (ψ's ramp 25× widened) stalls at 3·10⁻⁶ of the step's
+force scale, on a kink of the gated conduction, where 30× converges (docs/stability.md, section 11)."""
 MOST = 8
 """The path's widest ramp is at most FACTOR^MOST times the narrowest (a ramp of 10⁻³⁰⁰ m is a step
 whatever the path)."""
@@ -79,14 +89,24 @@ class Continuation:
         for _, parameter, unit, width in self.laws:
             parameter.Set(min(w, self._widest(unit, width, SMOOTH * self.size)))
 
+    SWITCHES = {"m": "the conduction ψ", "V": "the potential truncation φ_L"}
+    """The switch (``switches.Switches``) of each kind of law the path widens, by its unit."""
+
+    def widens(self, flips):
+        """The switches among ``flips`` (``switches.Switches.flipping``) of the laws this path
+        widens (an empty list where none flips)."""
+        widened = {self.SWITCHES[unit] for _, _, unit, _ in self.laws}
+        return [name for name, *_ in flips if name in widened]
+
     @property
     def names(self):
         return " and ".join(name for name, *_ in self.laws)
 
-    def solve(self, newton, first, start, step, time, timer):
-        """Follow the path from the state ``start`` (a vector) after the NewtonError ``first``:
-        each stage starts from the last converged one and gives up where the first try did (no
-        progress with full steps nor with the line search); a stage given up is replaced by one
+    def solve(self, newton, first, start, best, step, time, timer):
+        """Follow the path from the state ``best`` (a vector: the failed try's iterate of least
+        residual; ``start``, the step's start, gives how far that try moved Γ3) after the
+        NewtonError ``first``: each stage starts from the last converged one and gives up where
+        the first try did (no progress with full steps); a stage given up is replaced by one
         halfway (geometrically) from the last converged width, or, before any, by one ``FACTOR``
         wider (up to ``widest``), at most ``BISECTIONS`` times. Returns the NewtonResult of the last stage, with
         ``iterations`` those of the converged stages, ``discarded`` those of the first try and of
@@ -99,13 +119,16 @@ class Continuation:
             stages = self.path(min(SMOOTH * self.size, max(self.normal_motion(newton.gfu.vec, start), 0.0)))
         stages = stages or [1.0]
         x, kept = newton.gfu.vec, start.CreateVector()
-        kept.data = x.data = start
+        kept.data = x.data = best
         path, total = [], {name: getattr(first, name) for name in LINEAR_COUNTS}
         iterations, discarded, bisections, converged = 0, first.iteration, 0, None
         try:
             while stages:
                 w = stages[0]
                 self.set(w)
+                newton.reduction = None if w == 1.0 else REDUCTION
+                if newton.line_search is not None:      # (the widest stage searches; a later one as the first try)
+                    newton.line_search.remedy = "search" if converged is None else None
                 try:
                     result = newton.tries(step, time, timer)
                 except NewtonError as err:
@@ -132,6 +155,9 @@ class Continuation:
                     total[name] += getattr(result, name)
         finally:
             self.set(1.0)
+            newton.reduction = None
+            if newton.line_search is not None:
+                newton.line_search.remedy = None
         result.iterations, result.discarded, result.path = iterations, discarded, path
         for name in LINEAR_COUNTS:
             setattr(result, name, total[name])

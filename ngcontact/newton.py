@@ -16,11 +16,10 @@ solve fails at once and says so. Such failures, and an uncertifiable residual, a
 ``recoverable``: a smaller time step would fail the same way, so the cut-back policy of
 ``Simulation.advance`` does not retry them.
 
-Every enforcement method runs in this one loop; a method with unknowns of its own (the
-nodal multipliers of the active set method) takes part through an ``enforcement.NewtonHook``, and a
-``step_length`` callback may shorten a correction (``step_length``). Wall time goes
-to a ``timer`` callback per phase ("residual", "assembly", "factorization", "solve").
-Unlike ``ngsolve.solvers.Newton``, a failure raises ``NewtonError``.
+Every enforcement method runs in this one loop; a method with unknowns of its own (the nodal
+multipliers of the active set method) takes part through an ``enforcement.NewtonHook``, and a
+``step_length`` callback may shorten a correction (``step_length``). Wall time goes to a ``timer``
+callback per phase ("residual", "assembly", "factorization", "solve"); a failure raises ``NewtonError``.
 """
 import time as wallclock
 from contextlib import contextmanager
@@ -55,11 +54,9 @@ class NewtonError(RuntimeError):
     ``factorizations``, ``krylov_iterations``, ``krylov_failures``: the linear solver's work
     in the failed solve, ``linear_history`` the same per Newton iteration (dicts);
     ``residuals_limited``: the residual history of a first try with shortened steps, if any;
-    ``recoverable``: whether a smaller time step may succeed (False for a singular Jacobian
-    and a residual that cannot be certified: the cut-back policy does not retry those);
-    ``hint``: what to try; ``tried``: the time steps tried for the step (s, set by
-    ``Simulation.advance``).
-    """
+    ``recoverable``: whether a smaller time step may succeed (False for a singular Jacobian and
+    a residual that cannot be certified: the cut-back policy does not retry those); ``hint``:
+    what to try; ``tried``: the time steps tried for the step (s, ``Simulation.advance``)."""
 
     def __init__(self, reason, *, iteration, residuals, step=None, time=None, hint="", recoverable=True):
         self.reason, self.iteration, self.residuals = reason, iteration, residuals
@@ -82,8 +79,9 @@ class NewtonResult:
     linear solver's ``factorizations``, ``krylov_iterations`` and ``krylov_failures`` (GMRES
     solves that did not converge and were followed by a fresh factorisation) during the solve (both tries
     of a repeated solve), ``discarded``: the linear solves of a first try that was repeated;
-    ``stopped``: "tolerance" (the convergence test of ``stopping``) or "estimate" (the last
-    correction's energy below ``Newton.energy_target``: adaptive stopping)."""
+    ``stopped``: "tolerance" (the convergence test of ``stopping``), "estimate" (the last
+    correction's energy below ``Newton.energy_target``: adaptive stopping) or "reduction" (the
+    residual below ``Newton.reduction`` of the solve's first: a path's intermediate stage)."""
     iterations: int
     residuals: list = field(default_factory=list)
     residual: object = None
@@ -138,11 +136,12 @@ class Newton:
     ``energy_target`` (J^½, None by default): adaptive stopping. A solve also stops, with
     ``NewtonResult.stopped = "estimate"``, at the first residual after a full (not shortened)
     correction whose energy ``|||w|||`` (``_energy``) was at most the target, if that residual
-    fell: the linearisation
-    error is then below a share of the discretisation error the target stands for (``adapt``
-    sets it from the estimate). The linear solver is then asked for no more than ``inexact.ALGEBRAIC``
-    of the target. The convergence test of ``stopping`` still stops a solve first where it
-    holds. ``estimate_stops`` counts the solves the target stopped.
+    fell: the linearisation error is then below a share of the discretisation error the target
+    stands for (``adapt`` sets it from the estimate). The linear solver is then asked for no
+    more than ``inexact.ALGEBRAIC`` of the target. The convergence test of ``stopping`` still
+    stops a solve first where it holds. ``estimate_stops`` counts the solves the target stopped.
+    ``reduction`` (None by default): a solve also stops ("reduction") at the first residual at
+    most this fraction of its first (``continuation``'s stages before the last).
     """
 
     def __init__(self, system, gfu, *, solver=None, freedofs=None, rtol=1e-10, maxit=50, hook=None,
@@ -158,6 +157,8 @@ class Newton:
         self.switches = None           # the laws' pieces at the state (``switches.Switches``): a cycle's account
         self.line_search = LineSearch()   # engaged when full steps stop making progress; None: full steps only
         self.continuation = None       # ``continuation.Continuation``: the path a solve without progress follows
+        self.reduction = None          # stop at this fraction of the first residual (a path's stage)
+        self._best = None              # [the iterate of least residual of a first try, that residual]
         self.solver = solver or DirectSolver("umfpack")
         self.rtol, self.maxit = rtol, int(maxit)
         space = gfu.space
@@ -180,26 +181,27 @@ class Newton:
         """Iterate from the current ``gfu`` until converged; raise ``NewtonError`` otherwise.
         ``step`` and ``time`` (s) are for the error message; ``timer(phase)`` returns a
         context manager that times a phase (e.g. a ``Timings``). A solve whose shortened
-        steps did not converge is repeated from its start with full steps (the result's
-        ``discarded`` counts the first try's iterations); the error of a second failure
-        gives both residual histories. Where full steps stop making progress (globalisation:
-        ``line_search`` not None), the line search takes over; where it gives up, the
-        ``continuation`` (if any) follows its path from the start, and, last, full steps
-        without the search from the start (a step Newton solved without globalisation is never
-        lost to it); the result's ``discarded`` counts the iterations of every try given up."""
+        steps did not converge is repeated from its start with full steps. Where full steps stop
+        making progress (``line_search`` not None), the ``continuation`` follows its path from the
+        try's iterate of least residual where its laws flip, else the line search takes over; last come
+        full steps from the start without the search (a step solved without globalisation is never
+        lost to it). The result's ``discarded`` counts the iterations of every try given up."""
         if self.line_search is None:
             return self.tries(step, time, timer)
         start = self.gfu.vec.CreateVector()
         start.data = self.gfu.vec
+        self._best = [start.CreateVector(), np.inf] if self.continuation else None
         try:
             return self.tries(step, time, timer)
         except NewtonError as first:
             if not first.early:             # (a try out of iterations while it progressed: a shorter step may do)
                 raise
             spent, failure = first.iteration, first
+        finally:
+            best, self._best = self._best, None
         if self.continuation:
             try:
-                return self.continuation.solve(self, failure, start, step, time, timer)
+                return self.continuation.solve(self, failure, start, best[0], step, time, timer)
             except NewtonError as err:
                 spent, failure = spent + err.spent, err
         self.gfu.vec.data = start
@@ -275,6 +277,8 @@ class Newton:
                 self.norm.set_scales(self._diagonal(x))
             value, settled = hook.residual(x, r, self.norm) if hook is not None else (self.norm.dual(r), True)
             residuals.append(value)
+            if self._best is not None and value < self._best[1]:     # (where a path would start)
+                self._best[0].data, self._best[1] = x, value
             if self.on_iteration is not None:
                 self.on_iteration(it, value)
             if not np.isfinite(value):
@@ -282,18 +286,19 @@ class Newton:
             verdict = self.test(x, residuals, self.rtol, r)
             adaptive = (self.energy_target is not None and correction is not None and correction <= self.energy_target
                         and value < residuals[-2])
-            if settled and (verdict.converged or adaptive):
+            reduced = self.reduction is not None and value <= self.reduction * residuals[0]
+            if settled and (verdict.converged or adaptive or reduced):
                 if hook is not None:
                     hook.finish()
-                self.estimate_stops += not verdict.converged
-                return NewtonResult(it, residuals, r, **self._linear_counts(since=counts),
-                                    stopped="tolerance" if verdict.converged else "estimate")
+                stopped = "tolerance" if verdict.converged else "estimate" if adaptive else "reduction"
+                self.estimate_stops += stopped == "estimate"
+                return NewtonResult(it, residuals, r, **self._linear_counts(since=counts), stopped=stopped)
             if verdict.uncertifiable:
                 reason, hint = verdict.explain()
                 raise fail(reason, it, hint, recoverable=False)
             engaged = search is not None and search.engaged
             if search is not None:
-                search.observe(residuals)
+                search.observe(residuals, self.switches, self.continuation or None)
                 if search.engaged and not engaged and self.switches is not None:
                     pieces = [self.switches()]                  # the laws' pieces where the search began
                 if search.exhausted:

@@ -1180,7 +1180,7 @@ CLI_CASES = [
     ("convergence --dt-halvings -1", "dt[-_]halvings"), ("convergence --dt-halvings 100", "dt[-_]halvings"),
     ("convergence --dt-halvings x", "dt[-_]halvings"), ("convergence --out /proc/hostile", "/proc/hostile"),
     ("stability --out /proc/hostile", "/proc/hostile"), ("stability --quick=yes", "quick"),
-    ("stability --bogus", "bogus"),
+    ("stability --bogus", "bogus"), ("stability --study nope", "studies|nope"),
     ("hertz --orders 0", "orders?"), ("hertz --orders 30", "orders?"), ("hertz --orders x", "orders?"),
     ("hertz --levels 0", "levels"), ("hertz --levels 50", "levels"), ("hertz --levels x", "levels"),
     ("hertz --dim 4", "dim"), ("hertz --out /proc/hostile", "/proc/hostile"),

@@ -275,3 +275,28 @@ def test_cli_writes_csv_and_prints_a_table(tmp_path, monkeypatch, capsys):
     cli.main(["stability", "--out", str(tmp_path), "--quick"])
     assert (tmp_path / "tiny.csv").read_text().splitlines() == ["a,b", "1,0.5", "2,0.25"]
     assert "0.25" in capsys.readouterr().out and (tmp_path / "tiny.png").exists()
+
+
+def test_the_stability_command_runs_only_the_studies_named(tmp_path, monkeypatch, capsys):
+    """``--study NAME``: only the named studies run (each writes its CSV); an unknown name is
+    refused with the allowed ones before anything runs."""
+    from ngcontact.studies import stability
+    ran = []
+
+    class Study:
+        def __init__(self, name):
+            self.name = name
+
+        def run(self, out, quick=False):
+            ran.append(self.name)
+            return [dict(value=1.0)]
+
+        def summary(self, rows):
+            return f"{self.name}: {len(rows)} row"
+    monkeypatch.setattr(stability, "STUDIES", {name: Study(name) for name in ("first", "second", "third")})
+    stability.command(tmp_path, studies=["third", "first"])
+    assert ran == ["first", "third"]
+    assert sorted(p.name for p in tmp_path.glob("*.csv")) == ["first.csv", "third.csv"]
+    with pytest.raises(ValueError, match="'fourth' is not a stability study; allowed: first, second, third"):
+        stability.command(tmp_path, studies=["fourth"])
+    assert ran == ["first", "third"]

@@ -34,15 +34,22 @@ STUDIES = dict(nitsche_map=nitsche_map, time_step_sweep=time_step_sweep, incompr
 """The studies in the order ``python -m ngcontact stability`` runs them."""
 
 
-def command(out, quick=False, resume=False):
-    """``python -m ngcontact stability``: run every study, write <study>.csv and the charts
-    into ``out``, print each study's summary; ``resume`` skips the studies whose <study>.csv
-    (written when a study ends) is already in ``out``. Serial only (refused under mpiexec)."""
+def command(out, quick=False, resume=False, studies=None):
+    """``python -m ngcontact stability``: run every study (or those named in ``studies``), write
+    <study>.csv and the charts into ``out``, print each study's summary; ``resume`` skips the
+    studies whose <study>.csv (written when a study ends) is already in ``out``. Serial only
+    (refused under mpiexec)."""
     parallel.refuse_under_mpiexec("stability")
     quick, resume = checks.flag("quick", quick), checks.flag("resume", resume)
+    unknown = [name for name in studies or () if name not in STUDIES]
+    if unknown:
+        raise ValueError(f"studies: {', '.join(map(repr, unknown))} is not a stability study; allowed: "
+                         f"{', '.join(STUDIES)}")
     out = checks.writable_directory(out)
     start = wallclock.perf_counter()
     for name, study in STUDIES.items():
+        if studies and name not in studies:
+            continue
         print(f"\n{name}", flush=True)
         if resume and (out / f"{name}.csv").exists():
             print(f"on disk ({out / f'{name}.csv'}), skipped", flush=True)
