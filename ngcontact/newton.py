@@ -300,7 +300,7 @@ class Newton:
             if search is not None:
                 search.observe(residuals, self.switches, self.continuation or None)
                 if search.engaged and not engaged and self.switches is not None:
-                    pieces = [self.switches()]                  # the laws' pieces where the search began
+                    pieces = search.window[-1:] or [self.switches()]   # the laws' pieces where it began
                 if search.exhausted:
                     reason, hint = search.explain("made no progress with full steps", self.switches, pieces)
                     raise fail(reason, it, hint, early=True)
