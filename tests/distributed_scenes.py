@@ -3,8 +3,7 @@ over a load history with ``inverse`` = argv[2] ("default" for None, "gamg" for
 ``iterative="gamg"``); rank 0 writes per step
 the contact force, the charge flux into the foundation, the reactions of the supports, u and φ
 at a probe point (where the scene has one) and the Newton iterations, and the solver used, as
-JSON to argv[3]. The environment variable RELAXATION sets MUMPS's first workspace relaxation
-(``petsc_solver.WORKSPACE_RELAXATION``); the summary gives the one the last factorisation needed.
+JSON to argv[3].
 
 argv[1]:
 
@@ -22,7 +21,6 @@ argv[1]:
   sphere of radius 10 mm driven 0.1 mm down over 4 steps (``obstacles.Sphere``), bottom grounded.
 """
 import json
-import os
 import sys
 
 import ngsolve as ngs
@@ -48,9 +46,6 @@ scene, inverse, out = sys.argv[1], None if sys.argv[2] == "default" else sys.arg
 options = dict(inverse=inverse)
 if inverse == "gamg":                      # the iterative solver on PETSc instead of a factorisation
     options = dict(iterative="gamg")
-if "RELAXATION" in os.environ:             # MUMPS's first workspace relaxation ICNTL(14), %
-    from ngcontact import petsc_solver
-    petsc_solver.WORKSPACE_RELAXATION = int(os.environ["RELAXATION"])
 T, probe = reference.LOAD_HISTORY[-1][0], None
 if scene == "reference":
     sim, steps = reference.simulation(2, 0.01, keep_states=False, **options), 20
