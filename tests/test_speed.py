@@ -112,6 +112,30 @@ def test_first_contact_iterations_do_not_grow_with_the_mesh():
         assert np.abs(x - y).max() <= 1e-8 * np.abs(y).max()
 
 
+def test_a_solve_that_starts_touching_cuts_deeper():
+    """The 2D Hertz half-disk rests on its plane when the solve begins (P2, refined twice): the
+    step length lets open points reach ``eta_touching`` = 0.03 of a correction's largest normal
+    motion over up to ``max_cuts_touching`` = 4 corrections, and Newton takes 9 iterations
+    where the open start's cut (η = 1e-3 over 2 corrections) takes 18, to the same state. The
+    reference plate's first step starts open and keeps the open start's cut."""
+    from ngcontact.scenes import hertz
+    runs = []
+    for previous in (False, True):
+        sim = hertz.simulation(2, refine=2, keep_states=False)
+        limit = sim.newton.step_length
+        if previous:
+            limit.eta_touching, limit.max_cuts_touching = limit.eta, limit.max_cuts
+        record = sim.step(1.0)
+        assert limit.touching is True
+        runs.append((record.newton_iterations + record.discarded_iterations, sim.gfu.vec.FV().NumPy().copy()))
+    (deeper, x), (previous, y) = runs
+    assert deeper <= 10 and previous >= 15, (deeper, previous)
+    assert np.abs(x - y).max() <= 1e-8 * np.abs(y).max()
+    plate_sim = scene.simulation(1, 0.01, keep_states=False)
+    plate_sim.step(2.5e-3)
+    assert plate_sim.newton.step_length.touching is False
+
+
 def test_step_timings_split_the_wall_time():
     """The Newton phases of each step fit inside its wall time (records included); assembly
     and solve are zero exactly when no linear solve was made, the factorisation exactly

@@ -39,15 +39,15 @@ def test_a_guess_changes_the_iterations_not_the_solution(warm, guess):
     than the top's 0.02: every point of Γ3 penetrates), the coarse level's solution or the P1
     solution on the same mesh, Newton reaches the warm start's state; nested iteration in at
     most 3 iterations on the finest level and "p1" in at most 5 where the warm start u = 0
-    takes 13."""
+    takes 8 (13 with the open start's step-length cut)."""
     sim, record = solved(guess)
     same_state(sim, warm[0])
     assert sim.starts.last == "guess" and warm[0].starts.last == "warm"
-    assert warm[1].newton_iterations >= 10
+    assert warm[1].newton_iterations >= 7
     if guess in ("nested", "p1"):
         start = sim.starts.nested if guess == "nested" else sim.starts.first_order
         assert record.newton_iterations <= (3 if guess == "nested" else 5)
-        assert len(start.iterations) == 1 and start.iterations[0] >= 8
+        assert len(start.iterations) == 1 and start.iterations[0] >= 5       # a cold solve there (6, 7)
     if guess == "p1":
         assert start.levels[0].body.mesh is sim.body.mesh and start.levels[0].body.order == 1
 

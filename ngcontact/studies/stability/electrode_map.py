@@ -1,7 +1,9 @@
 """Newton before and after its globalisation, on the electrode contact and on the glued plate.
 
 "before" is the previous solver and law: full Newton steps only (``Simulation(...,
-globalise=False)``) and ψ reading the gap (``Contact(gating="gap")``, the paper's ψ(u_ν − g));
+globalise=False)``), the step-length cut of an open start (η = 1e-3, 2 corrections) also where
+Γ3 touches at the solve's start (``StepLength.eta_touching``, ``max_cuts_touching``) and ψ
+reading the gap (``Contact(gating="gap")``, the paper's ψ(u_ν − g));
 "after" is the default: the line search and the path through wider conduction ramps
 (``globalise=True``) and ψ reading Nitsche's contact state (``gating="pressure"``).
 
@@ -42,6 +44,8 @@ from .shared import STATUS_COLOURS, short
 
 VARIANTS = {"before": dict(gating="gap", globalise=False), "after": dict(gating="pressure", globalise=True)}
 """The solver and law compared: (Contact.gating, Simulation's globalise)."""
+PREVIOUS_CUT = {"before": dict(eta_touching=1e-3, max_cuts_touching=2)}
+"""The step-length cut pinned per variant (``StepLength``'s attributes; else the defaults)."""
 CONDUCTANCES = (1e-3, 1e-2, 1e-1, 1.0)
 """k_e of the electrode map, F/m²."""
 RAMP_WIDTHS = (1e-6, 1e-7, 1e-8)
@@ -177,6 +181,8 @@ def _solve(build, dts, row):
     ``run`` (``row`` gives the scene's keys)."""
     began = wallclock.perf_counter()
     sim = build()
+    if row["variant"] in PREVIOUS_CUT and sim.newton.step_length is not None:
+        vars(sim.newton.step_length).update(PREVIOUS_CUT[row["variant"]])
     row = dict(row, steps=len(dts), status="ok", failure="", reason="", failed_step=0, newton=0, discarded=0,
                newton_total=0, worst_step=0, factorizations=0, krylov=0, wall_s=math.nan, force=math.nan,
                force_change=math.nan,
