@@ -12,7 +12,7 @@ from ngcontact.scenes import reference as scene
 
 
 def run(iterative, order=1, maxh=0.01, refine=1, steps=5):
-    sim = scene.simulation(order, maxh, refine, dim=3, keep_states=False, iterative=iterative, realcompile=False)
+    sim = scene.simulation(order, maxh, refine, dim=3, keep_states=False, iterative=iterative)
     sim.run(2.5e-3, steps * 2.5e-3)
     sim.step(1.25e-3)                         # a new step size: the hierarchy's finest level follows
     return sim
