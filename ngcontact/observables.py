@@ -130,7 +130,7 @@ class Recorder:
                       contact_area=ngs.IfPos(pressure, 1, 0),
                       complementarity=ngs.IfPos(lam * opening, lam * opening, -lam * opening))
         residual = ("pressure", "multiplier", "contact_area", "complementarity")   # as R_Γ3 integrates
-        self._multiplier = lam
+        self._multiplier = lam.Compile()                       # evaluated at Gauss points per record
         return {name: g.side.facet_integrals(cf, "residual" if name in residual else "exact")
                 for name, cf in fields.items()}
 

@@ -46,7 +46,7 @@ class Switches:
             drop = phi - g.foundation_potential
             cfs["the potential truncation φ_L"] = step(drop - contact.potential_truncation) + \
                 step(drop + contact.potential_truncation)
-        self.side, self.cfs = g.side, cfs
+        self.side, self.cfs = g.side, {name: cf.Compile() for name, cf in cfs.items()}   # evaluated often
 
     def __call__(self):
         return {name: np.rint(self.side.at_gauss_points(cf)).astype(int) for name, cf in self.cfs.items()}
