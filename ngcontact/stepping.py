@@ -71,7 +71,8 @@ by less than FLOOR_FALL has met a floor of the estimate that the step size does 
 time error falls as k³, 64×; across a kink in ü as k², 16×; in u̇ as k, 4×): the step is
 accepted, with its estimate above 1 in its record, and flagged (``AccuracyWarning``); for the
 rest of the run, a step whose estimate is at most FLOOR_FALL times that floor is accepted alike,
-with the step kept (the floor is read back from the records on a resume). With Nitsche the
+and the next one takes again the step that met the floor (not a shorter one that located an
+event); the floor and that step are read back from the records on a resume. With Nitsche the
 discrete contact law changes with the step (γ follows c, docs/time.md): on the reference plate
 u's estimate stayed at 1.0–1.4e-6 on tries from 4.3e-4 to 6.2e-5 s, and rtol 1e-6 took 1063
 rejections for 2499 steps."""
@@ -157,8 +158,10 @@ def controlled_steps(sim, start, T, dt, rtol, after, shown, dt_min, event_dt):
         sim.scheme.beta_tolerance = min(sim.scheme.beta_tolerance, rtol)
     rejected, streak = [], []           # streak: (k, err) of the tries rejected for their error at this step
     # the floor of the estimate met in this run (the first step accepted above rtol), from the records: a resume sees it
-    floor_level = next((r.error_estimate for r in sim.history if r.time > start and r.error_estimate is not None
-                        and r.error_estimate > 1), None)
+    # and the step that met it: the next steps at the floor take it again, not a shorter one an event made
+    met = next((r for r in sim.history if r.time > start and r.error_estimate is not None and r.error_estimate > 1),
+               None)
+    floor_level, floor_k = (None, None) if met is None else (met.error_estimate, met.dt)
     while sim.t < T * (1 - 1e-12) and T - sim.t > 1e-9 * min(dt, span):
         k = min(k, T - sim.t)
         if T - sim.t - k < 0.01 * k:                  # no sliver of a step before T
@@ -185,7 +188,7 @@ def controlled_steps(sim, start, T, dt, rtol, after, shown, dt_min, event_dt):
             bool(streak) and k <= streak[0][0] / FLOOR_SHRINK and err >= streak[0][1] / FLOOR_FALL
             or floor_level is not None and err <= FLOOR_FALL * floor_level)
         if floor and floor_level is None:              # the step size does not reduce the estimate: say so once
-            floor_level = err
+            floor_level, floor_k = err, k
             _flag(sim, f"step {len(sim.history) - 1} (t = {sim.t:.6g} s): the local error estimate stayed at "
                        f"{err:.3g} × rtol on tries from {streak[0][0]:.3g} s to {k:.3g} s (a time error falls as "
                        f"k³): it measures what the step does not reduce (with Nitsche: the contact law changes with "
@@ -213,7 +216,7 @@ def controlled_steps(sim, start, T, dt, rtol, after, shown, dt_min, event_dt):
             raise ValueError(f"run(rtol={rtol:g}): the step from t = {sim.t - k:.6g} s reached dt_min = {dt_min:.3g} s "
                              f"({reason}); every step so far is kept in the history{hint}")
         record.error_estimate, record.rejected, record.event = err, len(rejected), event
-        record.dt_next = k * (growth if err is not None and not floor else 1.0)    # at a floor: the same k
+        record.dt_next = max(k, floor_k) if floor else k * (growth if err is not None else 1.0)
         if event:                                      # located: restart from the short step
             sim.scheme.restart()
             record.dt_next = k

@@ -167,6 +167,24 @@ def test_an_estimate_that_the_step_does_not_reduce_is_accepted_and_flagged(monke
     assert sum("stayed at" in f for f in sim.flags) == 1
 
 
+def test_steps_at_a_floor_of_the_estimate_take_the_step_that_met_it_again(monkeypatch):
+    """The same stand-in floor over 0.03 s, across the first contact (events located by halving):
+    after a step shortened to locate an event, the next steps at the floor take again the step
+    that met the floor (6.1e-4 s), instead of keeping the 2 µs of the located event: 51 steps
+    (8 735 when a floored step kept its own length)."""
+    sim = reference.simulation(1, COARSE, scheme="bdf2", keep_states=False)
+    monkeypatch.setattr(sim.scheme, "local_error", lambda dt, before, before_beta: dict(u=3e-3, phi=0.0))
+    with pytest.warns(ngc.AccuracyWarning, match="stayed at 3 × rtol"):
+        sim.run(DT, 0.03, rtol=1e-3)
+    h = sim.history
+    assert h[-1].time == pytest.approx(0.03, rel=1e-12) and len(h) - 1 <= 60
+    floored = [r for r in h[1:] if r.error_estimate is not None and r.error_estimate > 1]
+    met = floored[0].dt
+    assert DT / 8 < met < DT and max(r.dt for r in h[h.index(floored[0]):] if r.time < 0.03 - met) \
+        == pytest.approx(met, rel=1e-9)
+    assert min(r.dt for r in h[1:]) < met / 100                          # an event was located in between
+
+
 def test_equal_nominal_steps_are_one_step_size():
     """``run(0.005, 0.1)``: the steps are differences of target times (t_n − t_{n−1}), whose
     round-off made 1/k differ in the last bits; the rate coefficient is rounded to 12 digits
