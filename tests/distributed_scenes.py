@@ -82,7 +82,6 @@ summary = dict(force=h.contact_column("force").tolist(), charge=h.contact_column
                newton=h.newton_iterations.tolist(), krylov_failures=sum(r.krylov_failures for r in h),
                solver=repr(sim.newton.solver),
                ranks=parallel.world().size if parallel.world() else 1,
-               relaxation=getattr(sim.newton.solver, "relaxation", None),
                u_block_size=parallel.every(sim.body.mesh, sim.newton.solver.fields[0].getBlockSize())
                if inverse == "gamg" else None)
 if parallel.rank() == 0:

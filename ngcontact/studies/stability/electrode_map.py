@@ -181,8 +181,8 @@ def _solve(build, dts, row):
     ``run`` (``row`` gives the scene's keys)."""
     began = wallclock.perf_counter()
     sim = build()
-    if row["variant"] in PREVIOUS_CUT and sim.newton.step_length is not None:
-        vars(sim.newton.step_length).update(PREVIOUS_CUT[row["variant"]])
+    for name, value in PREVIOUS_CUT.get(row["variant"], {}).items():
+        setattr(sim.newton.step_length, name, value)
     row = dict(row, steps=len(dts), status="ok", failure="", reason="", failed_step=0, newton=0, discarded=0,
                newton_total=0, worst_step=0, factorizations=0, krylov=0, wall_s=math.nan, force=math.nan,
                force_change=math.nan,
