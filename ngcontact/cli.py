@@ -88,7 +88,8 @@ def parser():
                       help="reuse the runs already in OUT/cases (and the streamed fine run of --case reference)")
 
     stab = commands.add_parser("stability", parents=[common], help="stability maps (Nitsche γ0 × θ, penalty, "
-                               "β time step, ν → 1/2, strong coupling, debonding, load cycles): "
+                               "β time step, ν → 1/2, strong coupling, debonding, load cycles, laws, electrode contact, "
+                               "pull-off): "
                                "<study>.csv and charts")
     stab.add_argument("--out", metavar="DIR", default="stability", help="output directory")
     stab.add_argument("--quick", action="store_true", help="fewer runs per study (about a third)")

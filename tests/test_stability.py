@@ -30,7 +30,8 @@ from ngcontact.scenes import column, reference
 from ngcontact.studies import common
 from ngcontact.studies import stability as st
 from ngcontact.studies.stability import (debonding, electrode_map, incompressibility, load_cycles, nitsche_map,
-                                         nonlinear_laws, penalty_sweep, shared, strong_coupling, time_step_sweep)
+                                         nonlinear_laws, penalty_sweep, pull_off, shared, strong_coupling,
+                                         time_step_sweep)
 
 
 # ------------------------------------------------------------------------------- helpers
@@ -177,6 +178,19 @@ def test_load_cycles_complete_with_cutbacks_and_force_balance():
     assert row["failure"] == "" and row["cutbacks"] == 0 and row["cycling"] == 0
     assert row["records"] >= 0.2 / 0.025 and row["openings"] == 2
     assert row["balance"] < 1e-10
+
+
+# ------------------------------------------------------------------------------- pull-off
+
+def test_the_pull_off_takes_about_an_iteration_per_point_the_release_front_crosses():
+    """The reference history at 10 ms (P2, 5 mm): its worst step after the first contact is in
+    the pull-off, where the release front crosses 17 Gauss points of Γ3 in 19 iterations; the
+    force balance holds at every step."""
+    (row,) = pull_off.run(quick=True, progress=False)
+    assert row["failure"] == "" and row["steps"] == 20 and row["balance"] < 1e-10
+    assert row["worst_time"] > reference.LOAD_HISTORY[2][0]          # after the load reverses
+    assert row["worst_crossed"] >= 8 and row["crossed_max"] == row["worst_crossed"]
+    assert 0.7 <= row["per_point"] <= 3 and row["worst_newton"] >= 0.7 * row["worst_crossed"]
 
 
 # ------------------------------------------------------------------------------- nonlinear laws

@@ -16,6 +16,8 @@ returning its rows (flat dicts, one per run or per step) and drawing its charts 
 * ``electrode_map``: Newton before and after its globalisation (and ψ gated by the gap or by
   the contact state): the electrode contact's k_e × δ on three meshes, the glue's γ_ν × the
   push's steps on the reference plate, the plate grounded at its clamped end.
+* ``pull_off``: Newton iterations per step of the reference history's pull-off against the
+  points of Γ3 its release front crosses, over time steps and meshes.
 
 Runs are made without time-step cut-backs unless stated, so that failures show; a failed
 Newton solve is classified by ``common.failure_kind``. Units are SI, per metre of depth.
@@ -26,11 +28,12 @@ from ngcontact import checks, parallel
 
 from ..common import write_csv
 from . import (debonding, electrode_map, incompressibility, load_cycles, nitsche_map, nonlinear_laws,
-               penalty_sweep, strong_coupling, time_step_sweep)
+               penalty_sweep, pull_off, strong_coupling, time_step_sweep)
 
 STUDIES = dict(nitsche_map=nitsche_map, time_step_sweep=time_step_sweep, incompressibility=incompressibility,
                strong_coupling=strong_coupling, debonding=debonding, load_cycles=load_cycles,
-               penalty_sweep=penalty_sweep, nonlinear_laws=nonlinear_laws, electrode_map=electrode_map)
+               penalty_sweep=penalty_sweep, nonlinear_laws=nonlinear_laws, electrode_map=electrode_map,
+               pull_off=pull_off)
 """The studies in the order ``python -m ngcontact stability`` runs them."""
 
 

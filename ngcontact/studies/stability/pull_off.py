@@ -1,0 +1,118 @@
+"""The pull-off of the reference plate: Newton iterations per step against the Gauss points of
+Γ3 that the release front crosses in the step, for several time steps and meshes.
+
+After the load reverses (t = 0.15 s) the contact zone opens from its inner edge while the glue
+holds the plate. The semismooth Newton releases the points of Γ3 that are in tension under the
+current contact set; releasing them loads the next ones, so a step whose front crosses many
+points takes about one iteration per point crossed. The study measures that relation on the
+reference history (P2) at fixed steps, with the default solver.
+"""
+import numpy as np
+from matplotlib.figure import Figure
+
+import ngcontact as ngc
+from ngcontact.progress import bar
+from ngcontact.scenes import reference
+
+from ..common import failure_kind, line, table
+from .shared import APPLIED
+
+COLUMNS = ("dt", "maxh", "steps", "worst_time", "worst_newton", "worst_crossed", "crossed_max", "per_point",
+           "over_10", "balance")
+"""The columns of the summary table."""
+T_END = 0.2
+"""The end of the history studied, s: the load has reversed into the pull (``reference``)."""
+
+
+def run(out=None, *, cases=None, order=2, quick=False, progress=True):
+    """The reference history to ``T_END`` at each (dt, maxh) of ``cases``.
+
+    Parameters
+    ----------
+    out : pathlib.Path or None, where to draw ``pull_off.png``.
+    cases : (dt in s, maxh in m) pairs; default dt 2.5, 5, 10, 20 ms at maxh 5 mm and maxh
+        2.5, 10 mm at dt 5 ms (quick: 10 ms at 5 mm).
+    order : polynomial order.
+    quick : one case.
+    progress : show a progress bar and a line per run.
+
+    Returns
+    -------
+    list of dict, one per case: ``steps``; the worst step after the first contact
+    (``worst_time`` s, ``worst_newton`` linear solves with those of given-up tries,
+    ``worst_crossed`` Gauss points of Γ3 whose contact state changed in it); ``crossed_max``;
+    ``per_point``: the median of newton / crossed over the steps that cross at least 4 points;
+    ``over_10``: steps after the first contact with more than 10 iterations; ``balance``: max
+    |reaction + contact force − load| / peak load; ``failure`` (the kind, or "").
+    """
+    if cases is None:
+        cases = ((0.01, 0.005),) if quick else \
+            ((0.0025, 0.005), (0.005, 0.005), (0.01, 0.005), (0.02, 0.005), (0.005, 0.0025), (0.005, 0.01))
+    rows, traces = [], {}
+    with bar(len(cases), "pull_off", progress, unit="run") as shown:
+        for dt, maxh in cases:
+            row, trace = _case(dt, maxh, order)
+            rows.append(row)
+            traces[dt, maxh] = trace
+            shown.write(line(row, COLUMNS))
+            shown.update()
+    if out is not None:
+        _plot(traces, out)
+    return rows
+
+
+def _case(dt, maxh, order):
+    sim = reference.simulation(order, maxh, keep_states=False)
+    contact_set = sim.newton.switches
+    steps, previous, failure = [], None, ""
+    try:
+        for _ in range(int(round(T_END / dt))):
+            record = sim.step(dt)
+            active = contact_set()["the contact set"] > 0
+            crossed = 0 if previous is None else int(np.count_nonzero(active != previous))
+            previous = active
+            steps.append((record.time, record.newton_iterations + record.discarded_iterations, crossed,
+                          bool(active.any())))
+    except ngc.NewtonError as err:     # a failed step ends the case: the study reports it
+        failure = failure_kind(err.residuals)
+    h = sim.history
+    load = APPLIED * np.array([reference_factor(t) for t in h.times[1:]])
+    balance = h.reactions[1:, 1] + h.contact_column("force")[1:, 1] - load
+    times, newton, crossed, touching = (np.array(c) for c in zip(*steps))
+    first = int(np.argmax(touching))
+    after = np.arange(len(steps)) > first
+    worst = int(np.flatnonzero(after)[np.argmax(newton[after])])
+    fronts = after & (crossed >= 4)
+    row = dict(dt=dt, maxh=maxh, order=order, failure=failure, steps=len(steps),
+               worst_time=float(times[worst]), worst_newton=int(newton[worst]), worst_crossed=int(crossed[worst]),
+               crossed_max=int(crossed[after].max()),
+               per_point=float(np.median(newton[fronts] / crossed[fronts])) if fronts.any() else float("nan"),
+               over_10=int(np.count_nonzero(newton[after] > 10)),
+               balance=float(np.abs(balance).max() / APPLIED))
+    return row, (times, newton, crossed)
+
+
+def reference_factor(t):
+    """The reference load history's factor at time t (s)."""
+    return float(np.interp(t, *np.array(reference.LOAD_HISTORY).T))
+
+
+def summary(rows):
+    return table(rows, COLUMNS)
+
+
+def _plot(traces, out):
+    fig = Figure(figsize=(10, 4), layout="constrained")
+    left, right = fig.subplots(1, 2)
+    for i, ((dt, maxh), (times, newton, crossed)) in enumerate(traces.items()):
+        label = f"dt = {1e3 * dt:g} ms, h = {1e3 * maxh:g} mm"
+        left.plot(times, newton, "o-", color=f"C{i}", ms=3, lw=0.7, label=label)
+        right.plot(crossed, newton, "o", color=f"C{i}", ms=4, alpha=0.7)
+    left.axvline(reference.LOAD_HISTORY[2][0], color="k", lw=0.6, ls=":")
+    left.set(xlabel="time t [s] (dotted: the load reverses)", ylabel="Newton iterations per step",
+             title="the reference history, P2")
+    right.set(xlabel="Gauss points of Γ3 whose contact state changed in the step", ylabel="Newton iterations")
+    left.legend(fontsize=7)
+    for ax in (left, right):
+        ax.grid(True, lw=0.3)
+    fig.savefig(out / "pull_off.png", dpi=100)
