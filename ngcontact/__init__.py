@@ -30,7 +30,7 @@ from . import adapt, checks, contact_laws, estimators, laws, meshes, parallel, p
 from .admissible import PhysicsWarning
 from .body import Body
 from .contact import Contact
-from .enforcement import METHODS
+from .enforcement import METHODS, Nitsche, NodalConstraint, Penalty
 from .loads import Loads
 from .arguments import MIN_DT
 from .materials import EPS0, Material, academic, batio3, pzt5a
@@ -40,6 +40,6 @@ from .simulation import Simulation
 from .stepping import AccuracyWarning
 from .webgui import save_html
 
-__all__ = ["Body", "Contact", "Loads", "Material", "Simulation", "History", "StepRecord", "ContactRecord",
+__all__ = ["Body", "Contact", "Nitsche", "Penalty", "NodalConstraint", "Loads", "Material", "Simulation", "History", "StepRecord", "ContactRecord",
            "NewtonError", "PhysicsWarning", "AccuracyWarning", "METHODS", "EPS0", "MIN_DT", "academic", "pzt5a", "batio3", "save_html", "contact_laws",
            "parallel", "checks", "meshes", "schemes", "adapt", "estimators", "laws", "petsc_solver"]

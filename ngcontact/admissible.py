@@ -69,28 +69,15 @@ class PhysicsWarning(UserWarning):
     """A computed step that makes no physical sense for the model (``flags``)."""
 
 
-NITSCHE_ACCURATE_FROM = {1: 3.0, 0: 0.1, -1: 3.0}
-"""γ0 from which each Nitsche variant θ gave the contact force within 1 % on the reference plate
-(docs/stability.md, section 1): below, θ = 1 and θ = 0 may converge to forces 20–130 % off or
-fail (their coercivity needs γ0 above a trace-inequality constant), θ = −1 is stable but
-imposes contact only weakly (8 % off at 0.1, 25 % at 0.001)."""
 PENETRATION_LIMIT = 0.1      # of the smallest facet of Γ3, and of the largest displacement
 DISPLACEMENT_LIMIT = 0.05    # of the body's size (small strain)
 
 
 def scene_flags(contact):
     """What in the data of a scene makes its results unreliable, as messages (flagged once,
-    when the simulation is built): a Nitsche γ0 below ``NITSCHE_ACCURATE_FROM`` of its θ."""
-    if contact is None or contact.method != "nitsche":
-        return []
-    bound = NITSCHE_ACCURATE_FROM[contact.theta]
-    if contact.gamma0 >= bound:
-        return []
-    why = ("skew-symmetric Nitsche is stable for every γ0 but imposes contact only weakly" if contact.theta == -1
-           else f"Nitsche with θ = {contact.theta} is not coercive for small γ0: it may converge to a wrong contact "
-                "force")
-    return [f"Contact.gamma0 = {contact.gamma0:g} is below {bound:g}, where θ = {contact.theta} gave the contact "
-            f"force within 1 % (docs/stability.md): {why}; use γ0 >= {bound:g}"]
+    when the simulation is built): the enforcement method's own (``Method.flags``: a Nitsche γ0
+    below ``enforcement.nitsche.ACCURATE_FROM`` of its θ)."""
+    return [] if contact is None else list(contact.enforcement_method.flags())
 
 
 STIFF_CONTACT = 1e4
@@ -105,8 +92,7 @@ def stiff_contact_terms(body, contact, side):
     bulk = body.order ** 2 * body.tensors.stiffness(0.0) / h
     ratios = {"Contact.adhesion γ_ν": contact.adhesion / bulk,
               "Contact.compliance c_ν": 0.0 if callable(contact.compliance) else contact.compliance / bulk,
-              "Contact.gamma0": contact.gamma0 if contact.method == "nitsche" else 0.0,
-              "Contact.penalty": contact.penalty if contact.method == "penalty" else 0.0}
+              **contact.enforcement_method.stiffness_factors()}
     named = [f"{name} is {ratio:.3g} times that" for name, ratio in ratios.items() if ratio > STIFF_CONTACT]
     if not named:
         return ""

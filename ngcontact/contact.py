@@ -7,7 +7,7 @@ import ngsolve as ngs
 from . import contact_laws as laws
 from .checks import number, parameters
 from .loads import as_cf
-from .enforcement import METHODS
+from .enforcement import METHODS, resolve
 from .obstacles import OBSTACLES
 
 
@@ -44,12 +44,16 @@ class Contact:
             enforcement's contact state, Nitsche's −P_γ/γ: full conductance wherever the method
             presses, the same ψ(u_ν − g) where the body is free; docs/model.md).
     Enforcement of the Signorini condition (``ngcontact.enforcement``):
-        method : a name of ``enforcement.METHODS``: "nitsche" (Chouly-Hild θ-family, the
-            default), "penalty" (a stiff normal compliance) or "active_set" (the paper's
-            nodal constraint u_ν <= g at the nodes of Γ3, P1 only, with nodal multipliers).
-        theta : 1 (symmetric), 0 (incomplete) or -1 (skew-symmetric); Nitsche only.
+        method : a method object, ``Nitsche(theta, gamma0)`` (Chouly-Hild θ-family),
+            ``Penalty(factor)`` (a stiff normal compliance), ``NodalConstraint()`` (the paper's
+            nodal constraint u_ν <= g at the nodes of Γ3, P1 only, with nodal multipliers) or
+            one of the user's (``enforcement.Method``); or a shorthand of ``enforcement.METHODS``,
+            "nitsche" (the default), "penalty" or "active_set", with the parameters below.
+        theta : 1 (symmetric), 0 (incomplete) or -1 (skew-symmetric); "nitsche" only.
         gamma0 : γ0 > 0; γ = γ0 p² (stiffness)/h, see ``forms.boundary_stiffness``.
-        penalty : > 0, the penalty factor: ε = penalty p² (stiffness)/h; penalty only.
+        penalty : > 0, the penalty factor: ε = penalty p² (stiffness)/h; "penalty" only.
+    With a method object, theta, gamma0 and penalty are read from it (given here as well,
+    they must agree). ``enforcement_method`` is the method object either way.
     """
     gap: object = 0.0
     obstacle: object = None
@@ -66,14 +70,28 @@ class Contact:
     gating: str = "pressure"
     theta: int = 1
     gamma0: float = 10.0
-    method: str = "nitsche"
+    method: object = "nitsche"
     penalty: float = 1e3
 
     def __post_init__(self):
+        given = self.method
+        if not isinstance(given, str) and not (hasattr(given, "build") and hasattr(given, "keeps_symmetry")):
+            raise TypeError(f"Contact.method must be one of {', '.join(map(repr, METHODS))} or a method object "
+                            "(ngcontact.Nitsche, Penalty, NodalConstraint, or one with the protocol of "
+                            f"ngcontact.enforcement.Method), got {given!r}")
+        if not isinstance(given, str):                 # θ, γ0, penalty: the object's
+            for name, value in given.contact_fields().items():
+                default = type(self).__dataclass_fields__[name].default
+                if getattr(self, name) != default and getattr(self, name) != value:
+                    raise ValueError(f"Contact.{name} = {getattr(self, name)!r} disagrees with the method "
+                                     f"{given!r}: give {name} to the method only")
+                object.__setattr__(self, name, value)
         for name, allowed, words in (("method", tuple(METHODS), "one of " + ", ".join(map(repr, METHODS))),
                                      ("gating", ("gap", "pressure"), "'gap' or 'pressure'"),
                                      ("beta_update", ("explicit", "implicit"), "'explicit' or 'implicit'")):
             value = getattr(self, name)
+            if name == "method" and not isinstance(value, str):
+                continue
             if not isinstance(value, str) or value not in allowed:
                 raise (ValueError if isinstance(value, str) else TypeError)(
                     f"Contact.{name} must be {words}, got {value!r}")
@@ -82,10 +100,11 @@ class Contact:
             raise TypeError(f"Contact.theta must be 1, 0 or -1, got {self.theta!r} ({type(self.theta).__name__})")
         if self.theta not in (1, 0, -1):
             raise ValueError(f"Contact.theta must be 1, 0 or -1, got {self.theta!r}")
-        if self.theta != 1 and self.method != "nitsche":
+        number("Contact.gamma0 (Nitsche parameter)", self.gamma0, 0, low_open=True)
+        self.enforcement_method = resolve(self)
+        if self.theta != 1 and "theta" not in self.enforcement_method.contact_fields():
             raise ValueError(f"Contact.theta = {self.theta!r} means nothing with method {self.method!r}: θ chooses "
                              "the variant of Nitsche's method (method='nitsche'); leave theta at 1")
-        number("Contact.gamma0 (Nitsche parameter)", self.gamma0, 0, low_open=True)
         number("Contact.bond_length", self.bond_length, 0, low_open=True, unit="m")
         number("Contact.ramp_width", self.ramp_width, 0, low_open=True, unit="m")
         number("Contact.potential_truncation", self.potential_truncation, 0, low_open=True, unit="V")
@@ -113,9 +132,8 @@ class Contact:
             if isinstance(self.gap, ngs.CoefficientFunction) or self.gap != 0:
                 raise ValueError("Contact: give either gap (the paper's form, along the body's normal) or "
                                  "obstacle (the gap comes from it), not both")
-            if self.method == "active_set":
-                raise ValueError("Contact.method 'active_set' constrains u·ν at the nodes with the body's "
-                                 "normals: it does not take an obstacle; use 'nitsche' or 'penalty'")
+            if not self.enforcement_method.takes_obstacle:
+                self.enforcement_method.check_obstacle()
         for name in ("compliance", "conductance"):
             if isinstance(getattr(self, name), ngs.CoefficientFunction):
                 raise TypeError(f"Contact.{name} must be a number >= 0 or a function r ↦ "
@@ -159,5 +177,5 @@ class Contact:
         """True if the Newton Jacobian is symmetric: a method whose Signorini term keeps it so
         (Nitsche with θ = 1, penalty, the nodal constraint), with no compliant layer, no
         adhesion and no conduction (those terms are not symmetrised)."""
-        return (METHODS[self.method].keeps_symmetry(self) and not callable(self.compliance)
+        return (self.enforcement_method.keeps_symmetry and not callable(self.compliance)
                 and self.compliance == 0 and self.adhesion == 0 and not self.conducts)

@@ -10,7 +10,8 @@ never continued with another scene. Its fields (one key each, e.g. ``contact.gam
 * ``body.*``: the orders of u and φ, the boundary parts Γ1, Γa, Γ3 and the supports;
 * ``material.*``: c, e, eps, eta and poling (the data as given, SI units), a law's name,
   sampled constants and tangent at 0;
-* ``contact.*``: every field of ``Contact`` (``contact`` is None without a contact law) and
+* ``contact.*``: every field of ``Contact`` (``contact`` is None without a contact law; the
+  method by its name, its parameters in ``theta``, ``gamma0``, ``penalty``) and
   ``contact.obstacle.*``, the obstacle's own data;
 * ``loads.*``: every entry of ``Loads``, keyed by its boundary;
 * ``options.*``: the options of ``Simulation`` that change the results: Newton's rtol and
@@ -181,7 +182,9 @@ def _contact(contact, body, sample):
     found = {"contact": "Contact"}
     for f in dataclasses.fields(Contact):
         value = getattr(contact, f.name)
-        if f.name == "obstacle":
+        if f.name == "method":          # its name; the parameters of a built-in one are the fields θ, γ0, penalty
+            found["contact.method"] = contact.enforcement_method.name
+        elif f.name == "obstacle":
             found["contact.obstacle"] = None if value is None else type(value).__name__
             if value is not None:
                 found.update({f"contact.obstacle.{k}": sample(v, gamma3) for k, v in vars(value).items()})

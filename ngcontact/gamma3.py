@@ -12,7 +12,6 @@ from . import arguments, forms
 from .adhesion import BondingField
 from .admissible import GapCheck
 from .contact_side import ContactSide
-from .enforcement import METHODS
 from .loads import as_cf
 from .observables import Gamma3
 from .obstacles import check_normal
@@ -39,7 +38,7 @@ def build(body, contact, system, realcompile=False):
         if sampled_normal is not None:
             check_normal(side, gap, normal, body.size)
     beta = BondingField(side, contact)
-    enforcement = METHODS[contact.method](body, contact, side, gap=gap, coefficients=coefficients,
+    enforcement = contact.enforcement_method.build(body, contact, side, gap=gap, coefficients=coefficients,
                                           normal=normal)
 
     def terms(state, test):

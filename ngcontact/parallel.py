@@ -268,9 +268,10 @@ def check_simulation(mesh, contact, inverse, condense, reuse_factorization, iter
     masterinverse)."""
     if not is_distributed(mesh):
         return []
-    if contact is not None and contact.method == "active_set":
-        serial_only(mesh, "Contact.method 'active_set' (the nodal constraint)",
-                    "its saddle point systems are scipy matrices of one rank; use 'nitsche' or 'penalty'")
+    method = None if contact is None else contact.enforcement_method
+    if method is not None and not method.distributable:
+        what, why = method.serial_only
+        serial_only(mesh, f"Contact.method {method.name!r} ({what})", why)
     if inverse is not None and inverse not in ("mumps", "masterinverse"):
         serial_only(mesh, f"inverse={inverse!r}", "use inverse='mumps' (PETSc) or 'masterinverse', or leave "
                     "inverse=None (MUMPS where PETSc is installed, else NGSolve's 'masterinverse')")

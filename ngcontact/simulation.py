@@ -18,7 +18,6 @@ from .fingerprint import fingerprint
 from .admissible import PhysicsWarning, check_initial_displacement, check_supports_at_start, flags, scene_flags
 from .checks import integer, number, uses_only
 from .electric_part import electric_parts, solves_potential
-from .enforcement import METHODS
 from .loads import Loads, as_cf
 from .machine_code import ITERATIONS_PER_STEP, MachineCode
 from .newton import Newton, NewtonResult, Timings
@@ -131,7 +130,7 @@ class Simulation:
         distributed = parallel.is_distributed(body.mesh)     # see parallel.check_simulation, parallel_notes
         automatic = has_interior_dofs(self.X) and body.tensors.linear and iterative in (None, False)  # not under GMRES
         self.condense = automatic if condense is None else bool(condense)
-        self.condense &= contact is None or METHODS[contact.method].condensable
+        self.condense &= contact is None or contact.enforcement_method.condensable
         kept = body.region("contact_side") if contact is not None else None
         coefficients = StepCoefficients(self.time, body.V)        # t_n, c, û: written by the scheme only
         self.system = StepSystem(body, self.loads, self.X, coefficients, condense=self.condense, kept=kept)
@@ -184,7 +183,7 @@ class Simulation:
         return "u alone (no piezoelectric coupling, no conduction on Γ3, no electric loads: φ = 0)"
 
     def __repr__(self):
-        contact = "none" if self.contact is None else self.contact.method
+        contact = "none" if self.contact is None else self.contact.enforcement_method.name
         return (f"Simulation(t = {self.t:g} s, {len(self.history)} records; solves {self.model}; "
                 f"contact: {contact}; linear solver: {self.solver})")
 

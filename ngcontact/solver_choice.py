@@ -81,7 +81,7 @@ def choose(body, contact, system, space, *, inverse, reuse_factorization, iterat
                                     displacement=False)
         return newton, potential
     name = inverse or ("sparsecholesky" if symmetric else "umfpack")
-    skew = contact is not None and contact.method == "nitsche" and contact.theta == -1
+    skew = contact is not None and contact.enforcement_method.skew_symmetric
     if name == "mumps":                          # LDLᵀ or LU by symmetry; kept as GMRES's preconditioner
         direct = DirectSolver(name, symmetric=symmetric)
         if not reuse_factorization:

@@ -222,3 +222,77 @@ def test_active_set_needs_p1():
         Contact(method="lagrange")
     with pytest.raises(ValueError, match="Contact.penalty must be a finite number > 0"):
         Contact(method="penalty", penalty=0)
+
+
+# ------------------------------------------------------------------------------- methods as objects
+
+@pytest.mark.parametrize("given, shorthand", [
+    (ngc.Nitsche(theta=-1, gamma0=100.0), dict(theta=-1, gamma0=100.0)),
+    (ngc.Penalty(factor=1e4), dict(method="penalty", penalty=1e4)),
+    (ngc.NodalConstraint(), dict(method="active_set")),
+])
+def test_a_method_object_is_its_shorthand(given, shorthand):
+    """``Contact(method=Nitsche(...))`` and the shorthand with Contact's fields give the same run,
+    bit for bit, and the same fingerprint of the method."""
+    runs = []
+    for contact in (Contact(gap=GAP, method=given), Contact(gap=GAP, **shorthand)):
+        sim = pressed_plate(contact)
+        runs.append((sim.run(dt=0.5, T=1)[-1], contact))
+    (a, ca), (b, cb) = runs
+    assert np.array_equal(a.contact.force, b.contact.force) and np.array_equal(a.reaction, b.reaction)
+    assert ca.enforcement_method == cb.enforcement_method
+    assert (ca.theta, ca.gamma0, ca.penalty) == (cb.theta, cb.gamma0, cb.penalty)
+    assert a.contact.force[1] > 0.3 * P * 0.1
+
+
+def test_a_method_of_the_users_runs_without_an_edit_of_the_package():
+    """A method object written here (the penalty law with its own name, of about 20 lines)
+    takes part through the ``enforcement.Method`` protocol: the same force as ``Penalty``,
+    its own name in the simulation and the refusal of an obstacle it says it does not take."""
+    from ngcontact.enforcement.penalty import PenaltyTerms
+
+    class StiffLayer:
+        name, keeps_symmetry, skew_symmetric = "stiff layer", True, False
+        condensable, distributable, takes_obstacle = True, True, False
+
+        def __init__(self, factor):
+            self.factor = factor
+
+        def contact_fields(self):
+            return {}
+
+        def stiffness_factors(self):
+            return {"the stiff layer": self.factor}
+
+        def flags(self):
+            return ["the stiff layer penetrates"] if self.factor < 10 else []
+
+        def check_obstacle(self):
+            raise ValueError("the stiff layer acts along the body's normal only")
+
+        def build(self, body, contact, side, *, gap, coefficients, normal):
+            return PenaltyTerms(self, body, gap=gap, coefficients=coefficients, normal=normal)
+
+    mine = pressed_plate(Contact(gap=GAP, method=StiffLayer(1e4)))
+    theirs = pressed_plate(Contact(gap=GAP, method=ngc.Penalty(1e4)))
+    a, b = mine.run(dt=0.5, T=1)[-1], theirs.run(dt=0.5, T=1)[-1]
+    assert np.abs(a.contact.force - b.contact.force).max() <= 1e-12 * np.abs(b.contact.force).max()
+    assert "contact: stiff layer" in repr(mine)
+    with pytest.warns(ngc.PhysicsWarning, match="the stiff layer penetrates"):
+        pressed_plate(Contact(gap=GAP, method=StiffLayer(1.0)))
+    with pytest.raises(ValueError, match="the stiff layer acts along the body's normal only"):
+        Contact(method=StiffLayer(1e4), obstacle=ngc.obstacles.Plane((0.0, -GAP), (0.0, 1.0)))
+
+
+def test_a_method_object_and_contacts_fields_must_agree():
+    with pytest.raises(ValueError, match="Contact.gamma0 = 7 disagrees with the method"):
+        Contact(method=ngc.Nitsche(gamma0=5.0), gamma0=7)
+    with pytest.raises(ValueError, match="Contact.theta = -1 means nothing with method Penalty"):
+        Contact(method=ngc.Penalty(), theta=-1)
+    with pytest.raises(ValueError, match="Nitsche.theta must be 1, 0 or -1, got 2"):
+        ngc.Nitsche(theta=2)
+    with pytest.raises(ValueError, match="Penalty.factor"):
+        ngc.Penalty(factor=-1.0)
+    with pytest.raises(TypeError, match="Contact.method must be one of .* or a method object"):
+        Contact(method=object())
+    assert Contact(method=ngc.Nitsche(theta=0, gamma0=5.0)).theta == 0

@@ -11,6 +11,7 @@ import ast
 import inspect
 import os
 import pathlib
+import re
 import tomllib
 
 import pytest
@@ -102,28 +103,52 @@ def test_no_module_over_400_lines():
 
 
 def test_every_enforcement_module_is_one_registered_method():
-    """One module per method, one class each, listed in METHODS, with the protocol (its
-    ``newton_hook`` is set per instance) and no inheritance between methods."""
-    protocol = {"signorini", "multiplier", "active", "keeps_symmetry", "condensable"}
+    """One module per method: one method class listed in METHODS with the ``Method`` protocol,
+    whose ``build`` makes its Γ3 expressions (the ``Enforcement`` protocol; ``newton_hook`` is
+    set per instance); no inheritance between methods."""
+    protocol = set(enforcement.Method.__annotations__) | {"contact_fields", "stiffness_factors", "flags", "build",
+                                                          "from_contact"}
+    expressions = {"signorini", "multiplier", "active", "contact_distance"}
     registered = set(enforcement.METHODS.values())
     for path in sorted((PACKAGE / "enforcement").glob("*.py")):
         if path.name == "__init__.py":
             continue
         module = __import__(f"ngcontact.enforcement.{path.stem}", fromlist=["*"])
-        methods = [cls for _, cls in inspect.getmembers(module, inspect.isclass)
-                   if cls.__module__ == module.__name__ and cls in registered]
+        classes = [cls for _, cls in inspect.getmembers(module, inspect.isclass) if cls.__module__ == module.__name__]
+        methods = [cls for cls in classes if cls in registered]
         assert len(methods) == 1, path.name
         (method,) = methods
         assert protocol <= set(dir(method)), (path.name, protocol - set(dir(method)))
         assert method.__bases__ == (object,), f"{method.__name__} inherits from {method.__bases__}"
+        assert enforcement.METHODS[method.name] is method
+        assert any(expressions <= set(dir(cls)) for cls in classes), (path.name, "no class of Γ3 expressions")
     assert len(registered) == len(list((PACKAGE / "enforcement").glob("*.py"))) - 1
 
 
 def test_contact_accepts_exactly_the_registered_methods():
-    for name in enforcement.METHODS:
-        assert ngc.Contact(method=name).method == name
+    for name, cls in enforcement.METHODS.items():
+        contact = ngc.Contact(method=name)
+        assert contact.method == name and type(contact.enforcement_method) is cls
+        assert ngc.Contact(method=cls()).enforcement_method == contact.enforcement_method
     with pytest.raises(ValueError, match="Contact.method must be one of 'nitsche', 'penalty', 'active_set'"):
         ngc.Contact(method="mortar")
+
+
+METHOD_NAME_COMPARISON = re.compile(r"""(==|!=|\bin)\s*\(?\s*["'](nitsche|penalty|active_set)["']"""
+                                    r"""|["'](nitsche|penalty|active_set)["']\s*(==|!=)""")
+
+
+def test_no_module_outside_the_methods_compares_a_method_name():
+    """What differs between enforcement methods is asked of the method object
+    (``enforcement.Method``), never decided by its name."""
+    found = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        if (PACKAGE / "enforcement") in path.parents:
+            continue
+        for number, line in enumerate(path.read_text().splitlines(), 1):
+            if METHOD_NAME_COMPARISON.search(line):
+                found.append(f"{path.relative_to(PACKAGE)}:{number}: {line.strip()}")
+    assert not found, "\n".join(found)
 
 
 def test_geometries_ship_inside_ngcontact():

@@ -14,29 +14,64 @@ of the contact force is in the reaction) it takes the mean of its free neighbour
 takes part in the one Newton loop (``enforcement.NewtonHook``): it adds Bᵀλ to the residual, measures
 the nodal gap on the active set, and makes the Newton correction of (x, λ) itself.
 """
+from dataclasses import dataclass
+
 import ngsolve as ngs
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 
+@dataclass(frozen=True)
 class NodalConstraint:
+    """The paper's nodal constraint for P1: ``Contact(method=NodalConstraint())``; no parameter."""
+
+    name = "active_set"
+    """The shorthand ``Contact(method=...)`` takes."""
+    condensable = False                    # the saddle point systems take the full Jacobian
+    distributable = False
+    serial_only = ("the nodal constraint", "its saddle point systems are scipy matrices of one rank; "
+                   "use 'nitsche' or 'penalty'")
+    """(what it is, why it runs on one rank only) for the refusal under MPI."""
+    takes_obstacle = False
+    keeps_symmetry = True
+    skew_symmetric = False
+
+    @classmethod
+    def from_contact(cls, contact):
+        """The method of ``Contact(method="active_set")``."""
+        return cls()
+
+    def contact_fields(self):
+        return {}
+
+    def stiffness_factors(self):
+        return {}
+
+    def flags(self):
+        return []
+
+    def check_obstacle(self):
+        """Raise: the constraint acts along the body's nodal normals, not an obstacle's."""
+        raise ValueError("Contact.method 'active_set' constrains u·ν at the nodes with the body's "
+                         "normals: it does not take an obstacle; use 'nitsche' or 'penalty'")
+
+    def build(self, body, contact, side, *, gap, coefficients, normal):
+        """The Γ3 expressions on ``body`` (``enforcement.Enforcement``)."""
+        return NodalConstraintTerms(body, side, gap=gap, normal=normal)
+
+
+class NodalConstraintTerms:
     """The Γ3 expressions of the nodal constraint (``enforcement.Enforcement``): the
     multiplier is the P1 pressure field of the nodal multipliers."""
 
-    condensable = False                    # the saddle point systems take the full Jacobian
-
-    def __init__(self, body, contact, side, *, gap, coefficients, normal):
+    def __init__(self, body, side, *, gap, normal):
         if body.order != 1:
             raise ValueError(f"Contact.method 'active_set' is the paper's P1 scheme: it needs "
                              f"Body order 1, got {body.order}")
         self.pressure = ngs.GridFunction(ngs.H1(body.mesh, order=1), name="nodal_pressure")
         self.gap, self.n = gap, normal
         self.newton_hook = PrimalDualActiveSet(body, side, gap, self.pressure)
-
-    @classmethod
-    def keeps_symmetry(cls, contact):
-        return True
 
     def signorini(self, u, phi, v, xi, traction):
         return ngs.CF(0.0)

@@ -6,6 +6,7 @@ import math
 import numpy as np
 from matplotlib.figure import Figure
 
+import ngcontact as ngc
 from ngcontact.progress import bar
 from ngcontact.scenes import reference
 
@@ -14,6 +15,10 @@ from .shared import press, reference_force, scaled_condition_number
 
 COLUMNS = ("method", "factor", "converged", "failure", "newton", "max_penetration", "force_error", "cond")
 """The columns of the summary table."""
+METHODS = (lambda factor: ngc.Penalty(factor=factor), lambda factor: ngc.Nitsche(theta=1, gamma0=factor))
+"""The two methods swept, as functions of the factor (ε's or γ0)."""
+LABELS = {ngc.Penalty.name: "penalty, ε = factor·p²·stiffness/h", ngc.Nitsche.name: "Nitsche θ = 1, γ0 = factor"}
+"""Chart labels by the methods' names."""
 
 
 def run(out=None, *, factors=None, maxh=0.01, order=1, steps=4, quick=False, progress=True):
@@ -39,12 +44,11 @@ def run(out=None, *, factors=None, maxh=0.01, order=1, steps=4, quick=False, pro
     with bar(1 + 2 * len(factors), "penalty_sweep", progress, unit="run") as shown:
         force = reference_force(maxh, order, steps)
         shown.update()
-        for method in ("penalty", "nitsche"):
+        for method in METHODS:
             for factor in factors:
-                extra = dict(method="penalty", penalty=float(factor)) if method == "penalty" else \
-                    dict(theta=1, gamma0=float(factor))
-                sim, failure = press(reference.contact(**extra), maxh=maxh, order=order, steps=steps)
-                row = dict(method=method, factor=float(factor), converged=failure is None,
+                sim, failure = press(reference.contact(method=method(float(factor))), maxh=maxh, order=order,
+                                     steps=steps)
+                row = dict(method=method(float(factor)).name, factor=float(factor), converged=failure is None,
                            failure=failure["failure"] if failure else "", newton=newton_total(sim, failure),
                            max_penetration=math.nan, force=math.nan, force_error=math.nan, cond=math.nan)
                 if not failure:
@@ -60,7 +64,7 @@ def run(out=None, *, factors=None, maxh=0.01, order=1, steps=4, quick=False, pro
 
 def penetration_slope(rows):
     """Fitted slope of the penalty's max penetration against its factor (−1: ~ 1/ε)."""
-    penalty = [r for r in rows if r["method"] == "penalty"]
+    penalty = [r for r in rows if r["method"] == ngc.Penalty.name]
     return fitted_slope([r["factor"] for r in penalty], [r["max_penetration"] for r in penalty])
 
 
@@ -72,10 +76,9 @@ def summary(rows):
 def _plot(rows, out):
     fig = Figure(figsize=(12, 3.8), layout="constrained")
     axes = fig.subplots(1, 4)
-    for i, method in enumerate(("penalty", "nitsche")):
-        runs = [r for r in rows if r["method"] == method]
+    for i, (name, label) in enumerate(LABELS.items()):
+        runs = [r for r in rows if r["method"] == name]
         f = np.array([r["factor"] for r in runs])
-        label = "penalty, ε = factor·p²·stiffness/h" if method == "penalty" else "Nitsche θ = 1, γ0 = factor"
         ok = np.array([r["converged"] for r in runs])
         for ax, key in zip(axes, ("max_penetration", "force_error", "cond", "newton")):
             y = np.array([r[key] for r in runs], dtype=float)
@@ -83,7 +86,7 @@ def _plot(rows, out):
         failed = [r["newton"] for r in runs if not r["converged"]]
         axes[3].plot(f[~ok], failed, "x", color=f"C{i}", ms=9, mew=2)
     f = np.array(sorted({r["factor"] for r in rows}))
-    pen = [r for r in rows if r["method"] == "penalty" and r["max_penetration"] > 0]
+    pen = [r for r in rows if r["method"] == ngc.Penalty.name and r["max_penetration"] > 0]
     if pen:
         r0 = pen[0]
         axes[0].plot(f, r0["max_penetration"] * r0["factor"] / f, "k:", lw=0.8, label="slope −1")
