@@ -19,16 +19,11 @@ from .body import Body
 from .checks import MAX_STEPS, flag, integer, number, writable_directory
 from .contact import Contact
 from .loads import Loads
+from .stepping import MIN_DT, RESOLUTION
 
 MAX_CUTBACKS = 20
 """Halvings of a step (2^-20 ~ 1e-6 of it). The smallest step of a run is then
 dt/2^20 >= T/(MAX_STEPS 2^20) ~ 9.5e-13 T, above ``RESOLUTION``."""
-MIN_DT = 1e-20
-"""The smallest time step, s: no continuum model steps below it, and 1/dt stays far from
-overflow in the viscous term A/dt."""
-RESOLUTION = 1e-13
-"""A step must be at least this fraction of the time it starts from: below it t + dt is t to
-13 digits."""
 AUTOMATIC = ("condense", "realcompile", "iterative", "electric")
 ITERATIVE_KINDS = ("multigrid", "gamg")
 """The iterative solvers ``Simulation(iterative=...)`` names: NGSolve's multigrid on nested
@@ -121,26 +116,6 @@ def run(sim, dt, T, max_cutbacks, progress, vtk, on_step, out):
         raise ValueError(f"time step dt = {dt:g} s gives {(T - sim.t) / dt:.3g} steps to T = {T:g} s; at "
                          f"most {MAX_STEPS:,} steps per run (a larger dt, or several runs)")
     return dt, T, max_cutbacks, progress
-
-
-def gamma3_data(contact, gamma3, mesh, at, t):
-    """The data of Γ3 written as CoefficientFunctions (gap, an obstacle's gap and normal, the
-    foundation potential) must be finite on Γ3 at time t (s; evaluated inside ``at(t)``, the
-    time scheme's ``StepCoefficients.at``): else a ValueError naming it, before Newton meets
-    NaN."""
-    named = [("Contact.foundation_potential", gamma3.foundation_potential)] \
-        if isinstance(contact.foundation_potential, ngs.CoefficientFunction) else []
-    if contact.obstacle is not None:
-        named += [("Contact.obstacle: its gap (the distance to it)", gamma3.gap),
-                  ("Contact.obstacle: its normal", gamma3.normal)]
-    elif isinstance(contact.gap, ngs.CoefficientFunction):
-        named.append(("Contact.gap", gamma3.gap))
-    if not named:
-        return
-    with at(t):
-        for name, cf in named:
-            if parallel.any_rank(mesh, not np.all(np.isfinite(gamma3.side.sample(cf)))):
-                raise ValueError(f"{name} is not finite (NaN or inf) on Γ3 at t = {t:.6g} s")
 
 
 def controlled(sim, dt, rtol, dt_min, event_dt, T=0.0):

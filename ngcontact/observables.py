@@ -7,8 +7,6 @@ potentials do not touch). Likewise the force and charge flux through Γ3 are −
 the rigid modes w = (e_i, 0) and w = (0, 1), so that the balances hold to the Newton
 tolerance. The facet fields on Γ3 are exact facet averages (``ContactSide.facet_integrals``).
 """
-from dataclasses import dataclass
-
 import ngsolve as ngs
 import numpy as np
 
@@ -16,23 +14,6 @@ from . import forms, parallel
 from .contact_side import element_boundary_layer
 from .records import ContactRecord, StepRecord
 from .supports import SLIP_GAMMA0
-
-
-@dataclass(frozen=True)
-class Gamma3:
-    """Γ3 of a simulation: the ContactSide ``side``, the Contact data ``contact``, its
-    ``enforcement`` method, the BondingField ``beta``, the ``gap`` g (m) and
-    ``foundation_potential`` φ_Γ (V) as CoefficientFunctions, and the contact ``normal``
-    (the body's ν, or an obstacle's n_o) with ``sampled_normal``: the obstacle normal to
-    sample at points, None for the facet normals."""
-    side: object
-    contact: object
-    enforcement: object
-    beta: object
-    gap: object
-    foundation_potential: object
-    normal: object
-    sampled_normal: object = None
 
 
 class Recorder:

@@ -123,7 +123,7 @@ OBSTACLES = (Plane, Ball, SignedDistance)
 def check_normal(side, gap, normal, size):
     """The obstacle normal n_o (a CoefficientFunction) sampled on Γ3 (``side``, a
     ContactSide) at the time Parameter's value, with the gap (both finite,
-    ``arguments.gamma3_data``): n_o must be a unit vector, and it must point from the body
+    ``gamma3.gamma3_data``): n_o must be a unit vector, and it must point from the body
     into the obstacle where the body is closest to it: n_o·ν > 0 somewhere and n_o·ν >= 0
     everywhere among the points whose gap is within ``NEAR`` × ``size`` (m, the body's size)
     of the smallest gap (ν the body's outward normal; a reversed n_o lets the body pass

@@ -24,7 +24,7 @@ import os
 import ngsolve as ngs
 import numpy as np
 
-from . import mpi_launch, petsc_solver
+from . import mpi_launch
 
 def world():
     """mpi4py's COMM_WORLD when this process is one of several MPI ranks (started by
@@ -253,38 +253,3 @@ def point_values(mesh, cf, points):
     if not found.all():
         raise ValueError(f"points {points[found == 0].tolist()} are outside the mesh")
     return values / found[:, None]
-
-
-def check_simulation(mesh, contact, inverse, condense, reuse_factorization, iterative=None):
-    """What a Simulation on a distributed mesh cannot do raises a ValueError naming the
-    feature: the nodal constraint (``method="active_set"``: scipy saddle point systems of one
-    rank), a serial ``inverse``, ``iterative="multigrid"`` (NGSolve's
-    multigrid: NGSolve 6.2.2608 cannot refine a distributed mesh, so it has no nested meshes;
-    ``iterative=True`` is PETSc's GAMG there). Returns the serial defaults switched off,
-    with the reason (``Simulation.parallel_notes``; [] on a serial mesh): without PETSc the
-    corrections are solved by NGSolve's "masterinverse" (the Jacobian gathered and factorised
-    on rank 0) at every Newton iteration. Static condensation runs distributed as serially
-    (NGSolve condenses each rank's elements; the Schur complement is factorised by MUMPS or
-    masterinverse)."""
-    if not is_distributed(mesh):
-        return []
-    method = None if contact is None else contact.enforcement_method
-    if method is not None and not method.distributable:
-        what, why = method.serial_only
-        serial_only(mesh, f"Contact.method {method.name!r} ({what})", why)
-    if inverse is not None and inverse not in ("mumps", "masterinverse"):
-        serial_only(mesh, f"inverse={inverse!r}", "use inverse='mumps' (PETSc) or 'masterinverse', or leave "
-                    "inverse=None (MUMPS where PETSc is installed, else NGSolve's 'masterinverse')")
-    if iterative == "multigrid":
-        serial_only(mesh, "iterative='multigrid' (GMRES with NGSolve's multigrid)", "a distributed mesh has no "
-                    "nested meshes (NGSolve 6.2.2608 cannot refine it); use iterative=True or 'gamg' (PETSc's "
-                    "algebraic multigrid)")
-    notes = []
-    mumps = inverse == "mumps" or (inverse is None and petsc_solver.available())
-    if reuse_factorization and not mumps:
-        notes.append("reuse_factorization: off (its GMRES works on the rank's numpy arrays); "
-                     "the direct solver factorises at every Newton iteration")
-    elif reuse_factorization and oversubscribed():
-        notes.append("reuse_factorization: off (more ranks than cores: GMRES's collective operations "
-                     "would wait for descheduled ranks); MUMPS factorises at every Newton iteration")
-    return notes

@@ -75,10 +75,11 @@ from typing import Callable
 
 import numpy as np
 
-from . import arguments, parallel
+from . import parallel
 from .fingerprint import run_options
 from .paraview import checked_vtk, fields_writer, gamma3_vtp, own_vtu
 from .records import History
+from .stepping import MIN_DT, RESOLUTION
 from .run_directory import (check_partition, check_ranks, check_run, check_scene, check_scheme, check_start, load,
                             load_part, part, read_steps, record_arrays, run_info)
 
@@ -301,7 +302,7 @@ def complete(info, t):
     T, dt = info.get("T"), info.get("dt")
     if not all(isinstance(v, numbers.Real) and not isinstance(v, bool) for v in (T, dt, t)):
         return False
-    return T - t <= max(arguments.MIN_DT, arguments.RESOLUTION * abs(t), 1e-12 * abs(T), 1e-9 * abs(dt))
+    return T - t <= max(MIN_DT, RESOLUTION * abs(t), 1e-12 * abs(T), 1e-9 * abs(dt))
 
 
 def check_incomplete(resumed, history, T):
@@ -312,7 +313,7 @@ def check_incomplete(resumed, history, T):
     if resumed is None or not history or not isinstance(T, numbers.Real) or isinstance(T, bool):
         return
     t, last, stored = history[-1].time, len(history) - 1, resumed["T"]
-    if not (complete(resumed, t) and (T <= stored or T - t < max(arguments.MIN_DT, arguments.RESOLUTION * abs(t)))):
+    if not (complete(resumed, t) and (T <= stored or T - t < max(MIN_DT, RESOLUTION * abs(t)))):
         return
     directory = resumed["directory"]
     raise ValueError(f"run: the run in {directory!r} is already complete: it reached its T = {stored:g} s at step "

@@ -25,7 +25,7 @@ from .observables import Recorder
 from .progress import bar
 from .records import History
 from .schemes import DEFAULT, StepCoefficients, scheme_class
-from .solver_choice import choose
+from .solver_choice import check_simulation, choose
 from .starts import Starts
 from .step_length import StepLength
 from .matrices import free_jacobian
@@ -55,7 +55,7 @@ class Simulation:
         sparse Cholesky factorisation of its symmetric part as GMRES's preconditioner, and
         "umfpack" without, and for Nitsche's θ = −1 (its skew Γ3 part makes GMRES slower
         than factorising at every iteration). The nodal constraint (``method="active_set"``) solves its saddle
-        point systems itself. ``solver`` says what is used (distributed: ``parallel.check_simulation``).
+        point systems itself. ``solver`` says what is used (distributed: ``solver_choice.check_simulation``).
     rtol, maxit : Newton tolerance (relative) and iteration limit per step.
     keep_states : keep a copy of (u, φ) of every step in the history.
     predictor : start Newton from the linear extrapolation of the last two states instead of
@@ -113,7 +113,7 @@ class Simulation:
             physical_checks, globalise = options.values()
         Scheme = scheme_class(scheme)
         self.body = body
-        self.parallel_notes = parallel.check_simulation(body.mesh, contact, inverse, condense, reuse_factorization,
+        self.parallel_notes = check_simulation(body.mesh, contact, inverse, condense, reuse_factorization,
                                                        iterative)
         self.loads = loads or Loads()
         self.loads.check(body)
@@ -127,7 +127,7 @@ class Simulation:
         self.electric = solves_potential(electric, self._electric_parts, body)
         self.gfu = ngs.GridFunction(self.X, name="state")
         self.u, self.phi = self.gfu.components
-        distributed = parallel.is_distributed(body.mesh)     # see parallel.check_simulation, parallel_notes
+        distributed = parallel.is_distributed(body.mesh)     # see solver_choice.check_simulation, parallel_notes
         automatic = has_interior_dofs(self.X) and body.tensors.linear and iterative in (None, False)  # not under GMRES
         self.condense = automatic if condense is None else bool(condense)
         self.condense &= contact is None or contact.enforcement_method.condensable
@@ -242,14 +242,14 @@ class Simulation:
         penetrate, ``starts.Approach(depth)``, "nested" or "p1"). Transactional: either t, u,
         φ, β and the history all advance, or they are left bitwise as they were and the error
         (``NewtonError`` if Newton fails) is raised. dt, the guess and the data of Γ3 at t + dt
-        are checked first (``arguments.time_step``, ``arguments.gamma3_data``)."""
+        are checked first (``arguments.time_step``, ``gamma3.gamma3_data``)."""
         dt, guessed = arguments.time_step(dt, self.t), self.starts.resolve(guess)
         n, start = len(self.history), wallclock.perf_counter()
         saved, timings = self.scheme.checkpoint(), Timings()
         try:
             if self.contact is not None:                    # the data at t_n, before the solve
                 at = self.scheme.coefficients.at
-                arguments.gamma3_data(self.contact, self.gamma3, self.body.mesh, at, self.t + dt)
+                gamma3.gamma3_data(self.contact, self.gamma3, self.body.mesh, at, self.t + dt)
                 if self.contact.obstacle is None and isinstance(self.contact.gap, ngs.CoefficientFunction):
                     with at(self.t + dt):
                         self._gap_check(self.t + dt)

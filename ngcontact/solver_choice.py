@@ -18,6 +18,7 @@ reuse_factorization=, iterative=)``), chosen by the system's symmetry, size and 
 from . import petsc_solver
 from .linear_solver import NAMES, PARALLEL_NAMES, DirectSolver, KeptFactorization, factorization_worth
 from .meshes import refinements
+from . import parallel
 from .parallel import oversubscribed
 from .multigrid import MultigridSolver, needs_nested_mesh
 from .petsc_iterative import GamgSolver
@@ -44,7 +45,7 @@ def choose(body, contact, system, space, *, inverse, reuse_factorization, iterat
     and ``contact`` on the StepSystem ``system`` of the product ``space`` (``realcompile``: of
     the preconditioner forms' integrands; None: GAMG's by the mesh size, the multigrid
     hierarchy's not). ``distributed`` (a mesh over several MPI ranks):
-    NGSolve's "masterinverse" at every iteration (``parallel.check_simulation``)."""
+    NGSolve's "masterinverse" at every iteration (``check_simulation``)."""
     names = NAMES + (PARALLEL_NAMES if distributed else ())
     if inverse is not None and inverse not in names:
         raise ValueError(f"inverse must be one of {', '.join(map(repr, names))} or None, got {inverse!r}")
@@ -64,7 +65,7 @@ def choose(body, contact, system, space, *, inverse, reuse_factorization, iterat
         if iterative == "gamg":                  # PETSc; distributed or serial
             return (GamgSolver(body, system, layer, realcompile=realcompile),
                     GamgSolver(body, system, layer, realcompile=realcompile))
-    if distributed:                              # what cannot run there raised in parallel.check_simulation
+    if distributed:                              # what cannot run there raised in check_simulation
         name = inverse or ("mumps" if petsc_solver.available() else PARALLEL_NAMES[0])
         sym = symmetric and name == "mumps"
         if name == "mumps" and reuse_factorization and not oversubscribed():   # PETSc's GMRES, kept MUMPS
@@ -94,3 +95,38 @@ def choose(body, contact, system, space, *, inverse, reuse_factorization, iterat
     if inverse is None and not symmetric:       # LDLᵀ of the symmetric part: the skew part lives on Γ3
         return KeptFactorization(DirectSolver("sparsecholesky"), symmetric=True, budget=budget), DirectSolver(name)
     return KeptFactorization(DirectSolver(name), budget=budget), DirectSolver(name)
+
+
+def check_simulation(mesh, contact, inverse, condense, reuse_factorization, iterative=None):
+    """What a Simulation on a distributed mesh cannot do raises a ValueError naming the
+    feature: the nodal constraint (``method="active_set"``: scipy saddle point systems of one
+    rank), a serial ``inverse``, ``iterative="multigrid"`` (NGSolve's
+    multigrid: NGSolve 6.2.2608 cannot refine a distributed mesh, so it has no nested meshes;
+    ``iterative=True`` is PETSc's GAMG there). Returns the serial defaults switched off,
+    with the reason (``Simulation.parallel_notes``; [] on a serial mesh): without PETSc the
+    corrections are solved by NGSolve's "masterinverse" (the Jacobian gathered and factorised
+    on rank 0) at every Newton iteration. Static condensation runs distributed as serially
+    (NGSolve condenses each rank's elements; the Schur complement is factorised by MUMPS or
+    masterinverse)."""
+    if not parallel.is_distributed(mesh):
+        return []
+    method = None if contact is None else contact.enforcement_method
+    if method is not None and not method.distributable:
+        what, why = method.serial_only
+        parallel.serial_only(mesh, f"Contact.method {method.name!r} ({what})", why)
+    if inverse is not None and inverse not in ("mumps", "masterinverse"):
+        parallel.serial_only(mesh, f"inverse={inverse!r}", "use inverse='mumps' (PETSc) or 'masterinverse', or leave "
+                    "inverse=None (MUMPS where PETSc is installed, else NGSolve's 'masterinverse')")
+    if iterative == "multigrid":
+        parallel.serial_only(mesh, "iterative='multigrid' (GMRES with NGSolve's multigrid)", "a distributed mesh has no "
+                    "nested meshes (NGSolve 6.2.2608 cannot refine it); use iterative=True or 'gamg' (PETSc's "
+                    "algebraic multigrid)")
+    notes = []
+    mumps = inverse == "mumps" or (inverse is None and petsc_solver.available())
+    if reuse_factorization and not mumps:
+        notes.append("reuse_factorization: off (its GMRES works on the rank's numpy arrays); "
+                     "the direct solver factorises at every Newton iteration")
+    elif reuse_factorization and parallel.oversubscribed():
+        notes.append("reuse_factorization: off (more ranks than cores: GMRES's collective operations "
+                     "would wait for descheduled ranks); MUMPS factorises at every Newton iteration")
+    return notes

@@ -32,6 +32,13 @@ import numpy as np
 from .admissible import stiff_contact_terms
 from .newton import NewtonError
 
+MIN_DT = 1e-20
+"""The smallest time step, s: no continuum model steps below it, and 1/dt stays far from
+overflow in the viscous term A/dt."""
+RESOLUTION = 1e-13
+"""A step must be at least this fraction of the time it starts from: below it t + dt is t to
+13 digits."""
+
 
 class AccuracyWarning(UserWarning):
     """An error-controlled run accepted a step whose error estimate it could not bring within
