@@ -11,12 +11,20 @@ PETSc: ``MumpsFactorization`` of an NGSolve matrix, ``available()``), ``ngcontac
 ``ngcontact.schemes`` (the time schemes), ``ngcontact.estimators`` (a posteriori error
 estimates of a step), ``ngcontact.adapt`` (adaptive meshes) and ``ngcontact.laws``
 (nonlinear F and A) are public modules too.
+
+The package is in layers, each a sub-package that says what it owns and what it may import:
+``model`` (body, materials, laws, loads, supports, forms), ``gamma3`` (the contact data and
+everything on Γ3), ``solve`` (the step system and Newton; ``solve.linalg`` the linear
+solvers), ``time`` (schemes and stepping), ``output`` (records, results, ParaView), and above
+them ``simulation``, ``adapt``, ``estimators``, ``scenes``, ``studies`` and the command line.
+The import paths of earlier releases (``ngcontact.forms``, ``ngcontact.newton``, ...) still
+work (``moved``).
 """
 import os as _os
 import sys as _sys
 import warnings as _warnings
 
-from . import mpi_launch as _mpi_launch
+from ngcontact import mpi_launch as _mpi_launch
 
 if _mpi_launch.launched():                      # before NGSolve loads, if it has not yet
     if "ngsolve" in _sys.modules and "OMP_NUM_THREADS" not in _os.environ:
@@ -26,20 +34,27 @@ if _mpi_launch.launched():                      # before NGSolve loads, if it ha
     _mpi_launch.one_thread_per_rank()
     _mpi_launch.yield_when_oversubscribed()
 
-from . import adapt, checks, contact_laws, estimators, laws, meshes, parallel, petsc_solver, schemes  # noqa: E402
-from .admissible import PhysicsWarning
-from .body import Body
-from .contact import Contact
-from .enforcement import METHODS, Nitsche, NodalConstraint, Penalty
-from .loads import Loads
-from .arguments import MIN_DT
-from .materials import EPS0, Material, academic, batio3, pzt5a
-from .newton import NewtonError
-from .records import ContactRecord, History, StepRecord
-from .simulation import Simulation
-from .stepping import AccuracyWarning
-from .webgui import save_html
+from ngcontact import adapt, checks, estimators, meshes, moved as _moved, parallel  # noqa: E402
+from ngcontact.gamma3 import contact_laws  # noqa: E402
+from ngcontact.gamma3.contact import Contact  # noqa: E402
+from ngcontact.gamma3.enforcement import METHODS, Nitsche, NodalConstraint, Penalty  # noqa: E402
+from ngcontact.model import laws  # noqa: E402
+from ngcontact.model.admissible import PhysicsWarning  # noqa: E402
+from ngcontact.model.body import Body  # noqa: E402
+from ngcontact.model.loads import Loads  # noqa: E402
+from ngcontact.model.materials import EPS0, Material, academic, batio3, pzt5a  # noqa: E402
+from ngcontact.output.records import ContactRecord, History, StepRecord  # noqa: E402
+from ngcontact.output.webgui import save_html  # noqa: E402
+from ngcontact.simulation import Simulation  # noqa: E402
+from ngcontact.solve.linalg import petsc_solver  # noqa: E402
+from ngcontact.solve.newton import NewtonError  # noqa: E402
+from ngcontact.time import schemes  # noqa: E402
+from ngcontact.time.stepping import AccuracyWarning, MIN_DT  # noqa: E402
 
-__all__ = ["Body", "Contact", "Nitsche", "Penalty", "NodalConstraint", "Loads", "Material", "Simulation", "History", "StepRecord", "ContactRecord",
-           "NewtonError", "PhysicsWarning", "AccuracyWarning", "METHODS", "EPS0", "MIN_DT", "academic", "pzt5a", "batio3", "save_html", "contact_laws",
-           "parallel", "checks", "meshes", "schemes", "adapt", "estimators", "laws", "petsc_solver"]
+_moved.install()                                # the import paths before the layers (``moved``)
+__getattr__ = _moved.attribute
+
+__all__ = ["Body", "Contact", "Nitsche", "Penalty", "NodalConstraint", "Loads", "Material", "Simulation", "History",
+           "StepRecord", "ContactRecord", "NewtonError", "PhysicsWarning", "AccuracyWarning", "METHODS", "EPS0",
+           "MIN_DT", "academic", "pzt5a", "batio3", "save_html", "contact_laws", "parallel", "checks", "meshes",
+           "schemes", "adapt", "estimators", "laws", "petsc_solver"]

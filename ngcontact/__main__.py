@@ -1,5 +1,5 @@
 """``python -m ngcontact``: the command line interface of ngcontact.cli."""
-from .cli import main
+from ngcontact.cli import main
 
 if __name__ == "__main__":
     main()

@@ -36,9 +36,10 @@ from dataclasses import dataclass, field
 import ngsolve as ngs
 import numpy as np
 
-from . import arguments, checks, forms, parallel
-from .estimators.equilibrated import EquilibratedEstimator, check as estimable
-from .meshes import refined
+from ngcontact import arguments, checks, parallel
+from ngcontact.model import forms
+from ngcontact.estimators.equilibrated import EquilibratedEstimator, check as estimable
+from ngcontact.meshes import refined
 
 
 def mark(indicators, fraction=0.5):
@@ -168,7 +169,7 @@ def _build(scene, mesh):
     """(scene(mesh), checked; the seconds it took)."""
     t0 = wallclock.perf_counter()
     sim = scene(mesh)
-    from .simulation import Simulation
+    from ngcontact.simulation import Simulation
     if not isinstance(sim, Simulation):
         raise TypeError(f"scene(mesh) must return an ngcontact.Simulation, got {type(sim).__name__}")
     if sim.body.mesh is not mesh:

@@ -14,12 +14,12 @@ import pathlib
 import ngsolve as ngs
 import numpy as np
 
-from . import checks, parallel
-from .body import Body
-from .checks import MAX_STEPS, flag, integer, number, writable_directory
-from .contact import Contact
-from .loads import Loads
-from .stepping import MIN_DT, RESOLUTION
+from ngcontact import checks, parallel
+from ngcontact.model.body import Body
+from ngcontact.checks import MAX_STEPS, flag, integer, number, writable_directory
+from ngcontact.gamma3.contact import Contact
+from ngcontact.model.loads import Loads
+from ngcontact.time.stepping import MIN_DT, RESOLUTION
 
 MAX_CUTBACKS = 20
 """Halvings of a step (2^-20 ~ 1e-6 of it). The smallest step of a run is then

@@ -14,7 +14,7 @@ import pathlib
 import ngsolve as ngs
 import numpy as np
 
-from . import parallel
+from ngcontact import parallel
 
 MAX_ORDER = 10
 """The highest polynomial order offered (H1 elements of order p have p^dim DOFs per vertex

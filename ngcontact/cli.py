@@ -121,7 +121,7 @@ def parser():
                             "docs/cluster.md)")
     bench.add_argument("--realcompile", choices=("auto", "yes", "no"), default="auto",
                        help="compile the Γ3 integrand to machine code (auto: when the run's expected Newton "
-                            "iterations pay for it, ngcontact.machine_code)")
+                            "iterations pay for it, ngcontact.model.machine_code)")
     bench.add_argument("--predictor", action="store_true",
                        help="start Newton from the linear extrapolation (default: from x_n)")
     bench.add_argument("--threads", choices=("auto", "yes", "no"), default="auto",
@@ -174,7 +174,7 @@ def parser():
 
 def _cluster_parser(commands, common):
     """The options of ``python -m ngcontact cluster``."""
-    from .studies import cluster_case
+    from ngcontact.studies import cluster_case
     cluster = commands.add_parser("cluster", parents=[common], help="serial against MPI ranks per solver, each run "
                                   "launched as its own process (python or mpiexec -n N): time per step, memory per "
                                   "rank and contact forces per solver and number of ranks, a scaling model (runs.csv, "
@@ -246,7 +246,7 @@ def _missing_line(err):
 
 def _needs_petsc(option):
     """An ImportError naming ``option`` and how to install PETSc if it is not installed."""
-    from .studies.common import petsc_missing
+    from ngcontact.studies.common import petsc_missing
     missing = petsc_missing()
     if missing:
         raise ImportError(f"{option} needs PETSc (petsc4py with MUMPS) and ngsPETSc; not installed here: "
@@ -287,31 +287,31 @@ def _dispatch(args):
     """Call the command's function."""
     choice = dict(auto=None, yes=True, no=False)
     if args.command == "demo":
-        from . import demo
+        from ngcontact import demo
         demo.run(order=args.order, out=args.out, maxh=args.maxh, steps=args.steps, theta=args.theta,
                  gamma0=args.gamma0, resume=args.resume, dim=args.dim, refine=args.refine, scheme=args.scheme,
                  rtol=args.rtol)
     elif args.command == "convergence":
-        from .studies import convergence
+        from ngcontact.studies import convergence
         convergence.command(args.orders, args.levels, args.case, args.smoothness, args.dt_halvings, args.out,
                             args.resume, scheme=args.scheme, dt0=args.dt0)
     elif args.command == "stability":
-        from .studies import stability
+        from ngcontact.studies import stability
         stability.command(args.out, args.quick, args.resume, args.study)
     elif args.command == "hertz":
-        from .studies import hertz
+        from ngcontact.studies import hertz
         hertz.command(args.out, args.orders, args.levels, args.dim, args.resume)
     elif args.command == "timeorder":
-        from .studies import column_order
+        from ngcontact.studies import column_order
         column_order.main(args.out, histories=tuple(args.history))
     elif args.command == "timesteps":
-        from .studies import time_steps
+        from ngcontact.studies import time_steps
         time_steps.main(args.out, maxh=args.maxh, T=args.T, which=args.scene)
     elif args.command == "adapt":
-        from .studies import adaptivity
+        from ngcontact.studies import adaptivity
         adaptivity.main(args.out, scenes=tuple(args.scene), orders=tuple(args.orders), stop_newton=args.stop_newton)
     elif args.command == "cluster":
-        from .studies import cluster
+        from ngcontact.studies import cluster
         rounds = dict(repeat=args.repeat) if args.repeat is not None else {}     # the defaults: 3 and 1
         if args.factorisations:
             cluster.factorisations(args.out, scene=args.scene, orders=args.orders, levels=args.levels, dt=args.dt,
@@ -321,10 +321,10 @@ def _dispatch(args):
                         solvers=args.solvers, steps=args.steps, dt=args.dt, threads=choice[args.threads],
                         realcompile=choice[args.realcompile], resume=args.resume, **rounds)
     elif args.merge:
-        from .studies import bench
+        from ngcontact.studies import bench
         bench.merge(args.merge, args.out)
     else:
-        from .studies import bench
+        from ngcontact.studies import bench
         bench.run(args.out, orders=args.orders, dim=args.dim, max_ndof=args.max_ndof, steps=args.steps,
                   dt=args.dt, inverse=args.inverse, predictor=args.predictor,
                   realcompile=choice[args.realcompile], threads=choice[args.threads], bare=args.bare,

@@ -10,10 +10,11 @@ import numpy as np
 from matplotlib import ticker, tri
 from matplotlib.figure import Figure
 
-from . import checks, parallel, results, run_directory
-from .progress import write
-from .scenes import reference
-from .studies.bench import THREADS_FROM
+from ngcontact import checks, parallel
+from ngcontact.output import results, run_directory
+from ngcontact.output.progress import write
+from ngcontact.scenes import reference
+from ngcontact.studies.bench import THREADS_FROM
 
 
 
@@ -28,7 +29,7 @@ def run(order=1, out="results", maxh=None, steps=200, theta=1, gamma0=10.0, resu
         scheme="backward_euler", rtol=None):
     """Run the reference scene (``scenes.reference``) over its load history in ``steps``
     time steps, print a line per step, write summary.json and charts into ``out``. Every
-    step is streamed into ``out/run`` as it is computed (``ngcontact.results``; under mpiexec
+    step is streamed into ``out/run`` as it is computed (``ngcontact.output.results``; under mpiexec
     each rank writes its part), with these settings in ``out/run/demo.json``; ``resume``
     continues a run interrupted there instead of starting again: other settings, and another
     number of MPI ranks, are refused before meshing, naming them, and ``Simulation.resume``

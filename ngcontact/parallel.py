@@ -24,7 +24,7 @@ import os
 import ngsolve as ngs
 import numpy as np
 
-from . import mpi_launch
+from ngcontact import mpi_launch
 
 def world():
     """mpi4py's COMM_WORLD when this process is one of several MPI ranks (started by

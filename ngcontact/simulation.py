@@ -13,23 +13,28 @@ from functools import partial
 import ngsolve as ngs
 import numpy as np
 
-from . import arguments, continuation, gamma3, parallel, paraview, results, stepping
-from .fingerprint import fingerprint
-from .admissible import PhysicsWarning, check_initial_displacement, check_supports_at_start, flags, scene_flags
-from .checks import integer, number, uses_only
-from .electric_part import electric_parts, solves_potential
-from .loads import Loads, as_cf
-from .machine_code import ITERATIONS_PER_STEP, MachineCode
-from .newton import Newton, NewtonResult, Timings
-from .observables import Recorder
-from .progress import bar
-from .records import History
-from .schemes import DEFAULT, StepCoefficients, scheme_class
-from .solver_choice import check_simulation, choose
-from .starts import Starts
-from .step_length import StepLength
-from .matrices import free_jacobian
-from .system import StepSystem, has_interior_dofs
+from ngcontact import arguments, parallel
+from ngcontact.solve import continuation
+from ngcontact.gamma3.build import build as build_gamma3, gamma3_data
+from ngcontact.output import paraview, results
+from ngcontact.time import stepping
+from ngcontact.output.fingerprint import fingerprint
+from ngcontact.model.admissible import (PhysicsWarning, check_initial_displacement, check_supports_at_start, flags,
+                                        scene_flags)
+from ngcontact.checks import integer, number, uses_only
+from ngcontact.model.electric_part import electric_parts, solves_potential
+from ngcontact.model.loads import Loads, as_cf
+from ngcontact.model.machine_code import ITERATIONS_PER_STEP, MachineCode
+from ngcontact.solve.newton import Newton, NewtonResult, Timings
+from ngcontact.output.observables import Recorder
+from ngcontact.output.progress import bar
+from ngcontact.output.records import History
+from ngcontact.time.schemes import DEFAULT, StepCoefficients, scheme_class
+from ngcontact.solve.linalg.solver_choice import check_simulation, choose
+from ngcontact.solve.starts import Starts
+from ngcontact.solve.step_length import StepLength
+from ngcontact.solve.linalg.matrices import free_jacobian
+from ngcontact.solve.system import StepSystem, has_interior_dofs
 
 
 class Simulation:
@@ -113,8 +118,7 @@ class Simulation:
             physical_checks, globalise = options.values()
         Scheme = scheme_class(scheme)
         self.body = body
-        self.parallel_notes = check_simulation(body.mesh, contact, inverse, condense, reuse_factorization,
-                                                       iterative)
+        self.parallel_notes = check_simulation(body.mesh, contact, inverse, condense, reuse_factorization, iterative)
         self.loads = loads or Loads()
         self.loads.check(body)
         self.time = time if time is not None else ngs.Parameter(0.0)
@@ -142,7 +146,7 @@ class Simulation:
                 free[self.X.Range(1)] = False
         self.gamma3, self._gap_check, self._machine_code = None, None, None
         if contact is not None:
-            self.gamma3, self._gap_check = gamma3.build(body, contact, self.system, realcompile is True)
+            self.gamma3, self._gap_check = build_gamma3(body, contact, self.system, realcompile is True)
             if realcompile is None:              # by what the run will do (``machine_code``)
                 self._machine_code = MachineCode(self.system, self.gamma3.side.B.ndof, body.dim, self.electric)
         solver, self._potential_solver = choose(body, contact, self.system, self.X, inverse=inverse,
@@ -242,14 +246,14 @@ class Simulation:
         penetrate, ``starts.Approach(depth)``, "nested" or "p1"). Transactional: either t, u,
         φ, β and the history all advance, or they are left bitwise as they were and the error
         (``NewtonError`` if Newton fails) is raised. dt, the guess and the data of Γ3 at t + dt
-        are checked first (``arguments.time_step``, ``gamma3.gamma3_data``)."""
+        are checked first (``arguments.time_step``, ``gamma3.build.gamma3_data``)."""
         dt, guessed = arguments.time_step(dt, self.t), self.starts.resolve(guess)
         n, start = len(self.history), wallclock.perf_counter()
         saved, timings = self.scheme.checkpoint(), Timings()
         try:
             if self.contact is not None:                    # the data at t_n, before the solve
                 at = self.scheme.coefficients.at
-                gamma3.gamma3_data(self.contact, self.gamma3, self.body.mesh, at, self.t + dt)
+                gamma3_data(self.contact, self.gamma3, self.body.mesh, at, self.t + dt)
                 if self.contact.obstacle is None and isinstance(self.contact.gap, ngs.CoefficientFunction):
                     with at(self.t + dt):
                         self._gap_check(self.t + dt)

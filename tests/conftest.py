@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 import ngcontact as ngc
-from ngcontact.materials import transversely_isotropic_piezo, transversely_isotropic_stiffness
+from ngcontact.model.materials import transversely_isotropic_piezo, transversely_isotropic_stiffness
 
 C33, E33, EPS33 = 111e9, 15.8, 830 * ngc.materials.EPS0
 

@@ -11,7 +11,7 @@ import ngcontact as ngc
 from ngcontact import parallel
 from ngcontact.geometries import plate
 from ngcontact.scenes import reference
-from ngcontact.starts import Approach
+from ngcontact.solve.starts import Approach
 
 cases = {"active_set": dict(contact=reference.contact(method="active_set")), "iterative": dict(iterative="multigrid"),
          "inverse": dict(inverse="umfpack")}

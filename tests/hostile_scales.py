@@ -5,7 +5,7 @@ import ngsolve as ngs
 import numpy as np
 
 import ngcontact as ngc
-from ngcontact.materials import EPS0, isotropic_stiffness, transversely_isotropic_piezo
+from ngcontact.model.materials import EPS0, isotropic_stiffness, transversely_isotropic_piezo
 
 CLASSES = ()
 

@@ -15,9 +15,9 @@ import pytest
 
 import ngcontact as ngc
 from ngcontact.geometries import block, plate
-from ngcontact.adhesion import BondingField
-from ngcontact.contact import Contact
-from ngcontact.contact_side import ContactSide
+from ngcontact.gamma3.adhesion import BondingField
+from ngcontact.gamma3.contact import Contact
+from ngcontact.gamma3.contact_side import ContactSide
 
 # bond length L (m), separation s < L (m), γ_ν with a = γ_ν s² = 2 /s, ε_a = b = 0.5 /s
 L, S, GAMMA, EPS_A = 1e-4, 5e-5, 8e8, 0.5

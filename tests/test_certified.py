@@ -1,5 +1,5 @@
 """Certified convergence: a state Newton calls converged is one a wrong state cannot imitate at
-any scale (``ngcontact.stopping``), a singular Jacobian is named, extreme contact data converge
+any scale (``ngcontact.solve.stopping``), a singular Jacobian is named, extreme contact data converge
 to the right answer or fail with the reason, and meaningless results are flagged."""
 import warnings
 

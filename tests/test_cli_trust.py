@@ -14,7 +14,8 @@ import textwrap
 import numpy as np
 import pytest
 
-from ngcontact import cli, machine_code
+from ngcontact import cli
+from ngcontact.model import machine_code
 from ngcontact.scenes import reference
 from ngcontact.studies import common
 

@@ -7,7 +7,7 @@ import ngcontact as ngc
 from conftest import C33, E33, EPS33
 from ngcontact import Contact
 from ngcontact.contact_laws import conductance_literal
-from ngcontact.forms import matrix_cf, normal_stress, strain
+from ngcontact.model.forms import matrix_cf, normal_stress, strain
 from ngcontact.geometries import plate
 
 GAP, P = 2e-5, 2e6
@@ -249,7 +249,7 @@ def test_a_method_of_the_users_runs_without_an_edit_of_the_package():
     """A method object written here (the penalty law with its own name, of about 20 lines)
     takes part through the ``enforcement.Method`` protocol: the same force as ``Penalty``,
     its own name in the simulation and the refusal of an obstacle it says it does not take."""
-    from ngcontact.enforcement.penalty import PenaltyTerms
+    from ngcontact.gamma3.enforcement.penalty import PenaltyTerms
 
     class StiffLayer:
         name, keeps_symmetry, skew_symmetric = "stiff layer", True, False

@@ -13,7 +13,7 @@ import pytest
 
 from ngcontact.geometries import plate
 from ngcontact import contact_laws as laws
-from ngcontact.contact import Contact
+from ngcontact.gamma3.contact import Contact
 
 L, L_PHI, C_NU, K_E, DELTA = 0.3, 0.25, 7.0, 3.0, 0.2
 

@@ -9,7 +9,7 @@ import pytest
 import ngcontact as ngc
 from ngcontact.studies import convergence as study
 from ngcontact.cli import main
-from ngcontact.contact_side import ContactSide
+from ngcontact.gamma3.contact_side import ContactSide
 from ngcontact.geometries import plate
 
 

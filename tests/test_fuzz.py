@@ -21,7 +21,7 @@ from hypothesis import strategies as st
 import ngcontact as ngc
 from ngcontact import cli, demo, obstacles
 from ngcontact.geometries import block, plate
-from ngcontact.materials import isotropic_stiffness, transversely_isotropic_piezo
+from ngcontact.model.materials import isotropic_stiffness, transversely_isotropic_piezo
 from ngcontact.scenes import reference
 
 MESH = plate(maxh=0.01)

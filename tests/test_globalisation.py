@@ -4,7 +4,7 @@ import ngsolve as ngs
 import pytest
 
 import ngcontact as ngc
-from ngcontact import continuation, line_search
+from ngcontact.solve import continuation, line_search
 from ngcontact.geometries import plate
 from ngcontact.scenes import electrode, reference
 

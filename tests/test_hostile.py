@@ -58,9 +58,10 @@ import ngcontact.studies.bench
 import ngcontact.studies.convergence
 import ngcontact.studies.hertz
 import ngcontact.studies.stability
-from ngcontact import obstacles, results
+from ngcontact import obstacles
+from ngcontact.output import results
 from ngcontact.geometries import block, plate
-from ngcontact.materials import isotropic_stiffness
+from ngcontact.model.materials import isotropic_stiffness
 from ngcontact.scenes import hertz
 from ngcontact.scenes import reference as scene
 

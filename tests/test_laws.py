@@ -270,7 +270,7 @@ def test_every_contact_method_takes_a_law():
     """The reference scene, 10 steps, with Nitsche, the penalty method and the nodal active
     set: ζ = 0 equals the linear run to 1e-12; with ζ = 5e10 the three contact forces agree
     to 0.1 % (as the linear ones do: 95 259, 95 222, 95 222 N/m) and are 10-15 % below the linear."""
-    from ngcontact.enforcement import METHODS
+    from ngcontact.gamma3.enforcement import METHODS
     base = ngc.pzt5a(relaxation_time=reference.RELAXATION_TIME)
     forces = {}
     for method in METHODS:

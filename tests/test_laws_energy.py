@@ -15,10 +15,11 @@ import numpy as np
 import pytest
 
 import ngcontact as ngc
-from ngcontact import forms, laws
+from ngcontact.model import forms
+from ngcontact import laws
 from ngcontact.geometries import plate
-from ngcontact.law_terms import quadrature_order
-from ngcontact.voigt import matrix_cf
+from ngcontact.solve.law_terms import quadrature_order
+from ngcontact.model.voigt import matrix_cf
 
 L1, L2, P, T, TAU = 0.03, 0.01, 2e6, 0.2, 0.01        # m, m, Pa, s, s
 R, ZETA, ZETA_A, DELTA = 1e-5, 5e10, 1e7, 1e-4         # strain, Pa, Pa s^1.5, 1/s

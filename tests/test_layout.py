@@ -1,5 +1,5 @@
-"""The shape of the package: one way for the data to flow, small modules, enforcement methods
-as siblings behind one protocol, and geometries shipped inside ngcontact.
+"""The shape of the package: layers that import only downwards, one way for the data to flow,
+enforcement methods as siblings behind one protocol, and geometries shipped inside ngcontact.
 
 * The core (every module outside scenes/, studies/, demo.py, cli.py) imports none of them,
   nor the geometries.
@@ -17,12 +17,12 @@ import tomllib
 import pytest
 
 import ngcontact as ngc
-from ngcontact import enforcement
+from ngcontact.gamma3 import enforcement
 
 ROOT = pathlib.Path(__file__).parents[1]
 PACKAGE = ROOT / "ngcontact"
 TOP = ("scenes", "studies", "demo", "cli", "__main__", "geometries")
-PUBLIC_MODULES = ("ngcontact.scenes", "ngcontact.geometries", "ngcontact.progress", "ngcontact.studies")
+PUBLIC_MODULES = ("ngcontact.scenes", "ngcontact.geometries", "ngcontact.output.progress", "ngcontact.studies")
 
 
 def files(pattern):
@@ -97,9 +97,77 @@ def test_cli_only_dispatches():
                        "ngcontact.studies.stability", "ngcontact.studies.bench"}, targets
 
 
-def test_no_module_over_400_lines():
-    long = {name: n for name, path in modules() if (n := len(path.read_text().splitlines())) > 400}
-    assert not long, long
+FOUNDATION = ("ngcontact.parallel", "ngcontact.checks", "ngcontact.meshes", "ngcontact.mpi_launch", "ngcontact.moved")
+"""Modules every layer may import."""
+LAYERS = ("ngcontact.model", "ngcontact.gamma3", "ngcontact.solve.linalg", "ngcontact.solve", "ngcontact.time",
+          "ngcontact.output")
+"""The layers from the bottom up: each imports the foundation and the layers below it, never one above
+(the rest of the package, ``simulation`` and what uses it, sits on top)."""
+
+
+def rank(name):
+    """0 for the foundation, 1 + the layer's index for a layer's module, len(LAYERS) + 1 above."""
+    if name in FOUNDATION:
+        return 0
+    found = [i for i, prefix in enumerate(LAYERS) if name == prefix or name.startswith(prefix + ".")]
+    return 1 + max(found) if found else len(LAYERS) + 1      # (solve.linalg before solve: the longer wins)
+
+
+def targets(target, names):
+    """The package modules an import statement reaches: ``from ngcontact import parallel`` reaches
+    ngcontact.parallel; ``import ngcontact`` the package's face (the top)."""
+    if target == "ngcontact":
+        return [f"ngcontact.{n}" for n in names] if names else ["ngcontact"]
+    return [target] if target.startswith("ngcontact.") else []
+
+
+def test_at_most_15_modules_at_the_top_level():
+    top = sorted(p.name for p in PACKAGE.glob("*.py"))
+    assert len(top) <= 15, top
+
+
+def test_every_layer_imports_only_the_foundation_and_the_layers_below():
+    wrong = []
+    for name, path in modules():
+        if not name.startswith("ngcontact.") or rank(name) > len(LAYERS):
+            continue
+        for target, names in imports(name, path):
+            for module in targets(target, names):
+                if rank(module) > rank(name):
+                    wrong.append(f"{name} imports {module}")
+    assert not wrong, "\n".join(wrong)
+
+
+def test_each_layer_says_what_it_owns_and_what_it_may_import():
+    for layer_name in LAYERS:
+        doc = __import__(layer_name, fromlist=["*"]).__doc__ or ""
+        assert "May import" in doc or "may import" in doc.lower(), layer_name
+
+
+def test_petsc_is_imported_by_the_linear_algebra_layer_only():
+    wrong = [f"{name} imports {target}" for name, path in modules() if not name.startswith("ngcontact.solve.linalg")
+             for target, _ in imports(name, path) if target and target.split(".")[0] in ("petsc4py", "ngsPETSc")]
+    assert not wrong, wrong
+
+
+def test_the_old_import_paths_give_the_modules_of_the_layers():
+    """``ngcontact.forms`` and the like (the paths before the layers) are the same module objects."""
+    import importlib
+    from ngcontact.moved import MOVED
+    for old, new in MOVED.items():
+        assert importlib.import_module(f"ngcontact.{old}") is importlib.import_module(f"ngcontact.{new}"), old
+    from ngcontact.enforcement.nitsche import Nitsche
+    from ngcontact.schemes.bdf2 import BDF2
+    assert Nitsche is ngc.Nitsche and BDF2 is ngc.schemes.BDF2
+    assert ngc.newton.__name__ == ngc.newton.__spec__.name == "ngcontact.solve.newton"
+
+
+def test_every_package_is_installed():
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    listed = set(config["tool"]["setuptools"]["packages"])
+    found = {".".join(path.parent.relative_to(ROOT).parts) for path in PACKAGE.rglob("__init__.py")}
+    found |= {"ngcontact.geometries"}
+    assert listed == found, (found - listed, listed - found)
 
 
 def test_every_enforcement_module_is_one_registered_method():
@@ -110,10 +178,10 @@ def test_every_enforcement_module_is_one_registered_method():
                                                           "from_contact"}
     expressions = {"signorini", "multiplier", "active", "contact_distance"}
     registered = set(enforcement.METHODS.values())
-    for path in sorted((PACKAGE / "enforcement").glob("*.py")):
+    for path in sorted((PACKAGE / "gamma3" / "enforcement").glob("*.py")):
         if path.name == "__init__.py":
             continue
-        module = __import__(f"ngcontact.enforcement.{path.stem}", fromlist=["*"])
+        module = __import__(f"ngcontact.gamma3.enforcement.{path.stem}", fromlist=["*"])
         classes = [cls for _, cls in inspect.getmembers(module, inspect.isclass) if cls.__module__ == module.__name__]
         methods = [cls for cls in classes if cls in registered]
         assert len(methods) == 1, path.name
@@ -122,7 +190,7 @@ def test_every_enforcement_module_is_one_registered_method():
         assert method.__bases__ == (object,), f"{method.__name__} inherits from {method.__bases__}"
         assert enforcement.METHODS[method.name] is method
         assert any(expressions <= set(dir(cls)) for cls in classes), (path.name, "no class of Γ3 expressions")
-    assert len(registered) == len(list((PACKAGE / "enforcement").glob("*.py"))) - 1
+    assert len(registered) == len(list((PACKAGE / "gamma3" / "enforcement").glob("*.py"))) - 1
 
 
 def test_contact_accepts_exactly_the_registered_methods():
@@ -143,7 +211,7 @@ def test_no_module_outside_the_methods_compares_a_method_name():
     (``enforcement.Method``), never decided by its name."""
     found = []
     for path in sorted(PACKAGE.rglob("*.py")):
-        if (PACKAGE / "enforcement") in path.parents:
+        if (PACKAGE / "gamma3" / "enforcement") in path.parents:
             continue
         for number, line in enumerate(path.read_text().splitlines(), 1):
             if METHOD_NAME_COMPARISON.search(line):

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 import ngcontact as ngc
-from ngcontact.materials import EPS0, lame_stiffness
+from ngcontact.model.materials import EPS0, lame_stiffness
 
 
 def test_isotropic_plane_strain_matrix():

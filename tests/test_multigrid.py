@@ -6,7 +6,8 @@ import ngsolve as ngs
 import pytest
 
 import ngcontact as ngc
-from ngcontact import meshes, multigrid, solver_choice
+from ngcontact import meshes
+from ngcontact.solve.linalg import multigrid, solver_choice
 from ngcontact.geometries import block
 from ngcontact.scenes import reference as scene
 

@@ -259,7 +259,7 @@ def test_streamed_results_resume_distributed(tmp_path):
     resume on 3 ranks from a serial run's directory; a missing rank part of the last step
     names the file, another partition in run.json names the rank; another γ0, time scheme or
     u0 is named as serially, on every rank."""
-    from ngcontact import results
+    from ngcontact.output import results
     from ngcontact.scenes import reference
     script = str(HERE / "distributed_streaming.py")
     serial_dir, run_dir = tmp_path / "serial", tmp_path / "run"

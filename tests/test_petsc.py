@@ -234,7 +234,7 @@ def test_gamg_steps_equal_the_factorised_ones(block_direct):
     block into first contact (glue, conduction: non-symmetric), then one of half the size,
     reach the kept factorisation's states, contact forces and β to 1e-8, with GMRES's
     iterations recorded and no failure."""
-    from ngcontact.petsc_iterative import GamgSolver
+    from ngcontact.solve.linalg.petsc_iterative import GamgSolver
     gamg = _block("gamg")
     assert isinstance(gamg.newton.solver, GamgSolver) and "GAMG" in gamg.solver
     a, b = block_direct.gfu.vec.FV().NumPy(), gamg.gfu.vec.FV().NumPy()
@@ -255,7 +255,7 @@ def test_a_gmres_that_does_not_converge_falls_back_to_a_factorisation(block_dire
     MUMPS factorisation of J, the step records say so (``krylov_failures``), and the states
     equal the factorised run's to 1e-8. If the factorisation fails too, the error names both
     reasons."""
-    from ngcontact import petsc_iterative
+    from ngcontact.solve.linalg import petsc_iterative
     monkeypatch.setattr(petsc_iterative.GamgSolver, "__init__", _with_maxiter(petsc_iterative.GamgSolver.__init__, 2))
     gamg = _block("gamg", steps=2)
     records = gamg.history[1:]
@@ -285,7 +285,7 @@ def test_gamg_preconditioner_follows_the_rate_coefficient():
     scheme's Parameter: a value frozen at the first c would differ by c's viscous part), while
     φ's GAMG (the permittivity, without c) is the one made at the first step."""
     import ngsolve as ngs
-    from ngcontact import forms
+    from ngcontact.model import forms
     sim = reference.simulation(1, 0.01, 1, dim=3, keep_states=False, iterative="gamg", realcompile=False)
     sim.step(2.5e-3)
     solver = sim.newton.solver
@@ -357,7 +357,8 @@ def test_gamg_compiles_its_preconditioner_forms_on_large_meshes(monkeypatch):
     """With ``realcompile=None`` the preconditioner forms' integrand is compiled to machine code
     from ``machine_code.BULK_COMPILED_FROM`` elements of the mesh on, interpreted below; both
     give u's GAMG operator to round-off."""
-    from ngcontact import machine_code, petsc_iterative
+    from ngcontact.model import machine_code
+    from ngcontact.solve.linalg import petsc_iterative
     sim = reference.simulation(1, 0.01, 1, dim=3, keep_states=False, iterative="gamg", realcompile=False)
     sim.step(2.5e-3)
     solver = sim.newton.solver
@@ -388,7 +389,7 @@ def test_rigid_motions_from_the_vertices_are_the_interpolated_motions(order, dim
     to a force 10⁻¹⁰ of its size on a stretch (a rigid motion has no strain; the vertex values
     of a wrong component or a DOF offset would not)."""
     import ngsolve as ngs
-    from ngcontact.petsc_blocks import rigid_motion_values
+    from ngcontact.solve.linalg.petsc_blocks import rigid_motion_values
     sim = reference.simulation(order, 0.02 if dim == 3 else 0.01, 0, dim, keep_states=False)
     X = sim.system.X
     x, y, z = ngs.x, ngs.y, ngs.z
@@ -449,7 +450,8 @@ def test_gamg_orders_u_node_by_node():
     DOF of VectorH1 (its DOFs d, d + n, d + 2n) in consecutive rows, block size 3, and u's GAMG
     operator is that reordering of the preconditioner form's u block (to 0); with the
     component tags scrambled the rows stay as they were (block size 1)."""
-    from ngcontact import forms, petsc_blocks
+    from ngcontact.model import forms
+    from ngcontact.solve.linalg import petsc_blocks
     from ngcontact.petsc_solver import PetscMatrix, load
     sim = reference.simulation(1, 0.01, 1, 3, keep_states=False, iterative="gamg")
     sim.run(2 ** -8, 2 ** -8)
@@ -484,7 +486,8 @@ def test_whether_a_fallback_factorisation_fits_depends_on_the_machine_not_the_mo
     of the node's physical memory, whatever is free at the moment (an earlier version read
     MemAvailable, so a busy machine changed the run): on a 24 GB node a 3D Jacobian fits up to
     (0.5 · 24e9 / 210)^(3/4) DOFs and not 1 % beyond; reading /proc/meminfo fails the test."""
-    from ngcontact import checks, petsc_iterative
+    from ngcontact import checks
+    from ngcontact.solve.linalg import petsc_iterative
     mesh = ngs.Mesh(unit_square.GenerateMesh(maxh=0.5))
     monkeypatch.setattr(petsc_iterative, "node_memory", lambda: 24e9)
     real_open = open
@@ -508,7 +511,7 @@ def test_a_fallback_factorisation_that_would_not_fit_is_not_made(block_direct, m
     Jacobian of 10⁷ DOFs never does here, one of 10⁴ does), a GMRES held to 15 iterations
     leaves its last iterate as the correction (``oversized`` counts them, the records count the
     failures), and Newton still reaches the factorised run's states to 1e-8."""
-    from ngcontact import petsc_iterative
+    from ngcontact.solve.linalg import petsc_iterative
     mesh = block_direct.body.mesh
     assert petsc_iterative.factorisation_fits(10 ** 4, 3, mesh) and not petsc_iterative.factorisation_fits(10 ** 7, 3, mesh)
     monkeypatch.setattr(petsc_iterative, "factorisation_fits", lambda ndof, dim, mesh: False)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import ngcontact as ngc
-from ngcontact.materials import EPS0, Material, isotropic_stiffness
+from ngcontact.model.materials import EPS0, Material, isotropic_stiffness
 from ngcontact.scenes import electrode, stroh
 
 REFERENCE = dict(uncoupled=66.654e9, insulating=95.746e9, conducting=73.124e9)

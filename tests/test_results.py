@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 
 import ngcontact as ngc
-from ngcontact import demo, fingerprint, results
+from ngcontact import demo
+from ngcontact.output import fingerprint, results
 from ngcontact.scenes import reference
 
 DT, T = 2.5e-3, 0.1          # 40 steps of the reference scene: first contact and spreading

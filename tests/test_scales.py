@@ -6,8 +6,8 @@ import ngsolve as ngs
 import pytest
 
 import ngcontact as ngc
-from ngcontact import stopping
-from ngcontact.materials import EPS0, isotropic_stiffness, transversely_isotropic_piezo
+from ngcontact.solve import stopping
+from ngcontact.model.materials import EPS0, isotropic_stiffness, transversely_isotropic_piezo
 from ngcontact.scenes import reference as scene
 
 
@@ -102,7 +102,7 @@ def test_a_field_out_of_balance_that_newton_cannot_reduce_is_named():
 
 
 def test_a_cycle_is_recognised_by_its_period_only():
-    from ngcontact.cycles import repeating
+    from ngcontact.solve.cycles import repeating
     cycle = [1.0, 5.0, 3.0, 2.7558e+01, 3.2603e+02, 3.6085e+01, 7.8993e+01]
     assert repeating(cycle + cycle[3:] + cycle[3:4]) == 4
     assert repeating(cycle + cycle[3:]) is None                 # one period only: not yet

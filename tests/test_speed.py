@@ -11,13 +11,13 @@ import scipy.sparse as sp
 
 import ngcontact as ngc
 from ngcontact import cli
-from ngcontact.forms import electric_displacement, strain, stress
+from ngcontact.model.forms import electric_displacement, strain, stress
 from ngcontact.geometries import block, plate
-from ngcontact.loads import as_cf
+from ngcontact.model.loads import as_cf
 from ngcontact.scenes import reference as scene
 from ngcontact.studies import bench
 from ngcontact.schemes import StepCoefficients
-from ngcontact.system import StepSystem
+from ngcontact.solve.system import StepSystem
 
 
 def monolithic_residual(body, loads, u_old, inv_dt):
@@ -155,7 +155,7 @@ def test_realcompiled_contact_terms_agree(residual, monkeypatch):
     """The Γ3 Jacobian's integrand compiled to machine code in the middle of a run (as
     ``machine_code`` decides), and with it the residual's on the elements at Γ3 (as on meshes of
     ``COMPILED_RESIDUAL_FACETS`` facets), gives the same steps to round-off."""
-    from ngcontact import gamma3_terms
+    from ngcontact.gamma3 import terms as gamma3_terms
     monkeypatch.setattr(gamma3_terms, "COMPILED_RESIDUAL_FACETS", 0 if residual else 10 ** 9)
     a = run_reference(steps=4)
     b = scene.simulation(1)
@@ -185,7 +185,7 @@ class _System:
 ])
 def test_machine_code_when_the_run_pays_for_it(facets, dim, electric, steps, compiles):
     """A run compiles when its expected iterations save more than the compile costs."""
-    from ngcontact.machine_code import ITERATIONS_PER_STEP, MachineCode
+    from ngcontact.model.machine_code import ITERATIONS_PER_STEP, MachineCode
     system = _System()
     MachineCode(system, facets, dim, electric).expect(steps * ITERATIONS_PER_STEP)
     assert system.machine_code == compiles
@@ -194,7 +194,7 @@ def test_machine_code_when_the_run_pays_for_it(facets, dim, electric, steps, com
 def test_machine_code_for_steps_made_by_hand():
     """Stepped by hand, a simulation compiles once the iterations made would have paid for it:
     the 3D block (392 facets, 0.98 s per iteration) after 9 iterations, not after 8."""
-    from ngcontact.machine_code import MachineCode
+    from ngcontact.model.machine_code import MachineCode
     system = _System()
     policy = MachineCode(system, 392, 3, True)
     for _ in range(4):
@@ -268,7 +268,7 @@ def test_static_condensation_gives_the_same_steps():
 
 def test_realcompile_falls_back_without_a_compiler():
     """If compiling to machine code fails, the integrand is Compile()d with a warning."""
-    from ngcontact.machine_code import compiled
+    from ngcontact.model.machine_code import compiled
 
     class NoCompiler:
         def Compile(self, realcompile=False, maxderiv=2, wait=False):

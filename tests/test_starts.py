@@ -11,7 +11,7 @@ import pytest
 import ngcontact as ngc
 from ngcontact.obstacles import Plane
 from ngcontact.scenes import hertz
-from ngcontact.starts import Approach
+from ngcontact.solve.starts import Approach
 
 
 def solved(guess=None, **options):

@@ -12,7 +12,7 @@ import ngsolve as ngs
 import pytest
 
 import ngcontact as ngc
-from ngcontact.linear_solver import DirectSolver, KeptFactorization
+from ngcontact.solve.linalg.linear_solver import DirectSolver, KeptFactorization
 from ngcontact.scenes import reference
 
 DT = 2.5e-3

@@ -116,7 +116,7 @@ def test_the_error_ratio_is_per_step_for_u_and_per_unit_step_for_beta():
     """``stepping.error_ratio``: u's estimate against rtol, β's scaled by span/k (so that the
     errors β adds up over the run stay within rtol); φ (algebraic) is left out; the next step
     grows by SAFETY · ratio^(−1/3) for u and ^(−1/2) for β, the most limiting of the two."""
-    from ngcontact import stepping
+    from ngcontact.time import stepping
     estimate = dict(u=1e-4, beta=1e-6, phi=5.0)
     err, growth = stepping.error_ratio(estimate, rtol=1e-3, k=0.01, span=1.0)
     assert err == pytest.approx(0.1) and growth == pytest.approx(0.9 * 0.1 ** (-1 / 3))

@@ -11,7 +11,7 @@ import pytest
 from netgen.occ import Axis, Box, OCCGeometry, Pnt, Rectangle, X, Y, Z
 
 import ngcontact as ngc
-from ngcontact import supports as supports_module
+from ngcontact.model import supports as supports_module
 
 E, NU, P = 1e9, 0.3, 1e6
 ELASTIC = ngc.Material.isotropic(E, NU, permittivity=1e-9)

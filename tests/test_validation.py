@@ -8,8 +8,8 @@ import pytest
 
 import ngcontact as ngc
 from ngcontact import checks, obstacles
-from ngcontact.materials import isotropic_stiffness, transversely_isotropic_piezo
-from ngcontact.newton import Newton
+from ngcontact.model.materials import isotropic_stiffness, transversely_isotropic_piezo
+from ngcontact.solve.newton import Newton
 from ngcontact.geometries import block, plate
 
 GOOD = dict(c=isotropic_stiffness(1e9, 0.3), e=transversely_isotropic_piezo(-1, 2, 1), eps=1e-9 * np.eye(3))

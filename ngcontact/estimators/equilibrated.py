@@ -44,8 +44,9 @@ from dataclasses import dataclass, field
 import ngsolve as ngs
 import numpy as np
 
-from .. import forms, parallel
-from ..loads import as_cf
+from ngcontact.model import forms
+from ngcontact import parallel
+from ngcontact.model.loads import as_cf
 from .equilibration import Equilibration, Patches
 
 
@@ -106,7 +107,7 @@ def _stress_matrix(voigt, dim):
 def check(sim):
     """Refuse what the estimator cannot estimate (``adapt`` asks before each level's solve): ``sim``
     not a Simulation (TypeError), a distributed mesh, a nonlinear law, weak 'normal' supports."""
-    from ..simulation import Simulation
+    from ngcontact.simulation import Simulation
     if not isinstance(sim, Simulation):
         raise TypeError(f"the equilibrated estimator estimates an ngcontact.Simulation (sim), got {type(sim).__name__}")
     body = sim.body

@@ -34,7 +34,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla_sparse
 
-from ..matrices import csr
+from ngcontact.solve.linalg.matrices import csr
 
 BONUS = 4
 """Extra quadrature order for the data (a source or traction that is not a polynomial)."""

@@ -30,7 +30,7 @@ import ngcontact as ngc
 from ngcontact import parallel
 from ngcontact.meshes import nested_mesh
 from ngcontact.obstacles import Plane
-from ngcontact.starts import Approach
+from ngcontact.solve.starts import Approach
 
 E, NU, R = 1.0, 0.3, 1.0
 E_STAR = E / (1 - NU ** 2)

@@ -12,7 +12,7 @@ import numpy as np
 import sympy as sp
 
 import ngcontact as ngc
-from ngcontact.materials import VOIGT
+from ngcontact.model.materials import VOIGT
 
 x, y, z, t = sp.symbols("x y z t")
 

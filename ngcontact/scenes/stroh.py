@@ -18,7 +18,7 @@ Units: SI (Pa, C/m², F/m). K maps (normal traction, surface charge) to the slop
 """
 import numpy as np
 
-from ngcontact.materials import Material, _full3, _full4, _rotation
+from ngcontact.model.materials import Material, _full3, _full4, _rotation
 
 
 def generalised_moduli(material):

@@ -41,7 +41,7 @@ import ngcontact as ngc
 from ngcontact import adapt, estimators
 from ngcontact.geometries import plate
 
-from ngcontact.progress import bar
+from ngcontact.output.progress import bar
 from ngcontact.scenes import hertz, reference
 from ngcontact.scenes.manufactured import ContactManufactured, t as t_symbol
 

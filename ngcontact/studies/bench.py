@@ -34,7 +34,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ngcontact import checks, parallel
-from ngcontact.progress import bar
+from ngcontact.output.progress import bar
 from ngcontact.scenes import reference
 
 from . import common

@@ -31,7 +31,7 @@ import sys
 import numpy as np
 
 from ngcontact import checks, parallel, petsc_solver
-from ngcontact.progress import bar
+from ngcontact.output.progress import bar
 from ngcontact.scenes import reference
 
 from . import cluster_report, common

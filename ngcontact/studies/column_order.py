@@ -37,7 +37,7 @@ from matplotlib.figure import Figure
 
 import ngcontact as ngc
 from ngcontact import checks
-from ngcontact.progress import bar
+from ngcontact.output.progress import bar
 from ngcontact.scenes import column, reference
 
 from .common import table, write_csv

@@ -1,5 +1,5 @@
 """What every study shares: rows written as CSV and printed as tables, failed runs classified,
-and the one progress convention (``ngcontact.progress.bar``).
+and the one progress convention (``ngcontact.output.progress.bar``).
 
 A study's result is a list of rows, flat dicts with the same keys; a failed Newton solve is
 kept as a row too, with ``failure_kind`` of its residual history.

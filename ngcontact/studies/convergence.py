@@ -29,7 +29,7 @@ from matplotlib.figure import Figure
 import ngcontact as ngc
 from ngcontact import checks, parallel
 from ngcontact.geometries import plate
-from ngcontact.progress import bar
+from ngcontact.output.progress import bar
 from ngcontact.scenes import reference
 from ngcontact.scenes.manufactured import ContactManufactured, t as t_symbol
 

@@ -17,8 +17,8 @@ import numpy as np
 
 from ngcontact import checks, parallel
 
-from ..progress import bar
-from ..scenes import hertz
+from ngcontact.output.progress import bar
+from ngcontact.scenes import hertz
 from . import common
 from .common import table, write_csv
 

@@ -26,9 +26,9 @@ import time as wallclock
 
 from ngcontact import checks, parallel
 
-from ..common import write_csv
-from . import (debonding, electrode_map, incompressibility, load_cycles, nitsche_map, nonlinear_laws,
-               penalty_sweep, pull_off, strong_coupling, time_step_sweep)
+from ngcontact.studies.common import write_csv
+from . import (debonding, electrode_map, incompressibility, load_cycles, nitsche_map, nonlinear_laws, penalty_sweep,
+               pull_off, strong_coupling, time_step_sweep)
 
 STUDIES = dict(nitsche_map=nitsche_map, time_step_sweep=time_step_sweep, incompressibility=incompressibility,
                strong_coupling=strong_coupling, debonding=debonding, load_cycles=load_cycles,

@@ -5,10 +5,10 @@ import math
 import numpy as np
 from matplotlib.figure import Figure
 
-from ngcontact.progress import bar
+from ngcontact.output.progress import bar
 from ngcontact.scenes import column, reference
 
-from ..common import fmt, run as run_quietly
+from ngcontact.studies.common import fmt, run as run_quietly
 
 LOAD_HISTORY = ((0.0, 0.0), (0.01, 1.0), (0.1, 1.0), (0.12, -1.0), (1e3, -1.0))
 """(time in s, fraction of the body force): lift, hold, reverse into a push, hold."""

@@ -36,10 +36,10 @@ from matplotlib.figure import Figure
 
 import ngcontact as ngc
 from ngcontact.geometries import plate
-from ngcontact.progress import bar
+from ngcontact.output.progress import bar
 from ngcontact.scenes import electrode, hertz, reference
 
-from ..common import add_row, failure_kind, fmt
+from ngcontact.studies.common import add_row, failure_kind, fmt
 from .shared import STATUS_COLOURS, short
 
 VARIANTS = {"before": dict(gating="gap", globalise=False), "after": dict(gating="pressure", globalise=True)}

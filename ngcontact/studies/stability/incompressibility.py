@@ -4,10 +4,10 @@ from matplotlib.figure import Figure
 
 import ngcontact as ngc
 from ngcontact.geometries import plate
-from ngcontact.progress import bar
+from ngcontact.output.progress import bar
 from ngcontact.scenes import reference
 
-from ..common import add_row, table
+from ngcontact.studies.common import add_row, table
 
 COLUMNS = ("nu", "order", "mesh", "ndof", "ratio")
 """The columns of the summary table."""

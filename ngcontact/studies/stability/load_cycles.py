@@ -3,10 +3,10 @@ repeatedly: Newton iterations, cut-backs, cycling, and the force balance at ever
 import numpy as np
 from matplotlib.figure import Figure
 
-from ngcontact.progress import bar
+from ngcontact.output.progress import bar
 from ngcontact.scenes import reference
 
-from ..common import failure_kind, line, newton_total, run as run_quietly, table
+from ngcontact.studies.common import failure_kind, line, newton_total, run as run_quietly, table
 from .shared import APPLIED
 
 COLUMNS = ("dt", "records", "newton", "newton_max", "cutbacks", "cycling", "switches", "openings", "balance")

@@ -7,10 +7,10 @@ import numpy as np
 from matplotlib.colors import ListedColormap
 from matplotlib.figure import Figure
 
-from ngcontact.progress import bar
+from ngcontact.output.progress import bar
 from ngcontact.scenes import reference
 
-from ..common import add_row, fmt, newton_total, table
+from ngcontact.studies.common import add_row, fmt, newton_total, table
 from .shared import STATUS_COLOURS, press, pressure_oscillation, reference_force, scaled_condition_number, short
 
 COLUMNS = ("theta", "gamma0", "status", "failure", "newton", "force_error", "max_penetration",

@@ -15,10 +15,10 @@ from matplotlib.figure import Figure
 
 import ngcontact as ngc
 from ngcontact import laws
-from ngcontact.progress import bar
+from ngcontact.output.progress import bar
 from ngcontact.scenes import reference
 
-from ..common import add_row, newton_total, table
+from ngcontact.studies.common import add_row, newton_total, table
 from .shared import press
 
 COLUMNS = ("law", "zeta", "delta", "kappa", "cutbacks", "converged", "failure", "newton", "newton_max", "force_change")

@@ -7,10 +7,10 @@ import numpy as np
 from matplotlib.figure import Figure
 
 import ngcontact as ngc
-from ngcontact.progress import bar
+from ngcontact.output.progress import bar
 from ngcontact.scenes import reference
 
-from ..common import add_row, fitted_slope, newton_total, table
+from ngcontact.studies.common import add_row, fitted_slope, newton_total, table
 from .shared import press, reference_force, scaled_condition_number
 
 COLUMNS = ("method", "factor", "converged", "failure", "newton", "max_penetration", "force_error", "cond")

@@ -11,10 +11,10 @@ import numpy as np
 from matplotlib.figure import Figure
 
 import ngcontact as ngc
-from ngcontact.progress import bar
+from ngcontact.output.progress import bar
 from ngcontact.scenes import reference
 
-from ..common import failure_kind, line, table
+from ngcontact.studies.common import failure_kind, line, table
 from .shared import APPLIED
 
 COLUMNS = ("dt", "maxh", "steps", "worst_time", "worst_newton", "worst_crossed", "crossed_max", "per_point",

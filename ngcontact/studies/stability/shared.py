@@ -4,7 +4,7 @@ import numpy as np
 
 from ngcontact.scenes import reference
 
-from ..common import run
+from ngcontact.studies.common import run
 
 APPLIED = reference.PRESSURE * reference.L1
 """The reference scene's peak load on top, N/m."""

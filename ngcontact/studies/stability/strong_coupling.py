@@ -6,10 +6,10 @@ import numpy as np
 from matplotlib.figure import Figure
 
 import ngcontact as ngc
-from ngcontact.progress import bar
+from ngcontact.output.progress import bar
 from ngcontact.scenes import reference
 
-from ..common import add_row, newton_total, table
+from ngcontact.studies.common import add_row, newton_total, table
 from .shared import APPLIED, press, scaled_condition_number
 
 COLUMNS = ("k2", "e_scale", "stiffening", "converged", "failure", "newton", "recovered", "cutbacks",

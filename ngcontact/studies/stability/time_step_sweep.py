@@ -3,10 +3,10 @@ reference plate pulled off its glue (the paper's k is dt)."""
 import numpy as np
 from matplotlib.figure import Figure
 
-from ngcontact.progress import bar
+from ngcontact.output.progress import bar
 from ngcontact.scenes import reference
 
-from ..common import line, newton_total, run as run_quietly, table
+from ngcontact.studies.common import line, newton_total, run as run_quietly, table
 
 COLUMNS = ("update", "dt_gamma_L2", "records", "beta_unclipped_min", "beta_min", "clipped", "beta_rise",
            "beta_error")

@@ -1,0 +1,181 @@
+"""The data of Γ3 (2.7)-(2.10) and of its enforcement method, with validation."""
+import numbers
+from dataclasses import dataclass
+
+import ngsolve as ngs
+
+from ngcontact.gamma3 import contact_laws as laws
+from ngcontact.checks import number, parameters
+from ngcontact.model.loads import as_cf
+from ngcontact.gamma3.enforcement import METHODS, resolve
+from ngcontact.gamma3.obstacles import OBSTACLES
+
+
+@dataclass
+class Contact:
+    """Frictionless unilateral contact with a compliant layer, adhesion and a conductive
+    foundation on Γ3. SI units; numbers or CoefficientFunctions where noted.
+
+    Signorini (2.8) with gap, along the body's normal ν (the paper's form), or with an obstacle:
+        gap : g >= 0 in m, number or CoefficientFunction on Γ3 (may use the time Parameter;
+            checked on Γ3 at every step, with a tolerance of 1e-8 of the body's size).
+        obstacle : a rigid obstacle (``ngcontact.obstacles``: Plane, Cylinder, Sphere,
+            SignedDistance) giving the gap and the obstacle normal n_o, along which every
+            law of Γ3 then acts; None (default): the paper's form with ``gap``.
+        compliance : c_ν in Pa/m of p(r) = c_ν [r]_+, or a function r ↦ CF (any Lipschitz p
+            >= 0 vanishing for r <= 0; sampled by ``contact_laws.checked``).
+    Adhesion (2.8)-(2.9):
+        adhesion : γ_ν >= 0 in Pa/m; the glue pulls back with γ_ν β² R_ν(u_ν).
+        eps_a : ε_a >= 0, the healing threshold of (2.9) (1/s, with γ_ν R_ν² read as a rate).
+        bond_length : L > 0 in m, the truncation of R_ν.
+        beta0 : β0 in [0, 1], number or CoefficientFunction.
+        beta_update : "explicit" (the paper's (4.5), stable while dt γ_ν L² <= 1) or
+            "implicit" (β_n implicit in (2.9) with u_{n-1}: unconditionally stable, see
+            ``adhesion``).
+    Conductive foundation (2.7):
+        conductance : k_e >= 0 of the default ψ (``contact_laws.conductance_ramp``), or a
+            function r ↦ CF for ψ(r) >= 0, r = u_ν - g (e.g. ``conductance_literal(k_e, δ)``;
+            sampled by ``contact_laws.checked``).
+        ramp_width : δ > 0 in m of the default ψ.
+        potential_truncation : L_φ > 0 in V.
+        foundation_potential : φ_Γ in V, number or CoefficientFunction (may use the time
+            Parameter).
+        gating : what ψ reads: "gap" (the paper's ψ(u_ν − g), (2.7)) or "pressure" (ψ of the
+            enforcement's contact state, Nitsche's −P_γ/γ: full conductance wherever the method
+            presses, the same ψ(u_ν − g) where the body is free; docs/model.md).
+    Enforcement of the Signorini condition (``ngcontact.gamma3.enforcement``):
+        method : a method object, ``Nitsche(theta, gamma0)`` (Chouly-Hild θ-family),
+            ``Penalty(factor)`` (a stiff normal compliance), ``NodalConstraint()`` (the paper's
+            nodal constraint u_ν <= g at the nodes of Γ3, P1 only, with nodal multipliers) or
+            one of the user's (``enforcement.Method``); or a shorthand of ``enforcement.METHODS``,
+            "nitsche" (the default), "penalty" or "active_set", with the parameters below.
+        theta : 1 (symmetric), 0 (incomplete) or -1 (skew-symmetric); "nitsche" only.
+        gamma0 : γ0 > 0; γ = γ0 p² (stiffness)/h, see ``forms.boundary_stiffness``.
+        penalty : > 0, the penalty factor: ε = penalty p² (stiffness)/h; "penalty" only.
+    With a method object, theta, gamma0 and penalty are read from it (given here as well,
+    they must agree). ``enforcement_method`` is the method object either way.
+    """
+    gap: object = 0.0
+    obstacle: object = None
+    compliance: object = 0.0
+    adhesion: float = 0.0
+    eps_a: float = 0.0
+    bond_length: float = 1e-4
+    beta0: object = 1.0
+    beta_update: str = "explicit"
+    conductance: object = 0.0
+    ramp_width: float = 1e-7
+    potential_truncation: float = 1e4
+    foundation_potential: object = 0.0
+    gating: str = "pressure"
+    theta: int = 1
+    gamma0: float = 10.0
+    method: object = "nitsche"
+    penalty: float = 1e3
+
+    def __post_init__(self):
+        given = self.method
+        if not isinstance(given, str) and not (hasattr(given, "build") and hasattr(given, "keeps_symmetry")):
+            raise TypeError(f"Contact.method must be one of {', '.join(map(repr, METHODS))} or a method object "
+                            "(ngcontact.Nitsche, Penalty, NodalConstraint, or one with the protocol of "
+                            f"ngcontact.gamma3.enforcement.Method), got {given!r}")
+        if not isinstance(given, str):                 # θ, γ0, penalty: the object's
+            for name, value in given.contact_fields().items():
+                default = type(self).__dataclass_fields__[name].default
+                if getattr(self, name) != default and getattr(self, name) != value:
+                    raise ValueError(f"Contact.{name} = {getattr(self, name)!r} disagrees with the method "
+                                     f"{given!r}: give {name} to the method only")
+                object.__setattr__(self, name, value)
+        for name, allowed, words in (("method", tuple(METHODS), "one of " + ", ".join(map(repr, METHODS))),
+                                     ("gating", ("gap", "pressure"), "'gap' or 'pressure'"),
+                                     ("beta_update", ("explicit", "implicit"), "'explicit' or 'implicit'")):
+            value = getattr(self, name)
+            if name == "method" and not isinstance(value, str):
+                continue
+            if not isinstance(value, str) or value not in allowed:
+                raise (ValueError if isinstance(value, str) else TypeError)(
+                    f"Contact.{name} must be {words}, got {value!r}")
+        number("Contact.penalty", self.penalty, 0, low_open=True)
+        if isinstance(self.theta, bool) or not isinstance(self.theta, numbers.Real):
+            raise TypeError(f"Contact.theta must be 1, 0 or -1, got {self.theta!r} ({type(self.theta).__name__})")
+        if self.theta not in (1, 0, -1):
+            raise ValueError(f"Contact.theta must be 1, 0 or -1, got {self.theta!r}")
+        number("Contact.gamma0 (Nitsche parameter)", self.gamma0, 0, low_open=True)
+        self.enforcement_method = resolve(self)
+        if self.theta != 1 and "theta" not in self.enforcement_method.contact_fields():
+            raise ValueError(f"Contact.theta = {self.theta!r} means nothing with method {self.method!r}: θ chooses "
+                             "the variant of Nitsche's method (method='nitsche'); leave theta at 1")
+        number("Contact.bond_length", self.bond_length, 0, low_open=True, unit="m")
+        number("Contact.ramp_width", self.ramp_width, 0, low_open=True, unit="m")
+        number("Contact.potential_truncation", self.potential_truncation, 0, low_open=True, unit="V")
+        for name in ("compliance", "conductance"):
+            if not callable(getattr(self, name)) and not isinstance(getattr(self, name), ngs.CoefficientFunction):
+                number(f"Contact.{name}", getattr(self, name), 0)
+        if not isinstance(self.foundation_potential, ngs.CoefficientFunction):
+            number("Contact.foundation_potential", self.foundation_potential, unit="V")
+        for name in ("adhesion", "eps_a"):
+            number(f"Contact.{name}", getattr(self, name), 0)
+        if not isinstance(self.gap, ngs.CoefficientFunction):
+            number("Contact.gap", self.gap, 0, unit="m")
+        if not isinstance(self.beta0, ngs.CoefficientFunction):
+            number("Contact.beta0", self.beta0, 0, 1)
+        else:
+            as_cf(self.beta0, 1, "Contact.beta0")                # real, one component
+            if parameters(self.beta0):
+                raise ValueError("Contact.beta0 depends on an ngsolve.Parameter (the time?): β0 is the bonding "
+                                 "at the start, read once at t = 0, and β then follows (2.9); give β0 without "
+                                 "a Parameter")
+        if self.obstacle is not None:
+            if not isinstance(self.obstacle, OBSTACLES):
+                raise TypeError("Contact.obstacle must be an ngcontact.obstacles Plane, Cylinder, Sphere or "
+                                f"SignedDistance, got {type(self.obstacle).__name__}")
+            if isinstance(self.gap, ngs.CoefficientFunction) or self.gap != 0:
+                raise ValueError("Contact: give either gap (the paper's form, along the body's normal) or "
+                                 "obstacle (the gap comes from it), not both")
+            if not self.enforcement_method.takes_obstacle:
+                self.enforcement_method.check_obstacle()
+        for name in ("compliance", "conductance"):
+            if isinstance(getattr(self, name), ngs.CoefficientFunction):
+                raise TypeError(f"Contact.{name} must be a number >= 0 or a function r ↦ "
+                                "CoefficientFunction (the law itself), not a CoefficientFunction")
+        self.p = laws.checked("Contact.compliance", self.compliance, "p", 0.0) \
+            if callable(self.compliance) else laws.compliance_law(self.compliance)
+        self.R = laws.bond_truncation(self.bond_length)
+        self.truncation_widening = ngs.Parameter(1.0)    # of φ_L's level, for ``continuation``
+        self.phi_L = laws.potential_truncation(self.potential_truncation, self.truncation_widening)
+        self.widening = ngs.Parameter(1.0)      # of ψ's ramp, for ``continuation`` (1: as given)
+        self.psi = laws.checked("Contact.conductance", self.conductance, "ψ", -1.0) if callable(self.conductance) else \
+            laws.conductance_ramp(self.conductance, self.ramp_width, self.widening)
+
+    def coefficients(self):
+        """(name, CoefficientFunction) of its data, for the checks of ``Simulation``."""
+        named = [("Contact.gap", self.gap), ("Contact.foundation_potential", self.foundation_potential),
+                 ("Contact.beta0", self.beta0)]
+        obstacle = self.obstacle
+        for attribute in ("point", "center", "distance", "normal"):
+            value = getattr(obstacle, attribute, None) if obstacle is not None else None
+            if value is not None:
+                named += [(f"Contact.obstacle.{attribute}", v)
+                          for v in (value if isinstance(value, (tuple, list)) else [value])]
+        return [(n, v) for n, v in named if isinstance(v, ngs.CoefficientFunction)]
+
+    def regularised(self):
+        """[(name, widening Parameter, unit, width)] of the laws ``continuation`` may widen where
+        the foundation conducts: ψ's ramp δ (m; the default law) and φ_L's level L_φ (V)."""
+        if not self.conducts:
+            return []
+        ramp = [] if callable(self.conductance) else [("the conduction ramp δ", self.widening, "m", self.ramp_width)]
+        return ramp + [("the potential truncation L_φ", self.truncation_widening, "V", self.potential_truncation)]
+
+    @property
+    def conducts(self):
+        """True if the foundation conducts (ψ is not identically 0)."""
+        return callable(self.conductance) or self.conductance > 0
+
+    @property
+    def symmetric(self):
+        """True if the Newton Jacobian is symmetric: a method whose Signorini term keeps it so
+        (Nitsche with θ = 1, penalty, the nodal constraint), with no compliant layer, no
+        adhesion and no conduction (those terms are not symmetrised)."""
+        return (self.enforcement_method.keeps_symmetry and not callable(self.compliance)
+                and self.compliance == 0 and self.adhesion == 0 and not self.conducts)

@@ -1,0 +1,144 @@
+"""Rigid obstacles: the foundation given as a geometry (``Contact(obstacle=...)``).
+
+An obstacle gives, at each point x of Γ3 (reference configuration), the gap g(x) (m, the
+distance to the obstacle, >= 0 where the body is clear of it) and the obstacle normal n_o(x),
+a unit vector pointing from the body into the obstacle (on a flat Γ3 lying on a plane
+obstacle n_o = ν, the body's outward normal). Then the normal displacement is u_n = u·n_o,
+the normal stress σ_n = n_o·σν, and Signorini u_n ≤ g, the compliant layer p(u_n), the glue
+γ_ν β² R_ν(u_n) and the conduction law ψ(u_n − g) act along n_o (docs/model.md, with ν
+replaced by n_o). The paper's form, the body's ν with a given gap, is what a flat Γ3 on a
+plane reduces to; on a curved Γ3 at P1, ν jumps at every vertex and its Nitsche multiplier
+oscillates inside each facet, while n_o is smooth (docs/curved_contact.md).
+
+Points, centres and distances may be CoefficientFunctions of the time Parameter (an
+indenter driven into the body: g < 0 ahead of it is then the prescribed approach). At t = 0
+the obstacle must not intersect the body beyond a tolerance, and n_o must be a unit field
+pointing into the obstacle where the body is closest to it (``Simulation`` checks both,
+``check_normal``).
+"""
+import ngsolve as ngs
+import numpy as np
+
+from ngcontact import parallel
+from ngcontact.checks import number
+from ngcontact.model.loads import as_cf
+
+NEAR = 0.05
+"""``check_normal`` looks at the points of Γ3 whose gap is within this fraction of the
+body's size of the smallest gap."""
+
+
+def _position(dim):
+    return ngs.CF((ngs.x, ngs.y, ngs.z)[:dim])
+
+
+def _vector(value, dim, name):
+    cf = as_cf(value, None, name)
+    if cf.dim != dim:
+        raise ValueError(f"{name} must have {dim} components in {dim}D, got {cf.dim}")
+    return cf
+
+
+class Plane:
+    """The half-space obstacle {(x − point)·normal <= 0}.
+
+    point : a point of the plane (m), a tuple or a CoefficientFunction (may move in time).
+    normal : the plane's normal pointing out of the obstacle towards the body (any length,
+        constant, normalised here).
+    Gap g = (x − point)·normal/|normal|, obstacle normal n_o = −normal/|normal|.
+    """
+
+    def __init__(self, point, normal):
+        as_cf(point, None, "Plane: point")
+        self.point = point
+        if not isinstance(normal, (tuple, list, np.ndarray)):
+            raise TypeError(f"Plane: normal must be a vector of numbers, got {normal!r}")
+        try:
+            normal = np.asarray(normal, dtype=float)
+        except (TypeError, ValueError):
+            raise TypeError(f"Plane: normal must be a vector of numbers, got {normal!r}") from None
+        if normal.ndim != 1 or not np.all(np.isfinite(normal)) or not np.linalg.norm(normal) > 0:
+            raise ValueError(f"Plane: normal must be a nonzero finite vector, got {normal.tolist()}")
+        self.unit = normal / np.linalg.norm(normal)
+
+    def fields(self, dim):
+        """(gap g, obstacle normal n_o) as CoefficientFunctions in ``dim`` D."""
+        if len(self.unit) != dim:
+            raise ValueError(f"Plane: normal must have {dim} components in {dim}D, got {len(self.unit)}")
+        m = ngs.CF(tuple(self.unit))
+        return (_position(dim) - _vector(self.point, dim, "Plane: point")) * m, -m
+
+    def __repr__(self):
+        return f"Plane(point={self.point}, normal={self.unit.tolist()})"
+
+
+class Ball:
+    """A rigid disk (2D, a cylinder seen end-on) or ball (3D) of ``radius`` (m) about ``center``
+    (m, tuple or CoefficientFunction, may move in time); the body lies outside it.
+    Gap g = |x − c| − R, obstacle normal n_o = (c − x)/|x − c|."""
+
+    def __init__(self, center, radius):
+        as_cf(center, None, f"{type(self).__name__}: center")
+        self.center = center
+        self.radius = number(f"{type(self).__name__}: radius", radius, 0, low_open=True, unit="m")
+
+    def fields(self, dim):
+        d = _position(dim) - _vector(self.center, dim, f"{type(self).__name__}: center")
+        distance = ngs.sqrt(d * d)
+        return distance - self.radius, -d / distance
+
+    def __repr__(self):
+        return f"{type(self).__name__}(center={self.center}, radius={self.radius})"
+
+
+class Cylinder(Ball):
+    """The 2D rigid cylinder (a disk in the plane of the plate), as ``Ball``."""
+
+
+class Sphere(Ball):
+    """The 3D rigid ball, as ``Ball``."""
+
+
+class SignedDistance:
+    """An obstacle given by the user: ``distance`` g(x) (m, a scalar CoefficientFunction of
+    position and time, >= 0 outside the obstacle) and ``normal`` n_o(x), a unit vector field
+    pointing into the obstacle (checked on Γ3 by ``Simulation``, ``check_normal``)."""
+
+    def __init__(self, distance, normal):
+        as_cf(distance, 1, "SignedDistance: distance")
+        as_cf(normal, None, "SignedDistance: normal")
+        self.distance, self.normal = distance, normal
+
+    def fields(self, dim):
+        return as_cf(self.distance, 1, "SignedDistance: distance"), _vector(self.normal, dim,
+                                                                            "SignedDistance: normal")
+
+    def __repr__(self):
+        return "SignedDistance(...)"
+
+
+OBSTACLES = (Plane, Ball, SignedDistance)
+
+
+def check_normal(side, gap, normal, size):
+    """The obstacle normal n_o (a CoefficientFunction) sampled on Γ3 (``side``, a
+    ContactSide) at the time Parameter's value, with the gap (both finite,
+    ``build.gamma3_data``): n_o must be a unit vector, and it must point from the body
+    into the obstacle where the body is closest to it: n_o·ν > 0 somewhere and n_o·ν >= 0
+    everywhere among the points whose gap is within ``NEAR`` × ``size`` (m, the body's size)
+    of the smallest gap (ν the body's outward normal; a reversed n_o lets the body pass
+    through the obstacle). A ValueError naming the obstacle's normal otherwise."""
+    mesh = side.mesh
+    g, n = side.sample(gap), side.sample(normal)
+    length = np.linalg.norm(n, axis=-1)
+    if parallel.maximum(mesh, np.abs(length - 1)) > 1e-8:
+        raise ValueError("Contact.obstacle: its normal must be a unit vector field on Γ3; |n_o| ranges "
+                         f"over [{parallel.minimum(mesh, length):.6g}, {parallel.maximum(mesh, length):.6g}]")
+    along = np.einsum("fsd,fd->fs", n, side.normals)
+    near = g <= parallel.minimum(mesh, g) + NEAR * size
+    low, high = parallel.minimum(mesh, along[near]), parallel.maximum(mesh, along[near])
+    if low < -1e-8 or high <= 1e-8:
+        raise ValueError("Contact.obstacle: its normal n_o must point from the body into the obstacle (n_o·ν > 0 "
+                         f"where the body is closest to it, ν the body's outward normal); where the gap is within "
+                         f"{NEAR:g} of the body's size of its smallest value, n_o·ν ranges over [{low:.3g}, "
+                         f"{high:.3g}] on Γ3: is the normal reversed?")

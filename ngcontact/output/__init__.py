@@ -1,0 +1,7 @@
+"""What a run leaves: the records of each step, what is measured on Γ3 and at the supports
+(``observables``), streamed results and resume, the scene's fingerprint, ParaView and webgui
+output, progress bars.
+
+May import: the foundation, ``ngcontact.model``, ``ngcontact.gamma3`` and ``ngcontact.time``
+(its smallest time step).
+"""

@@ -1,0 +1,325 @@
+"""Newton's corrections by PETSc's GMRES preconditioned with Γ3 solves around block algebraic
+multigrid: the iterative solver of large steps on PETSc, serial or distributed.
+
+The step Jacobian J (``system``; non-symmetric, indefinite: ``multigrid`` has the blocks) is
+solved by GMRES in Newton's weighted norm (``petsc_solver.WeightedGmres``) with the
+preconditioner of ``multigrid`` built from PETSc's parts instead of nested meshes:
+
+  S: MUMPS's LU of J on the free DOFs of the Γ3 facets (a surface problem, ~n^(2/3) DOFs,
+     factorised at every Newton iteration: it carries the stiff Γ3 terms that change there);
+  B: diag(GAMG_u, −GAMG_φ), PETSc's smoothed-aggregation algebraic multigrid (``PCGAMG``) of
+     the SPD forms of ``forms.preconditioner_forms`` (u: the piezo-stiffened elasticity plus
+     c times the viscosity; φ: the permittivity), u with the rigid-body motions as its near
+     null space (without them GAMG needed 117 instead of 28 CG iterations on the 3D block's
+     u form at 15 315 DOFs) and its rows ordered node by node with block size d
+     (``petsc_blocks.node_by_node``: GAMG's setup 3.7× faster at 142 404 DOFs);
+
+  y = S r;  y += B (r − J y);  y += S (r − J y),
+
+the two products with J taken by its strips J[:, Γ3] (y = S r is zero off Γ3) and J[Γ3, :]
+(S reads Γ3's rows only): 6.52 against 8.17 s of GMRES per step at 142 404 DOFs.
+
+No nested meshes are needed (NGSolve cannot refine a distributed mesh, so its multigrid does
+not run there), and every part runs on every rank. B's u part is built anew when the rate
+coefficient c changes (``system.generation``; its φ part has no c and is kept), S at every
+solve. A GMRES that does not reach
+its tolerance within ``maxiter`` iterations is counted (``krylov_failures``, in the step's
+record) and the correction is solved by a fresh MUMPS factorisation of J instead
+(``petsc_solver.MumpsFactorization``, counted in ``factorizations``) where that is expected to
+fit in memory (``factorisation_fits``; else GMRES's last iterate stands, counted in
+``oversized``, and Newton goes on or the step is cut back); if the factorisation fails, the
+error names both reasons.
+
+PETSc options reach the parts through the prefixes ``ngcontact_u_`` and ``ngcontact_phi_``
+(the GAMG preconditioners, e.g. ``-ngcontact_u_pc_gamg_threshold 0.02``; ``GAMG_OPTIONS`` are
+the defaults) and
+``ngcontact_gamma3_`` (the Γ3 factorisation).
+"""
+from contextlib import nullcontext
+
+import ngsolve as ngs
+import numpy as np
+
+from ngcontact.model import forms
+from ngcontact import parallel
+from ngcontact.checks import node_memory
+from ngcontact.model.machine_code import compile_bulk, compiled
+from ngcontact.solve.linalg.petsc_blocks import index_set, node_by_node, petsc_vector, rigid_motion_values
+from ngcontact.solve.linalg.petsc_options import reading_options
+from ngcontact.solve.linalg.petsc_solver import MumpsFactorization, PetscMatrix, WeightedGmres, load
+
+
+GAMG_OPTIONS = {"pc_gamg_threshold": 0.01}
+"""PETSc options of both GAMG preconditioners unless given (``PETSC_OPTIONS``): dropping the
+graph's weak couplings below 0.01 (PETSc's default: none) coarsens less aggressively and takes
+fewer GMRES iterations (3D block P1, 142 404 DOFs, 3 first-contact steps, one thread: 49.3
+against 67.3 GMRES iterations per Newton iteration, 30.9 against 32.7 s per step)."""
+
+
+class GamgSolver:
+    """w = J⁻¹ r by GMRES with the preconditioner of the module: the linear solver protocol of
+    ``linear_solver`` (``solve(matrix, freedofs, r, w, generation, timer, weights, tol)``,
+    counters ``factorizations`` (the Γ3 factorisations, the fallbacks), ``krylov_iterations``,
+    ``krylov_failures``, and ``oversized``: the failures left to GMRES's last iterate because
+    a factorisation would not fit in memory).
+
+    Parameters
+    ----------
+    body : the Body.
+    system : the StepSystem (its ``coefficients.rate``, 1/s, read when ``generation`` changes).
+    layer : BitArray of the DOFs on the Γ3 facets, or None (no contact).
+    tol : GMRES's relative reduction of the preconditioned residual (Newton asks for less
+        where that suffices: ``margin``).
+    maxiter : GMRES iterations before a solve counts as failed.
+    realcompile : compile the preconditioner forms' integrands to machine code (True, False;
+        None: from ``machine_code.BULK_COMPILED_FROM`` elements).
+
+    ``forcing`` (0.01): after every correction but a step's first Newton asks for no more
+    than ``inexact.forcing_term`` (0.01 (‖r_k‖ / ‖r_{k−1}‖)² after a fall, Eisenstat–Walker;
+    0.01 ‖r_{k−1}‖ / ‖r_k‖ after a rise), so that corrections while the contact set still
+    moves are not solved to the step's final accuracy. 3D block P1, 142 404 DOFs, 3 steps of
+    2⁻⁸ s into first contact (2 threads): 17 Newton and 395 GMRES iterations, 16.2 s per step,
+    against 16, 726 and 26.3 s with the forcing after falls only (the GMRES after one rise ran
+    to ``maxiter``) and 16, 683 without (docs/speed.md, docs/scale.md).
+    """
+
+    margin = 0.1
+    forcing = 0.01
+
+    def __init__(self, body, system, layer=None, *, tol=1e-8, maxiter=300, realcompile=None):
+        load("iterative='gamg'")
+        self.body, self.system, self.layer = body, system, layer
+        self.tol, self.maxiter, self.realcompile = tol, int(maxiter), realcompile
+        self.factorizations = self.krylov_iterations = self.krylov_failures = self.oversized = 0
+        self._integrand = None                        # the preconditioner forms', compiled once
+        self._key = self._generation = None
+        self._bulk = None
+
+    name = "GMRES preconditioned by Γ3 MUMPS solves around block GAMG (PETSc)"
+
+    def _setup(self, matrix, freedofs):
+        """J as a PETSc matrix, the index sets of u, φ and the Γ3 DOFs in it, GMRES."""
+        PETSc, _ = load()
+        self.J = PetscMatrix(matrix, freedofs)
+        self.gmres = WeightedGmres(self.J, self._apply)
+        mapping, template = self.J.vectors, matrix.CreateColVector()
+        n_u = self.body.V.ndof
+        u_part = np.zeros(matrix.height)
+        u_part[:n_u] = 1.0
+        self.fields = [node_by_node(PETSc, mapping, template, index_set(PETSc, mapping, template, u_part, 1.0),
+                                    self.body.dim, n_u),
+                       index_set(PETSc, mapping, template, u_part, 0.0)]
+        layer = np.zeros(matrix.height)
+        if self.layer is not None:
+            layer[np.array(list(self.layer), dtype=bool)] = 1.0
+        self.surface_rows = index_set(PETSc, mapping, template, layer, 1.0)
+        self._surface = self._surface_matrix = None
+        self._near_null_space = None                  # GAMG's, for these rows: made once
+        self._bulk = None                             # B for these rows (``_preconditioners``)
+        self._d = self.J.mat.createVecRight()
+        self._key, self._generation = (matrix, freedofs), None
+
+    def _preconditioners(self, freedofs):
+        """B: GAMG of the u and φ preconditioner forms at the current rate coefficient. The
+        integrands are compiled once with c as the scheme's Parameter (compiling to machine code
+        took 3.8 s of the 10 s that every new c cost at 142 404 DOFs); at a new c φ's GAMG (the
+        permittivity has no c) is kept, u's made anew."""
+        PETSc, _ = load()
+        previous = self._bulk or [None, None]
+        if self._integrand is None:
+            (u, phi), (v, xi) = self.system.X.TnT()
+            u_integrand, phi_integrand = forms.preconditioner_forms(self.body, u, v, phi, xi,
+                                                                    self.system.coefficients.rate)
+            self._integrand = compiled(u_integrand + phi_integrand,
+                                       compile_bulk(self.realcompile, self.body.mesh.ne))
+        form = ngs.BilinearForm(self.system.X, symmetric=True)
+        form += self._integrand * ngs.dx
+        form.Assemble()
+        P = PetscMatrix(form.mat, freedofs).mat
+        blocks = []
+        for name, rows, kept in zip(("u", "phi"), self.fields, previous):
+            if rows.getSize() == 0:
+                blocks.append(None)
+                continue
+            if name == "phi" and kept is not None:
+                blocks.append(kept)
+                continue
+            block = P.createSubMatrix(rows, rows)
+            if name == "u":
+                if self._near_null_space is None:
+                    self._near_null_space = self._rigid_motions(PETSc, rows, block)
+                block.setNearNullSpace(self._near_null_space)
+            pc = PETSc.PC().create(comm=block.getComm())
+            prefix = f"ngcontact_{name}_"
+            pc.setOptionsPrefix(prefix)
+            pc.setOperators(block)
+            pc.setType("gamg")
+            options = PETSc.Options()
+            for key, value in GAMG_OPTIONS.items():          # the defaults, where PETSC_OPTIONS says nothing
+                if not options.hasName(prefix + key):
+                    options.setValue(prefix + key, value)
+            with reading_options(f"the GAMG preconditioner of {name} (prefix -{prefix})"):
+                pc.setFromOptions()
+                pc.setUp()
+            x, y = block.createVecs()
+            blocks.append((pc, x, y, PETSc.Scatter().create(self._d, rows, x, None)))
+        self._bulk = blocks
+
+    def _rigid_motions(self, PETSc, rows, block):
+        """The rigid-body motions of u (translations, rotations about the axes), restricted to
+        the free u DOFs and orthonormalised, as GAMG's near null space; made once per pattern
+        (``_setup``), not per rate coefficient."""
+        vectors = []
+        gather = PETSc.Scatter().create(self._d, rows, block.createVecRight(), None)   # rows: not all owned here
+        template = ngs.GridFunction(self.system.X).vec
+        for values in rigid_motion_values(self.body, self.system.X):
+            full = petsc_vector(self.J.vectors, template, values)
+            vector = block.createVecRight()
+            gather.scatter(full, vector, addv=PETSc.InsertMode.INSERT_VALUES, mode=PETSc.ScatterMode.FORWARD)
+            for earlier in vectors:
+                vector.axpy(-vector.dot(earlier), earlier)
+            vector.normalize()
+            vectors.append(vector)
+        return PETSc.NullSpace().create(vectors=vectors, comm=block.getComm())
+
+    def _factor_surface(self):
+        """S: the MUMPS LU of J on the Γ3 DOFs (its pattern analysed once, refactorised), and
+        the two strips of J that M needs besides: J[:, Γ3] and J[Γ3, :]."""
+        PETSc, _ = load()
+        if self.surface_rows.getSize() == 0:
+            self._surface = None
+            return
+        J = self.J.mat
+        if self._surface is None:
+            every = [PETSc.IS().createStride(end - start, first=start, step=1, comm=J.getComm())
+                     for start, end in (J.getOwnershipRange(), J.getOwnershipRangeColumn())]
+            self._strips = (every, J.createSubMatrix(every[0], self.surface_rows),     # J[:, Γ3]
+                            J.createSubMatrix(self.surface_rows, every[1]))           # J[Γ3, :]
+            self._surface_matrix = J.createSubMatrix(self.surface_rows, self.surface_rows)
+            self._surface = PETSc.PC().create(comm=self._surface_matrix.getComm())
+            self._surface.setOptionsPrefix("ngcontact_gamma3_")
+            self._surface.setOperators(self._surface_matrix)
+            self._surface.setType("lu")
+            self._surface.setFactorSolverType("mumps")
+            with reading_options("the Γ3 factorisation of iterative='gamg' (prefix -ngcontact_gamma3_)"):
+                self._surface.setFromOptions()
+            self._sr, self._sy = self._surface_matrix.createVecs()
+            self._sd, self._sz = self._surface_matrix.createVecs()
+            self._on_surface = PETSc.Scatter().create(self._d, self.surface_rows, self._sr, None)   # J's vectors ↔ Γ3's
+        else:
+            every, columns, rows = self._strips
+            J.createSubMatrix(self.surface_rows, self.surface_rows, submat=self._surface_matrix)
+            J.createSubMatrix(every[0], self.surface_rows, submat=columns)
+            J.createSubMatrix(self.surface_rows, every[1], submat=rows)
+            self._surface.setOperators(self._surface_matrix)
+        with reading_options("the Γ3 factorisation of iterative='gamg' (prefix -ngcontact_gamma3_)"):
+            self._surface.setUp()
+        if self._surface.getFailedReason():
+            raise ArithmeticError(f"the MUMPS factorisation of the Γ3 block failed (PETSc's reason "
+                                  f"{self._surface.getFailedReason()})")
+        self.factorizations += 1
+
+    def _add_bulk(self, r, y):
+        """y += diag(GAMG_u, −GAMG_φ) r (each block's rows gathered from r and added back into
+        y by a scatter made with the block)."""
+        PETSc, _ = load()
+        for sign, block in zip((1.0, -1.0), self._bulk):
+            if block is None:
+                continue
+            pc, x, z, scatter = block
+            scatter.scatter(r, x, addv=PETSc.InsertMode.INSERT_VALUES, mode=PETSc.ScatterMode.FORWARD)
+            pc.apply(x, z)
+            if sign < 0:
+                z.scale(-1.0)
+            scatter.scatter(z, y, addv=PETSc.InsertMode.ADD_VALUES, mode=PETSc.ScatterMode.REVERSE)
+
+    def _apply(self, r, y):
+        """y = M r (module docstring), on J's PETSc vectors. S's y is zero off Γ3, and S reads
+        Γ3's rows of r − J y only: J's strips J[:, Γ3] and J[Γ3, :] stand for J there (two
+        products with all of J per application otherwise: 11 of the 58 ms at 142 404 DOFs).
+        Γ3's rows move by one scatter made with S (``_factor_surface``)."""
+        y.set(0.0)
+        if self._surface is None:
+            self._add_bulk(r, y)
+            return
+        PETSc, _ = load()
+        forward, reverse = PETSc.ScatterMode.FORWARD, PETSc.ScatterMode.REVERSE
+        insert, add = PETSc.InsertMode.INSERT_VALUES, PETSc.InsertMode.ADD_VALUES
+        _, columns, strip = self._strips
+        self._on_surface.scatter(r, self._sr, addv=insert, mode=forward)      # r on Γ3
+        self._surface.apply(self._sr, self._sy)
+        columns.mult(self._sy, self._d)
+        self._d.aypx(-1.0, r)                                                 # d = r − J y, y = S r (zero off Γ3)
+        self._on_surface.scatter(self._sy, y, addv=insert, mode=reverse)
+        self._add_bulk(self._d, y)
+        strip.mult(y, self._sd)
+        self._sd.aypx(-1.0, self._sr)                                         # Γ3's rows of r − J y
+        self._surface.apply(self._sd, self._sz)
+        self._on_surface.scatter(self._sz, y, addv=add, mode=reverse)
+
+    def solve(self, matrix, freedofs, r, w, generation=None, timer=None, weights=None, tol=None, changing=None):
+        """w = J⁻¹ r to the relative accuracy ``tol`` (default the solver's) in the ``weights``
+        norm of the preconditioned residual (``changing`` is not used)."""
+        timer = timer or (lambda phase: nullcontext())
+        with timer("factorization"):
+            if self._key is None or self._key[0] is not matrix or self._key[1] is not freedofs:
+                self._setup(matrix, freedofs)
+            else:
+                self.J.refill()
+            if generation != self._generation or self._bulk is None:
+                self._preconditioners(freedofs)
+                self._generation = generation
+            self._factor_surface()
+        with timer("solve"):
+            converged, iterations, reason = self.gmres.solve(r, w, weights, self.tol if tol is None else tol,
+                                                             self.maxiter)
+        self.krylov_iterations += iterations
+        if not converged:                      # a fresh factorisation of J solves instead, where it fits
+            self.krylov_failures += 1
+            if not factorisation_fits(self.body.ndof, self.body.dim, self.body.mesh):
+                self.oversized += 1            # GMRES's last iterate stands: Newton goes on, or cuts back
+                return
+            with timer("factorization"):
+                try:
+                    exact = MumpsFactorization(matrix, freedofs)
+                except ArithmeticError as error:
+                    PETSc, _ = load()
+                    names = {v: k for k, v in vars(PETSc.KSP.ConvergedReason).items() if not k.startswith("_")}
+                    raise ArithmeticError(f"GMRES did not converge in {iterations} iterations (PETSc's reason "
+                                          f"{names.get(reason, reason)}) and {error}") from None
+                self.factorizations += 1
+            with timer("solve"):
+                w.data = exact * r
+
+    def __repr__(self):
+        return f"GamgSolver(tol={self.tol}, maxiter={self.maxiter})"
+
+
+FACTOR_BYTES = {2: 320.0, 3: 210.0}
+"""Bytes of a MUMPS LU factorisation of the step Jacobian per n·log(n) DOFs in 2D and per
+n^(4/3) in 3D (nested dissection's fill), from the process peaks measured here: 2D reference
+plate P2, 30 879 DOFs, serial MUMPS 444 MB against 359 MB with the sparse Cholesky of the
+symmetric part; 3D block P1, 142 404 DOFs, serial factorisations ~1.5 GB (docs/cluster.md)."""
+FACTOR_SHARE = 0.5
+"""The share of a node's physical memory that a fallback factorisation may take."""
+
+
+def factorisation_fits(ndof, dim, mesh):
+    """Whether a MUMPS LU of a step Jacobian of ``ndof`` DOFs in ``dim`` D is expected
+    (``FACTOR_BYTES``) to fit in ``FACTOR_SHARE`` of the node's physical memory
+    (``checks.node_memory``; under MPI every rank's share of its node's is compared with its
+    share of the factorisation). The machine's size, not the memory free at the moment: the
+    choice, and so the run, must not depend on what else the machine is doing (an earlier
+    version read MemAvailable). A 3D P1 Jacobian of 1.06·10⁶ DOFs (~20 GB) does not fit on this
+    24 GB machine: its factorisation, the fallback of a GMRES that had not converged, was
+    killed for lack of memory at 24 GB."""
+    need = FACTOR_BYTES[dim] * (ndof ** (4 / 3) if dim == 3 else ndof * np.log(max(ndof, 2)))
+    total = node_memory()
+    comm = parallel.comm_of(mesh)
+    if comm is None:
+        return need <= FACTOR_SHARE * total
+    from mpi4py import MPI
+    local = comm.Split_type(MPI.COMM_TYPE_SHARED)                 # the ranks of this node
+    share = total / local.size
+    local.Free()
+    return bool(comm.allreduce(need / max(1, comm.size - 1) <= FACTOR_SHARE * share, op=MPI.LAND))

@@ -1,0 +1,378 @@
+"""Newton's linear solves on PETSc: MUMPS factorisations through ngsPETSc.
+
+``Simulation(inverse="mumps")`` factorises the step's Jacobian with MUMPS (LU for a
+non-symmetric Jacobian, LDLᵀ for a symmetric one), serially or on a mesh distributed over MPI
+ranks, where it replaces NGSolve's "masterinverse" (which gathers the whole matrix on rank 0).
+The factorisation is an NGSolve ``BaseMatrix`` (``MumpsFactorization``), so the kept
+factorisation of ``linear_solver.KeptFactorization`` reuses it as GMRES's preconditioner
+across Newton iterations serially, as it does NGSolve's own factorisations.
+
+Why ngsPETSc: it maps NGSolve's (parallel) sparse matrices and vectors to PETSc's, DOFs shared
+by ranks included (``ngsPETSc.Matrix``, ``VectorMapping``); the factorisation itself is
+petsc4py's ``PC`` (type lu/cholesky, solver package mumps), kept across updates of the values
+so that MUMPS reuses its analysis (symbolic factorisation and ordering).
+
+Installing PETSc: PyPI has no binary petsc4py; on Python ≥ 3.12 the ``dolfinx-solver-real``
+wheel ships PETSc 3.25 with MUMPS and its own petsc4py (``INSTALL``); on a cluster, build
+petsc4py against the site's PETSc (docs/cluster.md). Without PETSc, ``inverse="mumps"`` is an
+error that says how to install it, before any work (``PetscMissing``). PETSc's options
+(``PETSC_OPTIONS``) reach the factorisation; what they cannot do is named (``petsc_options``).
+"""
+from contextlib import nullcontext
+
+import ngsolve as ngs
+import numpy as np
+
+from ngcontact import mpi_launch
+from ngcontact.solve.linalg.petsc_options import check_factorisation, reading_options
+
+NAMES = ("mumps",)
+"""The ``inverse=`` names of the PETSc engine."""
+INSTALL = ('on Python >= 3.12: pip install --no-deps dolfinx-solver-real ngsPETSc && pip install packaging '
+           '(or petsc4py built against a PETSc with MUMPS, and ngsPETSc; docs/cluster.md)')
+"""How to install what ``inverse="mumps"`` needs."""
+
+WORKSPACE_RELAXATION = 30
+"""MUMPS's ICNTL(14): the workspace beyond the analysis's estimate, in % (MUMPS's default 20 for
+LU, 30 for LDLᵀ of an indefinite matrix)."""
+MAX_RELAXATION = 640
+"""The largest ICNTL(14) a factorisation that ran out of workspace is retried with (%)."""
+
+_modules = None
+
+
+class PetscMissing(ImportError, ValueError):
+    """What an option needs of PETSc is not installed: an ImportError (a module is missing) and a
+    ValueError (the option's value cannot be used here), so that the command line reports it in
+    one line like any other bad value."""
+
+
+def load(what='inverse="mumps"'):
+    """(petsc4py.PETSc, ngsPETSc), imported in the order the wheel needs (mpi4py's MPI first,
+    so that PETSc finds the MPI library); ImportError naming ``what`` needs them, with
+    ``INSTALL``, if missing."""
+    global _modules
+    if _modules is None:
+        # the wheel's MUMPS and BLAS start OpenMP threads on every rank: one each, unless set
+        # (mpiexec -n 2, 34 749 DOFs: 18 factorisations 27-47 s, 5.1 s with one thread each)
+        mpi_launch.one_thread_per_rank()
+        try:
+            from mpi4py import MPI  # noqa: F401  (loads libmpi for petsc4py)
+            from petsc4py import PETSc
+            import ngsPETSc
+        except ImportError as err:
+            raise PetscMissing(f'{what} needs PETSc (petsc4py with MUMPS) and ngsPETSc, which are not '
+                               f'installed ({err}); {INSTALL}') from None
+        _modules = PETSc, ngsPETSc
+    return _modules
+
+
+def available():
+    """True if ``inverse="mumps"`` can run here."""
+    try:
+        load()
+    except ImportError:
+        return False
+    return True
+
+
+class PetscMatrix:
+    """An NGSolve (parallel) sparse matrix restricted to its free DOFs as a PETSc AIJ matrix
+    (``mat``), with the vector mapping (``vectors``) of ngsPETSc, converted once (distributed by
+    ngsPETSc, serially straight from the free block's CSR arrays); ``refill()``
+    copies the NGSolve matrix's current values in (same pattern) without converting again:
+    the conversion through PETSc's MATIS cost 0.2 s of every 0.28 s factorisation at 34 749
+    DOFs on 2 ranks."""
+
+    def __init__(self, matrix, freedofs):
+        PETSc, ngsPETSc = load()
+        self.matrix, self.freedofs = matrix, freedofs
+        local = matrix.local_mat
+        pardofs = getattr(matrix, "row_pardofs", None)
+        description = (pardofs, freedofs, {"bsize": local.entrysizes})
+        self.vectors = ngsPETSc.VectorMapping(description)
+        self.distributed = pardofs is not None and pardofs.comm.size > 1
+        direct = not self.distributed and tuple(local.entrysizes) == (1, 1)
+        if not direct:
+            self.mat = ngsPETSc.Matrix(matrix, description, "aij").mat
+        _, cols, ptr = local.CSR()                       # the free block in the free DOFs' local numbering
+        cols, ptr = np.asarray(cols, dtype=np.int64), np.asarray(ptr, dtype=np.int64)
+        rows = np.repeat(np.arange(local.height), np.diff(ptr))
+        free = np.array(freedofs, dtype=bool) if freedofs is not None else np.ones(local.height, dtype=bool)
+        number = np.full(local.height, -1, dtype=np.int64)
+        number[free] = np.arange(int(free.sum()))
+        self._kept = np.flatnonzero(free[rows] & free[cols])
+        counts = np.bincount(number[rows[self._kept]], minlength=int(free.sum()))
+        self._ptr = np.concatenate([[0], np.cumsum(counts)]).astype(PETSc.IntType)
+        self._cols = number[cols[self._kept]].astype(PETSc.IntType)
+        if direct:               # serially, the free block straight from these arrays: ngsPETSc's way
+            size = len(self._ptr) - 1      # (AIJ, its free submatrix, a conversion) took 0.45–1.2 s at
+            self.mat = PETSc.Mat().createAIJ(size=(size, size), csr=(self._ptr, self._cols, self._values()),
+                                             comm=PETSc.COMM_SELF)   # 137 600 free DOFs (3D P2): 0.12 s
+
+    def _values(self):
+        """The NGSolve matrix's current values on the free block, in ``_ptr``/``_cols`` order."""
+        return self.matrix.local_mat.AsVector().FV().NumPy()[self._kept]
+
+    def refill(self):
+        """The NGSolve matrix's current values into ``mat``."""
+        PETSc, _ = load()
+        values = self._values()
+        if self.distributed:                             # the ranks' parts add up on shared DOFs
+            self.mat.zeroEntries()
+            self.mat.setValuesLocalCSR(self._ptr, self._cols, values, addv=PETSc.InsertMode.ADD_VALUES)
+        else:
+            self.mat.setValuesCSR(self._ptr, self._cols, values)
+        self.mat.assemble()
+
+
+class MumpsFactorization(ngs.BaseMatrix):
+    """The MUMPS factorisation of an NGSolve (parallel) sparse matrix on its free DOFs, as a
+    BaseMatrix: ``Mult`` solves; ``update()`` factorises the matrix's new values reusing the
+    analysis (the sparsity pattern must be the same).
+
+    Parameters
+    ----------
+    matrix : ngsolve SparseMatrix or ParallelMatrix.
+    freedofs : BitArray of the free DOFs.
+    symmetric : LDLᵀ (PETSc "cholesky") instead of LU; only for a symmetric matrix.
+
+    ``relaxation``: MUMPS's workspace relaxation ICNTL(14) (%) the last factorisation needed.
+    """
+
+    def __init__(self, matrix, freedofs, symmetric=False):
+        super().__init__()
+        PETSc, _ = load()
+        self.matrix, self.freedofs, self.symmetric = matrix, freedofs, symmetric
+        self.petsc = PetscMatrix(matrix, freedofs)
+        self._mark_symmetric()
+        self.pc = PETSc.PC().create(comm=self.petsc.mat.getComm())
+        self.pc.setOperators(self.petsc.mat)
+        self.pc.setType("cholesky" if symmetric else "lu")
+        self.pc.setFactorSolverType("mumps")
+        self.pc.setFactorSetUpSolverType()
+        self.relaxation = WORKSPACE_RELAXATION
+        self.pc.getFactorMatrix().setMumpsIcntl(14, self.relaxation)
+        with reading_options('the MUMPS factorisation of inverse="mumps"'):
+            self.pc.setFromOptions()                # PETSC_OPTIONS, e.g. -mat_mumps_icntl_4 2
+            check_factorisation(self.pc, self.symmetric, 'inverse="mumps"')
+            self._factorise()                       # MUMPS reads its -mat_mumps_* options here
+        self._x, self._y = self.petsc.mat.createVecs()
+
+    def _factorise(self):
+        """PCSetUp. A factorisation that ran out of its workspace (MUMPS's INFOG(1) = −9, PETSc's
+        FACTOR_OUTMEMORY: pivots delayed beyond the analysis's estimate, as in the symmetric
+        indefinite Jacobian of a 3D indentation, LDLᵀ on 2 ranks) is made again with twice the
+        relaxation ICNTL(14), up to ``MAX_RELAXATION`` %; any other failure raises with PETSc's
+        reason and MUMPS's INFOG(1), INFOG(2)."""
+        PETSc, _ = load()
+        while True:
+            self.pc.setUp()
+            reason = self.pc.getFailedReason()
+            if not reason:
+                return
+            factor = self.pc.getFactorMatrix()
+            info = factor.getMumpsInfog(1), factor.getMumpsInfog(2)
+            if reason == PETSc.PC.FailedReason.FACTOR_OUTMEMORY and 2 * self.relaxation <= MAX_RELAXATION:
+                self.relaxation *= 2
+                factor.setMumpsIcntl(14, self.relaxation)
+                self.pc.reset()
+                self.pc.setOperators(self.petsc.mat)
+                self.pc.setType("cholesky" if self.symmetric else "lu")
+                self.pc.setFactorSolverType("mumps")
+                self.pc.setFactorSetUpSolverType()
+                self.pc.getFactorMatrix().setMumpsIcntl(14, self.relaxation)
+                continue
+            names = {v: k for k, v in vars(PETSc.PC.FailedReason).items() if not k.startswith("_")}
+            raise ArithmeticError(f"the MUMPS factorisation failed (PETSc's reason: {names.get(reason, reason)}; "
+                                  f"MUMPS's INFOG(1) = {info[0]}, INFOG(2) = {info[1]}; "
+                                  f"{'LDLᵀ' if self.symmetric else 'LU'} of {self.petsc.mat.getSize()[0]} rows, "
+                                  f"workspace relaxation ICNTL(14) = {self.relaxation} %)")
+
+    def _mark_symmetric(self):
+        if self.symmetric:
+            PETSc, _ = load()
+            self.petsc.mat.setOption(PETSc.Mat.Option.SYMMETRIC, True)
+
+    def Update(self):
+        """Factorise the matrix's current values (same pattern): MUMPS's analysis is kept
+        (the name of NGSolve's inverses' method, so that ``DirectSolver`` treats both alike)."""
+        self.petsc.refill()
+        self._mark_symmetric()
+        self.pc.setOperators(self.petsc.mat)
+        self._factorise()
+
+    def Height(self):
+        return self.matrix.height
+
+    def Width(self):
+        return self.matrix.width
+
+    def CreateRowVector(self):
+        return self.matrix.CreateColVector()
+
+    def CreateColVector(self):
+        return self.matrix.CreateRowVector()
+
+    def Mult(self, x, y):
+        """y = A⁻¹ x on the free DOFs, 0 elsewhere (y cumulated on a distributed mesh)."""
+        self.petsc.vectors.petscVec(x, self._x)
+        self.pc.apply(self._x, self._y)
+        self.petsc.vectors.ngsVec(self._y, y)
+
+
+class WeightedGmres:
+    """PETSc's GMRES (left-preconditioned, no restart within ``maxiter``) for A w = r in
+    Newton's weighted norm, as ``linear_solver.gmres``: it runs on S A S⁻¹ (a shell operator
+    over the PetscMatrix ``matrix``, whose values the caller keeps current) with the
+    preconditioner S M S⁻¹, S = diag(weights)^½, M given by ``precondition(x, y)`` (y = M x on
+    PETSc vectors of A's layout), so that the preconditioned residual is measured in the weights'
+    norm (in the Euclidean norm the potential's entries, in V, swamped the displacement's, in m,
+    and Newton diverged)."""
+
+    def __init__(self, matrix, precondition):
+        PETSc, _ = load()
+        self.matrix, self.precondition = matrix, precondition
+        A = matrix.mat
+        comm = A.getComm()
+        self._x, self._b = A.createVecs()
+        self._scale, self._inverse_scale, self._t, self._s = (self._x.duplicate() for _ in range(4))
+        self._weighted = False
+        self._scale.set(1.0)
+        self._inverse_scale.set(1.0)
+        operator = PETSc.Mat().createPython(A.getSizes(), context=_ScaledOperator(self), comm=comm)
+        operator.setUp()
+        self.ksp = PETSc.KSP().create(comm=comm)
+        self.ksp.setType("gmres")
+        self.ksp.setOperators(operator)
+        pc = self.ksp.getPC()
+        pc.setType("python")
+        pc.setPythonContext(_ScaledPreconditioner(self))
+
+    def _weights(self, template, weights):
+        """S and S⁻¹ as PETSc vectors (ones without weights); made again only for new weights
+        (Newton's norm keeps its array within a step)."""
+        if weights is self._weighted:
+            return
+        self._weighted = weights
+        if weights is None:
+            self._scale.set(1.0)
+        else:
+            cumulated = template.CreateVector()
+            cumulated.FV().NumPy()[:] = np.sqrt(weights)
+            if hasattr(cumulated, "SetParallelStatus"):
+                cumulated.SetParallelStatus(ngs.la.PARALLEL_STATUS.CUMULATED)
+            self.matrix.vectors.petscVec(cumulated, self._scale)
+        self._inverse_scale.set(1.0)
+        self._inverse_scale.pointwiseDivide(self._inverse_scale, self._scale)
+
+    def solve(self, r, w, weights, tol, maxiter):
+        """w ≈ A⁻¹ r (NGSolve vectors) to ``tol`` in ``maxiter`` iterations at most: returns
+        (converged, iterations, PETSc's converged reason)."""
+        self._weights(r, weights)
+        self.matrix.vectors.petscVec(r, self._b)
+        self._b.pointwiseMult(self._b, self._scale)                         # S r
+        self.ksp.setGMRESRestart(max(1, int(maxiter)))
+        self.ksp.setTolerances(rtol=tol, atol=0.0, max_it=max(1, int(maxiter)))
+        self.ksp.solve(self._b, self._x)
+        self._x.pointwiseMult(self._x, self._inverse_scale)                 # w = S⁻¹ y
+        self.matrix.vectors.ngsVec(self._x, w)
+        reason = self.ksp.getConvergedReason()
+        return reason > 0, self.ksp.getIterationNumber(), reason
+
+    def apply(self, r, w):
+        """w = M r (NGSolve vectors): the preconditioner alone."""
+        self.matrix.vectors.petscVec(r, self._b)
+        self.precondition(self._b, self._x)
+        self.matrix.vectors.ngsVec(self._x, w)
+
+
+class _ScaledOperator:
+    """The PETSc python matrix S A S⁻¹ of ``WeightedGmres``."""
+
+    def __init__(self, gmres):
+        self.gmres = gmres
+
+    def mult(self, mat, x, y):
+        g = self.gmres
+        g._t.pointwiseMult(x, g._inverse_scale)
+        g.matrix.mat.mult(g._t, y)
+        y.pointwiseMult(y, g._scale)
+
+
+class _ScaledPreconditioner:
+    """The PETSc python PC S M S⁻¹ of ``WeightedGmres``."""
+
+    def __init__(self, gmres):
+        self.gmres = gmres
+
+    def apply(self, pc, x, y):
+        g = self.gmres
+        g._s.pointwiseMult(x, g._inverse_scale)
+        g.precondition(g._s, y)
+        y.pointwiseMult(y, g._scale)
+
+
+class KeptMumps:
+    """w = A⁻¹ r by PETSc's GMRES preconditioned by the MUMPS factorisation of an earlier
+    Jacobian, on a distributed mesh (``linear_solver.KeptFactorization``'s GMRES works on one
+    rank's numpy arrays). A new factorisation (of A itself: its solve is exact) is made when
+    there is none, when ``generation`` or the free DOFs changed, or when GMRES does not reach
+    ``tol`` within ``budget`` iterations. GMRES measures the preconditioned residual in
+    Newton's weighted norm (``WeightedGmres``). Same ``solve`` protocol and counters as
+    ``linear_solver.KeptFactorization``."""
+
+    def __init__(self, symmetric=False, *, tol=1e-8, budget=20):
+        self.symmetric, self.tol, self.budget = symmetric, tol, int(max(1, budget))
+        self.krylov_iterations = self.krylov_failures = self.factorizations = 0
+        self._factorization = self._current = self._gmres = self._generation = None
+
+    name = "GMRES preconditioned by a kept MUMPS factorisation of an earlier Jacobian (PETSc)"
+
+    def _setup(self, matrix, freedofs):
+        self._factorization = MumpsFactorization(matrix, freedofs, self.symmetric)
+        self._current = PetscMatrix(matrix, freedofs)
+        self._gmres = WeightedGmres(self._current, lambda x, y: self._factorization.pc.apply(x, y))
+        self.factorizations += 1
+
+    def solve(self, matrix, freedofs, r, w, generation=None, timer=None, weights=None, tol=None, changing=None):
+        """w = A⁻¹ r (``changing`` is not used)."""
+        timer = timer or (lambda phase: nullcontext())
+        tol = self.tol if tol is None else tol
+        if self._factorization is None or self._factorization.matrix is not matrix \
+                or self._factorization.freedofs is not freedofs:
+            with timer("factorization"):
+                self._setup(matrix, freedofs)
+            fresh = True
+        elif generation != self._generation:
+            self._refactor(timer)
+            fresh = True
+        else:
+            self._current.refill()
+            fresh = False
+        self._generation = generation
+        if not fresh:                                    # GMRES with the kept factorisation
+            with timer("solve"):
+                converged, iterations, _ = self._gmres.solve(r, w, weights, tol, self.budget)
+            self.krylov_iterations += iterations
+            if not converged:                            # a factorisation pays: make it
+                self.krylov_failures += 1
+                self._refactor(timer)
+                fresh = True
+        if fresh:                                        # the factorisation of A itself: exact
+            with timer("solve"):
+                self._gmres.apply(r, w)
+
+    def _refactor(self, timer):
+        """Factorise the current Jacobian (``_current`` is refilled before its next use)."""
+        with timer("factorization"):
+            self._factorization.Update()
+        self.factorizations += 1
+
+    @property
+    def relaxation(self):
+        """MUMPS's workspace relaxation ICNTL(14) (%) of the kept factorisation (None before one)."""
+        return None if self._factorization is None else self._factorization.relaxation
+
+    def __repr__(self):
+        return f"KeptMumps(symmetric={self.symmetric})"

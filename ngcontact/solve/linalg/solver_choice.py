@@ -1,0 +1,133 @@
+"""Which linear solver makes the Newton corrections of a simulation (``Simulation(inverse=,
+reuse_factorization=, iterative=)``), chosen by the system's symmetry, size and dimension.
+
+* ``iterative`` (``multigrid.MultigridSolver``, GMRES with Γ3 solves around block multigrid
+  for P1, block BDDC for P2 and higher): by default in 3D from ``ITERATIVE_FROM`` DOFs
+  without static condensation, for P1 on nested meshes (``meshes.nested_mesh``); direct
+  factorisations fill in like n^(4/3) there.
+* on a mesh distributed over MPI ranks: MUMPS (``inverse="mumps"``, through PETSc: the
+  factorisation spread over the ranks) where PETSc is installed, else NGSolve's
+  "masterinverse" (the Jacobian gathered and factorised on rank 0), at every Newton iteration;
+* ``inverse="mumps"`` serially: MUMPS's LDLᵀ (symmetric Jacobian) or LU, kept as GMRES's
+  preconditioner like the other factorisations;
+* else a direct factorisation: kept between Newton iterations as GMRES's preconditioner
+  (``linear_solver.KeptFactorization``; of the symmetric part for a non-symmetric Jacobian),
+  or made at every iteration (``reuse_factorization=False``, and Nitsche's θ = −1, whose
+  skew Γ3 part makes GMRES slower than factorising, docs/speed.md).
+"""
+from ngcontact.solve.linalg import petsc_solver
+from ngcontact.solve.linalg.linear_solver import (NAMES, PARALLEL_NAMES, DirectSolver, KeptFactorization,
+                                                  factorization_worth)
+from ngcontact.meshes import refinements
+from ngcontact import parallel
+from ngcontact.parallel import oversubscribed
+from ngcontact.solve.linalg.multigrid import MultigridSolver, needs_nested_mesh
+from ngcontact.solve.linalg.petsc_iterative import GamgSolver
+
+ITERATIVE_FROM = 100_000
+"""DOFs from which 3D simulations on nested meshes solve iteratively by default (docs/scale.md)."""
+
+
+def iterative_by_default(body, condense, distributed=False):
+    """The default of ``iterative``: in 3D from ITERATIVE_FROM DOFs without condensation,
+    "multigrid" serially on nested meshes (for P1), "gamg" on a distributed mesh where PETSc is
+    installed; else False (a factorisation)."""
+    if body.dim != 3 or body.ndof < ITERATIVE_FROM or condense:
+        return False
+    if distributed:
+        return "gamg" if petsc_solver.available() else False
+    nested = (refinements(body.mesh) or 0) >= 1 or not needs_nested_mesh(body)
+    return "multigrid" if nested else False
+
+
+def choose(body, contact, system, space, *, inverse, reuse_factorization, iterative, electric, condense,
+           realcompile=None, distributed=False):
+    """(the Newton corrections' solver, the solver of the potential at t = 0) for ``body``
+    and ``contact`` on the StepSystem ``system`` of the product ``space`` (``realcompile``: of
+    the preconditioner forms' integrands; None: GAMG's by the mesh size, the multigrid
+    hierarchy's not). ``distributed`` (a mesh over several MPI ranks):
+    NGSolve's "masterinverse" at every iteration (``check_simulation``)."""
+    names = NAMES + (PARALLEL_NAMES if distributed else ())
+    if inverse is not None and inverse not in names:
+        raise ValueError(f"inverse must be one of {', '.join(map(repr, names))} or None, got {inverse!r}")
+    if iterative not in (None, True, False, "multigrid", "gamg"):
+        raise ValueError(f"iterative must be None (automatic), True, False, 'multigrid' or 'gamg', got {iterative!r}")
+    symmetric = (contact is None or contact.symmetric) and body.tensors.linear   # a law's Nitsche term: not
+    if iterative is None:
+        iterative = inverse is None and iterative_by_default(body, condense, distributed)
+    if iterative is True:
+        iterative = "gamg" if distributed else "multigrid"
+    if iterative:
+        if inverse is not None:
+            raise ValueError(f"iterative={iterative!r} solves by GMRES; it takes no inverse= (got {inverse!r})")
+        if condense:
+            raise ValueError(f"iterative={iterative!r} needs condense=False (its preconditioner acts on all DOFs)")
+        layer = space.GetDofs(body.region("contact_side")) if contact is not None else None
+        if iterative == "gamg":                  # PETSc; distributed or serial
+            return (GamgSolver(body, system, layer, realcompile=realcompile),
+                    GamgSolver(body, system, layer, realcompile=realcompile))
+    if distributed:                              # what cannot run there raised in check_simulation
+        name = inverse or ("mumps" if petsc_solver.available() else PARALLEL_NAMES[0])
+        sym = symmetric and name == "mumps"
+        if name == "mumps" and reuse_factorization and not oversubscribed():   # PETSc's GMRES, kept MUMPS
+            return (petsc_solver.KeptMumps(sym, budget=factorization_worth(body.ndof, body.dim)),
+                    DirectSolver(name, symmetric=sym))
+        return DirectSolver(name, symmetric=sym), DirectSolver(name, symmetric=sym)
+    if iterative:                                # "multigrid": NGSolve's, on nested meshes
+        if needs_nested_mesh(body) and refinements(body.mesh) is None:
+            raise ValueError("iterative='multigrid' needs nested meshes: make the mesh with "
+                             "ngcontact.meshes.nested_mesh(ngmesh, refine) (ngcontact.geometries do), or "
+                             "use iterative='gamg' (PETSc)")
+        newton = MultigridSolver(body, system, layer, electric=electric, realcompile=realcompile is True)
+        potential = MultigridSolver(body, system, layer, electric=True, realcompile=realcompile is True,
+                                    displacement=False)
+        return newton, potential
+    name = inverse or ("sparsecholesky" if symmetric else "umfpack")
+    skew = contact is not None and contact.enforcement_method.skew_symmetric
+    if name == "mumps":                          # LDLᵀ or LU by symmetry; kept as GMRES's preconditioner
+        direct = DirectSolver(name, symmetric=symmetric)
+        if not reuse_factorization:
+            return direct, DirectSolver(name, symmetric=symmetric)
+        return (KeptFactorization(direct, budget=factorization_worth(body.ndof, body.dim)),
+                DirectSolver(name, symmetric=symmetric))
+    if not reuse_factorization or (inverse is None and skew):
+        return DirectSolver(name), DirectSolver(name)
+    budget = factorization_worth(body.ndof, body.dim)
+    if inverse is None and not symmetric:       # LDLᵀ of the symmetric part: the skew part lives on Γ3
+        return KeptFactorization(DirectSolver("sparsecholesky"), symmetric=True, budget=budget), DirectSolver(name)
+    return KeptFactorization(DirectSolver(name), budget=budget), DirectSolver(name)
+
+
+def check_simulation(mesh, contact, inverse, condense, reuse_factorization, iterative=None):
+    """What a Simulation on a distributed mesh cannot do raises a ValueError naming the
+    feature: the nodal constraint (``method="active_set"``: scipy saddle point systems of one
+    rank), a serial ``inverse``, ``iterative="multigrid"`` (NGSolve's
+    multigrid: NGSolve 6.2.2608 cannot refine a distributed mesh, so it has no nested meshes;
+    ``iterative=True`` is PETSc's GAMG there). Returns the serial defaults switched off,
+    with the reason (``Simulation.parallel_notes``; [] on a serial mesh): without PETSc the
+    corrections are solved by NGSolve's "masterinverse" (the Jacobian gathered and factorised
+    on rank 0) at every Newton iteration. Static condensation runs distributed as serially
+    (NGSolve condenses each rank's elements; the Schur complement is factorised by MUMPS or
+    masterinverse)."""
+    if not parallel.is_distributed(mesh):
+        return []
+    method = None if contact is None else contact.enforcement_method
+    if method is not None and not method.distributable:
+        what, why = method.serial_only
+        parallel.serial_only(mesh, f"Contact.method {method.name!r} ({what})", why)
+    if inverse is not None and inverse not in ("mumps", "masterinverse"):
+        parallel.serial_only(mesh, f"inverse={inverse!r}", "use inverse='mumps' (PETSc) or 'masterinverse', or leave "
+                    "inverse=None (MUMPS where PETSc is installed, else NGSolve's 'masterinverse')")
+    if iterative == "multigrid":
+        parallel.serial_only(mesh, "iterative='multigrid' (GMRES with NGSolve's multigrid)", "a distributed mesh has no "
+                    "nested meshes (NGSolve 6.2.2608 cannot refine it); use iterative=True or 'gamg' (PETSc's "
+                    "algebraic multigrid)")
+    notes = []
+    mumps = inverse == "mumps" or (inverse is None and petsc_solver.available())
+    if reuse_factorization and not mumps:
+        notes.append("reuse_factorization: off (its GMRES works on the rank's numpy arrays); "
+                     "the direct solver factorises at every Newton iteration")
+    elif reuse_factorization and parallel.oversubscribed():
+        notes.append("reuse_factorization: off (more ranks than cores: GMRES's collective operations "
+                     "would wait for descheduled ranks); MUMPS factorises at every Newton iteration")
+    return notes

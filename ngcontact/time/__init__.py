@@ -1,0 +1,5 @@
+"""Time: the time schemes (``schemes``: backward Euler, BDF2) and the stepping of a run (nominal
+steps with cut-backs, or steps chosen by the error estimate).
+
+May import: the foundation, ``ngcontact.model``, ``ngcontact.gamma3`` and ``ngcontact.solve``.
+"""
