@@ -30,7 +30,7 @@ from ngcontact.output.observables import Recorder
 from ngcontact.output.progress import bar
 from ngcontact.output.records import History
 from ngcontact.time.schemes import DEFAULT, StepCoefficients, scheme_class
-from ngcontact.solve.linalg.solver_choice import check_simulation, choose
+from ngcontact.solve.linalg.solver_choice import as_options, check_simulation, resolve
 from ngcontact.solve.starts import Starts
 from ngcontact.solve.step_length import StepLength
 from ngcontact.solve.linalg.matrices import free_jacobian
@@ -52,6 +52,13 @@ class Simulation:
         paper's (4.3)–(4.5)).
     u0 : initial displacement (number tuple or CoefficientFunction), zero on Γ1 and admissible;
         default 0. Newton's start of a step may differ from it (``step(dt, guess=...)``).
+    solver : the linear solver of the Newton corrections: None (default: chosen by the system's
+        symmetry, size and dimension, see ``inverse``, ``reuse_factorization`` and ``iterative``,
+        the options of earlier releases that tune it), a name (``solver_choice.names()``: every
+        direct solver of NGSolve's ``la.GetAvailableSolvers()`` and "mumps", each kept as GMRES's
+        preconditioner between iterations as by default; or "multigrid", "gamg"), or an object
+        with the protocol ``solve.linalg.protocol.LinearSolver`` (a ``solve`` method and a
+        ``name``), used as it is.
     inverse : the direct factorisation of the Newton corrections ("sparsecholesky",
         "umfpack", "pardiso", or "mumps": PETSc's MUMPS, LDLᵀ or LU by the Jacobian's
         symmetry, serial or distributed, where PETSc is installed: ``petsc_solver``); default
@@ -106,7 +113,7 @@ class Simulation:
     bonding field ``beta`` (``beta.values``), and ``history``, one StepRecord per step.
     """
 
-    def __init__(self, body, loads=None, *, contact=None, time=None, u0=None, inverse=None,
+    def __init__(self, body, loads=None, *, contact=None, time=None, u0=None, solver=None, inverse=None,
                  rtol=1e-10, maxit=50, keep_states=True, predictor=False, condense=None, realcompile=None,
                  limit_steps=True, reuse_factorization=True, iterative=None, electric=None, physical_checks=True,
                  scheme=DEFAULT, globalise=True):
@@ -118,7 +125,9 @@ class Simulation:
             physical_checks, globalise = options.values()
         Scheme = scheme_class(scheme)
         self.body = body
-        self.parallel_notes = check_simulation(body.mesh, contact, inverse, condense, reuse_factorization, iterative)
+        inverse_used, iterative_used = as_options(solver, inverse, iterative, reuse_factorization)
+        self.parallel_notes = check_simulation(body.mesh, contact, inverse_used, condense, reuse_factorization,
+                                               iterative_used)
         self.loads = loads or Loads()
         self.loads.check(body)
         self.time = time if time is not None else ngs.Parameter(0.0)
@@ -132,7 +141,7 @@ class Simulation:
         self.gfu = ngs.GridFunction(self.X, name="state")
         self.u, self.phi = self.gfu.components
         distributed = parallel.is_distributed(body.mesh)     # see solver_choice.check_simulation, parallel_notes
-        automatic = has_interior_dofs(self.X) and body.tensors.linear and iterative in (None, False)  # not under GMRES
+        automatic = has_interior_dofs(self.X) and body.tensors.linear and iterative_used in (None, False)  # not GMRES
         self.condense = automatic if condense is None else bool(condense)
         self.condense &= contact is None or contact.enforcement_method.condensable
         kept = body.region("contact_side") if contact is not None else None
@@ -149,10 +158,10 @@ class Simulation:
             self.gamma3, self._gap_check = build_gamma3(body, contact, self.system, realcompile is True)
             if realcompile is None:              # by what the run will do (``machine_code``)
                 self._machine_code = MachineCode(self.system, self.gamma3.side.B.ndof, body.dim, self.electric)
-        solver, self._potential_solver = choose(body, contact, self.system, self.X, inverse=inverse,
-                                                reuse_factorization=reuse_factorization, iterative=iterative,
-                                                electric=self.electric, condense=self.condense,
-                                                realcompile=realcompile, distributed=distributed)
+        solver, self._potential_solver = resolve(solver, body, contact, self.system, self.X, inverse=inverse,
+                                                 reuse_factorization=reuse_factorization, iterative=iterative,
+                                                 electric=self.electric, condense=self.condense,
+                                                 realcompile=realcompile, distributed=distributed)
         hook = self.gamma3.enforcement.newton_hook if contact is not None else None
         limit = None
         if contact is not None and hook is None and limit_steps:

@@ -181,7 +181,7 @@ def register(h):
     refused("iterative='petsc'", reference(iterative="petsc"), VE, "iterative")
     refused("iterative=1", reference(iterative=1), TE, "iterative")
     refused("inverse='MUMPS'", reference(inverse="MUMPS"), VE, "inverse")
-    refused("inverse='masterinverse' (serial)", reference(inverse="masterinverse"), VE, "inverse")
+    refused("inverse='lu' (no such solver)", reference(inverse="lu"), VE, "inverse")
     refused("inverse=b'mumps'", reference(inverse=b"mumps"), TE, "inverse")
     refused("inverse=['mumps']", reference(inverse=["mumps"]), TE, "inverse")
 

@@ -49,6 +49,7 @@ import ngsolve as ngs
 import numpy as np
 
 from ngcontact import parallel
+from ngcontact.solve.linalg.solver_choice import describe
 from ngcontact.gamma3.contact import Contact
 from ngcontact.model.loads import Loads
 from ngcontact.model.materials import Material
@@ -114,18 +115,11 @@ def run_options(dt, T, rtol=None, dt_min=None, event_dt=None, max_cutbacks=None,
 
 
 def _solver(sim):
-    """The ``options.*`` fields of the linear solver as used: ``inverse`` (the factorisation's
-    name, None for an iterative solver), ``reuse_factorization`` (kept as GMRES's
-    preconditioner), ``iterative`` ("multigrid", "gamg" or False) and ``realcompile`` (as given:
-    True, False, or None where the rule of ``machine_code`` decides)."""
-    solver = sim.newton.solver
-    kind = type(solver).__name__
-    iterative = {"MultigridSolver": "multigrid", "GamgSolver": "gamg"}.get(kind, False)
-    inverse = None if iterative else "mumps" if kind == "KeptMumps" else getattr(getattr(solver, "direct", solver),
-                                                                              "name", None)
+    """The ``options.*`` fields of the linear solver as used (``solver_choice.describe``: ``inverse``,
+    ``reuse_factorization``, ``iterative``) and ``realcompile`` (as given: True, False, or None where
+    the rule of ``machine_code`` decides)."""
     automatic = getattr(sim, "_machine_code", None) is not None
-    return {"options.inverse": inverse, "options.reuse_factorization": kind in ("KeptFactorization", "KeptMumps"),
-            "options.iterative": iterative, "options.realcompile": None if automatic else bool(sim.realcompile)}
+    return {**describe(sim.newton.solver), "options.realcompile": None if automatic else bool(sim.realcompile)}
 
 
 def differences(stored, current):

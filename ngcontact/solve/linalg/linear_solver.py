@@ -28,17 +28,17 @@ decision reads (``solver_restart``; measured in docs/time.md).
 from contextlib import contextmanager, nullcontext
 
 import ngsolve as ngs
-import ngsolve.config
 import numpy as np
 
 from ngcontact.solve.linalg import petsc_solver
 from ngcontact.solve.linalg.gmres import gmres
 
 
-NAMES = ("sparsecholesky", "umfpack") + (("pardiso",) if ngsolve.config.USE_PARDISO else ()) + petsc_solver.NAMES
-"""The direct solvers (``inverse=`` names): this NGSolve build's ("pardiso" only where NGSolve
-was built with MKL, which the PyPI wheel is not) and PETSc's MUMPS (``petsc_solver``; serial
-and distributed, where PETSc is installed)."""
+NAMES = tuple(dict.fromkeys(("sparsecholesky", "umfpack") + tuple(sorted(ngs.la.GetAvailableSolvers())) + petsc_solver.NAMES))
+"""The direct solvers by name: every name of this NGSolve's ``la.GetAvailableSolvers()`` (some need
+a package of their own: "pardiso" the ``mkl`` wheel, "cudss" nvmath-python; a factorisation
+that NGSolve cannot make here is refused at the first one, by name) and PETSc's MUMPS
+(``petsc_solver``; serial and distributed, where PETSc is installed)."""
 PARALLEL_NAMES = ("masterinverse",)
 """The direct solver of a ParallelMatrix on a distributed mesh: NGSolve gathers the matrix on
 rank 0 and factorises it there (exact for non-symmetric matrices; "umfpack" and
@@ -129,7 +129,10 @@ class DirectSolver:
             if self.name in petsc_solver.NAMES:
                 self._inverse = petsc_solver.MumpsFactorization(matrix, freedofs, self.symmetric)
             else:
-                self._inverse = matrix.Inverse(freedofs, inverse=self.name)
+                try:
+                    self._inverse = matrix.Inverse(freedofs, inverse=self.name)
+                except Exception as err:            # a solver NGSolve lists but cannot load here
+                    raise ValueError(f"solver {self.name!r}: NGSolve cannot factorise with it here: {err}") from None
         self._matrix, self._freedofs = matrix, freedofs
         self.factorizations += 1
 

@@ -24,6 +24,9 @@ from ngcontact.parallel import oversubscribed
 from ngcontact.solve.linalg.multigrid import MultigridSolver, needs_nested_mesh
 from ngcontact.solve.linalg.petsc_iterative import GamgSolver
 
+ITERATIVE = ("multigrid", "gamg")
+"""The iterative solvers by name: GMRES with Γ3 solves around NGSolve's multigrid on nested
+meshes (or BDDC), and around PETSc's GAMG."""
 ITERATIVE_FROM = 100_000
 """DOFs from which 3D simulations on nested meshes solve iteratively by default (docs/scale.md)."""
 
@@ -38,6 +41,71 @@ def iterative_by_default(body, condense, distributed=False):
         return "gamg" if petsc_solver.available() else False
     nested = (refinements(body.mesh) or 0) >= 1 or not needs_nested_mesh(body)
     return "multigrid" if nested else False
+
+
+def names(distributed=False):
+    """The names ``Simulation(solver=...)`` takes: the direct solvers (``linear_solver.NAMES``,
+    NGSolve's and MUMPS) and the iterative ones (``ITERATIVE``)."""
+    return NAMES + (PARALLEL_NAMES if distributed and PARALLEL_NAMES[0] not in NAMES else ()) + ITERATIVE
+
+
+def resolve(spec, body, contact, system, space, *, electric, condense, realcompile=None, distributed=False,
+            inverse=None, reuse_factorization=True, iterative=None):
+    """(the Newton corrections' solver, the solver of the potential at t = 0) for the
+    ``Simulation(solver=spec)``: None (chosen by the system, as ``choose``: with the options
+    ``inverse``, ``reuse_factorization`` and ``iterative`` of earlier releases), a name of
+    ``names()`` (a direct solver kept as GMRES's preconditioner between iterations, or an
+    iterative one), or an object with the ``protocol.LinearSolver`` protocol, used as it is (the
+    potential at t = 0 is then solved as without it). The only place that reads a solver's name."""
+    options = dict(electric=electric, condense=condense, realcompile=realcompile, distributed=distributed)
+    if spec is None:
+        return choose(body, contact, system, space, inverse=inverse, reuse_factorization=reuse_factorization,
+                      iterative=iterative, **options)
+    if isinstance(spec, str):
+        allowed = names(distributed)
+        if spec not in allowed:
+            raise ValueError(f"solver must be None, an object with a solve() method (ngcontact.solve.linalg."
+                             f"protocol.LinearSolver) or one of {', '.join(map(repr, allowed))}; got {spec!r}")
+        if spec in ITERATIVE:
+            return choose(body, contact, system, space, inverse=None, reuse_factorization=True, iterative=spec,
+                          **options)
+        return choose(body, contact, system, space, inverse=spec, reuse_factorization=True, iterative=False,
+                      **options)
+    if not (callable(getattr(spec, "solve", None)) and isinstance(getattr(spec, "name", None), str)):
+        raise TypeError(f"solver must be None, a name or an object with a solve() method and a name "
+                        f"(ngcontact.solve.linalg.protocol.LinearSolver), got {type(spec).__name__}")
+    _, potential = choose(body, contact, system, space, inverse=None, reuse_factorization=True, iterative=False,
+                          **options)
+    return spec, potential
+
+
+def as_options(spec, inverse, iterative, reuse_factorization):
+    """(inverse, iterative) of the earlier options for ``Simulation(solver=spec)`` (a name:
+    the direct or iterative solver it names; None or an object: the options as given), for the
+    checks on a distributed mesh (``check_simulation``). A solver given with the earlier options
+    (``inverse``, ``iterative``, ``reuse_factorization=False``) is refused: they would contradict."""
+    if spec is None:
+        return inverse, iterative
+    if inverse is not None or iterative is not None or reuse_factorization is False:
+        raise ValueError("Simulation: give the linear solver by solver= alone, or by the earlier options inverse=, "
+                         f"iterative=, reuse_factorization=, not both (solver={spec!r}, inverse={inverse!r}, "
+                         f"iterative={iterative!r}, reuse_factorization={reuse_factorization!r})")
+    if isinstance(spec, str):
+        return (None, spec) if spec in ITERATIVE else (spec, False)
+    return None, False
+
+
+def describe(solver):
+    """The ``options.*`` of a run's fingerprint for its solver as used: ``inverse`` (the
+    factorisation's name, None for an iterative solver or one of the user's), ``reuse_factorization``
+    (kept as GMRES's preconditioner) and ``iterative`` ("multigrid", "gamg" or False)."""
+    iterative = "multigrid" if isinstance(solver, MultigridSolver) else "gamg" if isinstance(solver, GamgSolver) \
+        else False
+    kept = isinstance(solver, (KeptFactorization, petsc_solver.KeptMumps))
+    direct = getattr(solver, "direct", solver)
+    inverse = None if iterative else "mumps" if isinstance(solver, petsc_solver.KeptMumps) else \
+        direct.name if isinstance(direct, DirectSolver) else None
+    return {"options.inverse": inverse, "options.reuse_factorization": kept, "options.iterative": iterative}
 
 
 def choose(body, contact, system, space, *, inverse, reuse_factorization, iterative, electric, condense,

@@ -1,0 +1,112 @@
+"""The linear solver of Newton's corrections behind one protocol: ``Simulation(solver=...)`` takes
+None, a name or an object, and every name gives the same steps."""
+import numpy as np
+import pytest
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+import ngcontact as ngc
+from ngcontact.scenes import reference
+from ngcontact.solve.linalg import petsc_solver, solver_choice
+from ngcontact.solve.linalg.protocol import LinearSolver
+
+DT = 0.02
+"""Two steps of the reference history: the plate pressed onto the foundation (contact, glue,
+conduction: a non-symmetric Jacobian)."""
+
+
+def forces(sim):
+    sim.run(DT, 2 * DT)
+    return np.array([r.contact.force for r in sim.history[1:]])
+
+
+def working(name):
+    """A direct solver's name that factorises here (some of NGSolve's need a package of their own:
+    "pardiso" the mkl wheel, "cudss" nvmath-python, "mumps" PETSc)."""
+    if name in petsc_solver.NAMES:
+        return petsc_solver.available()
+    try:
+        reference.simulation(1, 0.02, solver=name).step(DT)
+    except ValueError as err:
+        if "cannot factorise with it here" in str(err):
+            return False
+        raise
+    return True
+
+
+@pytest.fixture(scope="module")
+def reference_forces():
+    return forces(reference.simulation(1, 0.01))
+
+
+DIRECT = [name for name in solver_choice.names() if name not in solver_choice.ITERATIVE]
+
+
+@pytest.mark.parametrize("name", DIRECT)
+def test_every_direct_solver_by_name_gives_the_same_steps(name, reference_forces):
+    """Each name resolve takes (kept as GMRES's preconditioner) gives the contact forces of the
+    default solver to 1e-8; "sparsecholesky" of this non-symmetric Jacobian is a preconditioner
+    only (GMRES makes the correction exact). A name NGSolve lists but cannot load here says so."""
+    if not working(name):
+        with pytest.raises(ValueError, match=f"solver '{name}'|needs PETSc|PETSc"):
+            forces(reference.simulation(1, 0.01, solver=name))
+        pytest.skip(f"{name} cannot factorise here")
+    got = forces(reference.simulation(1, 0.01, solver=name))
+    assert np.abs(got - reference_forces).max() <= 1e-8 * np.abs(reference_forces).max()
+
+
+def test_the_iterative_solvers_by_name_give_the_same_steps_on_the_3d_block():
+    """"multigrid" (GMRES around NGSolve's multigrid on the nested mesh) on the 3D block gives the
+    contact force of the default factorisation to 1e-8."""
+    direct = reference.simulation(1, 0.02, dim=3)
+    iterative = reference.simulation(1, 0.02, dim=3, solver="multigrid")
+    a, b = (s.step(DT).contact.force for s in (direct, iterative))
+    assert type(iterative.newton.solver).__name__ == "MultigridSolver"
+    assert np.abs(a - b).max() <= 1e-8 * np.abs(a).max()
+
+
+class ScipyLU:
+    """Newton's corrections by SciPy's sparse LU of the free block: the protocol, written here."""
+    name = "scipy splu"
+
+    def __init__(self):
+        self.factorizations = 0
+
+    def solve(self, matrix, freedofs, r, w, generation=None, timer=None, weights=None, tol=None, changing=None):
+        free = np.flatnonzero(np.array(list(freedofs), dtype=bool))
+        rows, cols, values = matrix.COO()
+        J = sp.csc_matrix((np.asarray(values), (np.asarray(rows), np.asarray(cols))), shape=(matrix.height,) * 2)
+        x = np.zeros(matrix.height)
+        x[free] = spla.splu(J[free][:, free]).solve(r.FV().NumPy()[free])
+        w.FV().NumPy()[:] = x
+        self.factorizations += 1
+
+
+def test_a_solver_object_runs_the_reference_scene_without_an_edit_of_the_package(reference_forces):
+    mine = ScipyLU()
+    assert isinstance(mine, LinearSolver)
+    sim = reference.simulation(1, 0.01, solver=mine)
+    got = forces(sim)
+    assert np.abs(got - reference_forces).max() <= 1e-8 * np.abs(reference_forces).max()
+    assert sim.newton.solver is mine and mine.factorizations == sum(r.newton_iterations for r in sim.history[1:])
+    assert sim.history[-1].factorizations > 0 and "scipy splu" in repr(sim)
+
+
+def test_the_solver_is_checked_before_any_work():
+    with pytest.raises(ValueError, match=r"solver must be None, an object .* or one of 'sparsecholesky', "
+                                         r"'umfpack'.*; got 'lu'"):
+        reference.simulation(1, 0.02, solver="lu")
+    with pytest.raises(TypeError, match="solver must be None, a name or an object with a solve"):
+        reference.simulation(1, 0.02, solver=42)
+    with pytest.raises(ValueError, match="give the linear solver by solver= alone"):
+        reference.simulation(1, 0.02, solver="umfpack", inverse="umfpack")
+    with pytest.raises(ValueError, match="give the linear solver by solver= alone"):
+        reference.simulation(1, 0.02, solver="umfpack", reuse_factorization=False)
+
+
+def test_a_name_resolves_to_what_the_earlier_options_made():
+    """solver="umfpack" is inverse="umfpack"; solver="multigrid" is iterative="multigrid"."""
+    a = reference.simulation(1, 0.02, solver="umfpack")
+    b = reference.simulation(1, 0.02, inverse="umfpack")
+    assert repr(a.newton.solver) == repr(b.newton.solver)
+    assert solver_choice.describe(a.newton.solver) == solver_choice.describe(b.newton.solver)
