@@ -6,12 +6,17 @@ method, Newton, the time scheme of ``schemes``, the recorder), then ``step(dt)``
 transactional step, ``advance(t)`` reaches a time with cut-backs where Newton fails, and
 ``run(dt, T)`` steps to a final time.
 """
+from __future__ import annotations
+
+import os
 import time as wallclock
 import warnings
 from functools import partial
+from typing import Callable
 
 import ngsolve as ngs
 import numpy as np
+import scipy.sparse as sp
 
 from ngcontact import arguments, parallel
 from ngcontact.solve import continuation
@@ -23,19 +28,25 @@ from ngcontact.model.admissible import (PhysicsWarning, check_initial_displaceme
                                         scene_flags)
 from ngcontact.checks import integer, number, uses_only
 from ngcontact.model.electric_part import electric_parts, solves_potential
+from ngcontact.gamma3.contact import Contact
+from ngcontact.model.body import Body
 from ngcontact.model.loads import Loads, as_cf
 from ngcontact.model.machine_code import ITERATIONS_PER_STEP, MachineCode
 from ngcontact.solve.newton import Newton, NewtonResult, Timings
 from ngcontact.output.observables import Recorder
 from ngcontact.output.progress import bar
-from ngcontact.output.records import History
+from ngcontact.output.records import History, StepRecord
 from ngcontact.time.schemes import DEFAULT, StepCoefficients, scheme_class
 from ngcontact.solve.linalg.solver_choice import as_options, check_simulation, resolve
-from ngcontact.solve.starts import Starts
+from ngcontact.solve.starts import Approach, Starts
 from ngcontact.solve.step_length import StepLength
 from ngcontact.solve.linalg.matrices import free_jacobian
+from ngcontact.solve.linalg.protocol import LinearSolver
 from ngcontact.solve.system import StepSystem, has_interior_dofs
 
+
+Guess = str | tuple | ngs.CoefficientFunction | Approach | None
+"""Newton's start of a step (``starts``): "nested", "p1", a displacement, or ``Approach(depth)``."""
 
 class Simulation:
     """Time stepping of a Body under Loads, with a contact law on Γ3 (backward Euler, the
@@ -113,10 +124,13 @@ class Simulation:
     bonding field ``beta`` (``beta.values``), and ``history``, one StepRecord per step.
     """
 
-    def __init__(self, body, loads=None, *, contact=None, time=None, u0=None, solver=None, inverse=None,
-                 rtol=1e-10, maxit=50, keep_states=True, predictor=False, condense=None, realcompile=None,
-                 limit_steps=True, reuse_factorization=True, iterative=None, electric=None, physical_checks=True,
-                 scheme=DEFAULT, globalise=True):
+    def __init__(self, body: Body, loads: Loads | None = None, *, contact: Contact | None = None,
+                 time: ngs.Parameter | None = None, u0: tuple | ngs.CoefficientFunction | None = None,
+                 solver: str | LinearSolver | None = None, inverse: str | None = None, rtol: float = 1e-10,
+                 maxit: int = 50, keep_states: bool = True, predictor: bool = False, condense: bool | None = None,
+                 realcompile: bool | None = None, limit_steps: bool = True, reuse_factorization: bool = True,
+                 iterative: bool | str | None = None, electric: bool | None = None, physical_checks: bool = True,
+                 scheme: str = DEFAULT, globalise: bool = True) -> None:
         options = arguments.simulation(body, loads, contact, time, inverse, dict(
             keep_states=keep_states, predictor=predictor, condense=condense, realcompile=realcompile,
             limit_steps=limit_steps, reuse_factorization=reuse_factorization, iterative=iterative,
@@ -249,7 +263,7 @@ class Simulation:
         return record
 
     # ----------------------------------------------------------------------- stepping
-    def step(self, dt, guess=None):
+    def step(self, dt: float, guess: Guess = None) -> StepRecord:
         """One step of the time scheme, of length dt (s); returns its StepRecord. ``guess``:
         Newton's start instead of the last state (``starts``: a displacement, which may
         penetrate, ``starts.Approach(depth)``, "nested" or "p1"). Transactional: either t, u,
@@ -283,7 +297,8 @@ class Simulation:
             warnings.warn(message, PhysicsWarning, stacklevel=2)
         return record
 
-    def advance(self, target, max_cutbacks=6, on_step=None, guess=None):
+    def advance(self, target: float, max_cutbacks: int = 6, on_step: Callable | None = None,
+                guess: Guess = None) -> list[StepRecord]:
         """Reach the time ``target`` (s) in one step, or, where Newton fails, in two half
         steps, each halved again on failure, down to 1/2^max_cutbacks of the step
         (max_cutbacks in [0, ``arguments.MAX_CUTBACKS``]); returns the new StepRecords and
@@ -294,8 +309,9 @@ class Simulation:
         max_cutbacks, on_step = arguments.cutbacks(max_cutbacks), arguments.callback(on_step)
         return stepping.advance(self, arguments.later("target time", target, self.t), max_cutbacks, on_step, guess)
 
-    def run(self, dt, T, *, max_cutbacks=6, progress=False, vtk=None, on_step=None, out=None, guess=None,
-            rtol=None, dt_min=None, event_dt=None):
+    def run(self, dt: float, T: float, *, max_cutbacks: int = 6, progress: bool = False, vtk: str | None = None,
+            on_step: Callable | None = None, out: str | os.PathLike | None = None, guess: Guess = None,
+            rtol: float | None = None, dt_min: float | None = None, event_dt: float | None = None) -> History:
         """Step from the current time to T (s) with nominal steps dt (s); returns the History.
         With ``rtol`` (a relative local error per step, for a scheme with an error estimate:
         "bdf2") the steps are chosen by it instead, dt the first (``stepping``): rejected tries
@@ -355,7 +371,7 @@ class Simulation:
                 self.newton.on_iteration = None
         return self.history
 
-    def resume(self, directory):
+    def resume(self, directory: str | os.PathLike) -> Simulation:
         """Continue a run streamed into ``directory`` (``run(..., out=directory)``) that was
         interrupted: its last step on disk becomes this simulation's state and history (the
         simulation must be freshly built, of the same scene and time scheme: ``results.restore``
@@ -391,7 +407,7 @@ class Simulation:
                               (self.gfu.vec.FV().NumPy(), [X.Range(0), X.Range(1)]))
 
     # ----------------------------------------------------------------------- reading the state
-    def state(self, n):
+    def state(self, n: int) -> ngs.GridFunction:
         """GridFunction of (u, φ) at step n (needs ``keep_states``): n an integer in [0, len(history) − 1],
         or from the end in [−len(history), −1]; a TypeError or IndexError naming n and that range otherwise."""
         arguments.history_index(n, len(self.history))
@@ -401,7 +417,7 @@ class Simulation:
         gf.vec.FV().NumPy()[:] = self.history[n].state
         return gf
 
-    def jacobian(self, scaled=True):
+    def jacobian(self, scaled: bool = True) -> sp.csr_matrix:
         """The step Jacobian R'(x) at the current state (with the last step's t and dt) on the
         free DOFs, as a scipy CSR matrix; ``scaled``: S J S with S = diag(s_u^-½, s_φ^-½), s_b
         the mean of |diagonal| over block b (the scaling of Newton's norms)."""

@@ -162,6 +162,24 @@ def test_the_old_import_paths_give_the_modules_of_the_layers():
     assert ngc.newton.__name__ == ngc.newton.__spec__.name == "ngcontact.solve.newton"
 
 
+def test_the_public_api_is_typed():
+    """Every parameter of the public constructors and of Simulation's public methods is annotated,
+    and the annotations resolve (``typing.get_type_hints``); Contact and Loads are dataclasses."""
+    import dataclasses
+    import typing
+    from ngcontact.solve.linalg.protocol import LinearSolver
+    callables = [ngc.Body.__init__, ngc.Simulation.__init__] + [
+        getattr(ngc.Simulation, name) for name in ("step", "advance", "run", "resume", "state", "jacobian")]
+    for function in callables:
+        hints = typing.get_type_hints(function)
+        parameters = [p for p in inspect.signature(function).parameters.values()
+                      if p.name != "self" and p.kind is not p.VAR_KEYWORD]
+        assert {p.name for p in parameters} <= set(hints) and "return" in hints, function.__qualname__
+    assert dataclasses.is_dataclass(ngc.Contact) and dataclasses.is_dataclass(ngc.Loads)
+    assert typing.get_type_hints(LinearSolver.solve)["return"] is type(None)
+    assert typing.get_type_hints(ngc.Simulation.__init__)["solver"] == str | LinearSolver | None
+
+
 def test_every_package_is_installed():
     config = tomllib.loads((ROOT / "pyproject.toml").read_text())
     listed = set(config["tool"]["setuptools"]["packages"])

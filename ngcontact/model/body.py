@@ -9,6 +9,8 @@ Boundaries are named as in the Netgen mesh; a part may list several names joined
 * electric:   Γa ``grounded`` (φ prescribed, 0 by default), Γb = the rest (charges qb),
   with Γ3 ⊂ Γb.
 """
+from __future__ import annotations
+
 import functools
 
 import ngsolve as ngs
@@ -53,8 +55,9 @@ class Body:
     so that what one simulation sets on it (static condensation) does not reach another.
     """
 
-    def __init__(self, mesh, material, *, clamped=None, grounded=None, contact_side=None, supports=None, order=1,
-                 order_phi=None, **renamed):
+    def __init__(self, mesh: ngs.Mesh, material: Material, *, clamped: str | tuple | None = None,
+                 grounded: str | tuple | None = None, contact_side: str | tuple | None = None,
+                 supports: tuple | list | None = None, order: int = 1, order_phi: int | None = None, **renamed) -> None:
         if "contact" in renamed:
             raise TypeError("Body(contact=...) is now Body(contact_side=...): the boundary names of Γ3 "
                             "(contact= is the contact law, given to Simulation)")
