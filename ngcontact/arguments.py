@@ -19,15 +19,13 @@ from ngcontact.model.body import Body
 from ngcontact.checks import MAX_STEPS, flag, integer, number, writable_directory
 from ngcontact.gamma3.contact import Contact
 from ngcontact.model.loads import Loads
+from ngcontact.solve.linalg.solver_choice import ITERATIVE
 from ngcontact.time.stepping import MIN_DT, RESOLUTION
 
 MAX_CUTBACKS = 20
 """Halvings of a step (2^-20 ~ 1e-6 of it). The smallest step of a run is then
 dt/2^20 >= T/(MAX_STEPS 2^20) ~ 9.5e-13 T, above ``RESOLUTION``."""
 AUTOMATIC = ("condense", "realcompile", "iterative", "electric")
-ITERATIVE_KINDS = ("multigrid", "gamg")
-"""The iterative solvers ``Simulation(iterative=...)`` names: NGSolve's multigrid on nested
-meshes (``multigrid``, serial) and PETSc's GAMG (``petsc_iterative``, serial or distributed)."""
 """The options of Simulation that are True, False or None (automatic); the others are True
 or False."""
 
@@ -45,9 +43,9 @@ def simulation(body, loads, contact, time, inverse, options):
             raise TypeError(f"Simulation: {name} must be {expected}, got {type(value).__name__}")
     iterative = options.get("iterative")
     if isinstance(iterative, str):                  # or the name of an iterative solver
-        if iterative not in ITERATIVE_KINDS:
+        if iterative not in ITERATIVE:
             raise ValueError(f"Simulation: iterative must be True, False, None or one of "
-                             f"{', '.join(map(repr, ITERATIVE_KINDS))}, got {iterative!r}")
+                             f"{', '.join(map(repr, ITERATIVE))}, got {iterative!r}")
         options = dict(options, iterative=None)
     checked = {name: flag(name, value, none=name in AUTOMATIC) for name, value in options.items()}
     if isinstance(iterative, str):

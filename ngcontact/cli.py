@@ -259,15 +259,15 @@ def _refuse_before_work(args):
     --solver gamg, --solver iterative under mpiexec; cluster --factorisations; cluster's
     solvers are sorted out by ``cluster.plan``)."""
     if args.command == "bench" and not args.merge:
-        if args.inverse and args.solver in ("iterative", "multigrid", "gamg"):
+        choice = ngcontact.solve.linalg.solver_choice
+        if args.inverse and args.solver in ("iterative",) + choice.ITERATIVE:
             raise ValueError(f"--inverse {args.inverse} with --solver {args.solver}: the iterative solvers solve by "
                              "GMRES with their own preconditioner and take no --inverse; drop one of the two")
-        if args.inverse == "mumps":
-            _needs_petsc("--inverse mumps")
-        if args.solver == "gamg":
-            _needs_petsc("--solver gamg")
-        if args.solver == "iterative" and ngcontact.parallel.world() is not None:
-            _needs_petsc("--solver iterative under mpiexec (PETSc's GAMG)")
+        if args.inverse and choice.needs_petsc(args.inverse):
+            _needs_petsc(f"--inverse {args.inverse}")
+        if choice.needs_petsc(args.solver):
+            under = " under mpiexec (PETSc's GAMG)" if args.solver not in choice.ITERATIVE else ""
+            _needs_petsc(f"--solver {args.solver}{under}")
     elif args.command == "cluster" and args.factorisations:
         _needs_petsc("--factorisations (MUMPS)")
 

@@ -79,6 +79,12 @@ def resolve(spec, body, contact, system, space, *, electric, condense, realcompi
     return spec, potential
 
 
+def needs_petsc(name):
+    """Whether the solver ``name`` runs on PETSc ("mumps", "gamg"; "iterative" under mpiexec, which
+    is GAMG there): for the command line's refusals before any work."""
+    return name in petsc_solver.NAMES or name == "gamg" or (name == "iterative" and parallel.world() is not None)
+
+
 def as_options(spec, inverse, iterative, reuse_factorization):
     """(inverse, iterative) of the earlier options for ``Simulation(solver=spec)`` (a name:
     the direct or iterative solver it names; None or an object: the options as given), for the
