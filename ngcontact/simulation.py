@@ -172,8 +172,8 @@ class Simulation:
             self.gamma3, self._gap_check = build_gamma3(body, contact, self.system, realcompile is True)
             if realcompile is None:              # by what the run will do (``machine_code``)
                 self._machine_code = MachineCode(self.system, self.gamma3.side.B.ndof, body.dim, self.electric)
-        solver, self._potential_solver = resolve(solver, body, contact, self.system, self.X, inverse=inverse,
-                                                 reuse_factorization=reuse_factorization, iterative=iterative,
+        solver, self._potential_solver = resolve(solver, body, contact, self.system, self.X, inverse=inverse_used,
+                                                 reuse_factorization=reuse_factorization, iterative=iterative_used,
                                                  electric=self.electric, condense=self.condense,
                                                  realcompile=realcompile, distributed=distributed)
         hook = self.gamma3.enforcement.newton_hook if contact is not None else None

@@ -79,7 +79,7 @@ def build(body, contact, system, realcompile=False):
             check_normal(side, gap, normal, body.size)
     beta = BondingField(side, contact)
     enforcement = contact.enforcement_method.build(body, contact, side, gap=gap, coefficients=coefficients,
-                                          normal=normal)
+                                                   normal=normal)
 
     def terms(state, test):
         return forms.contact_terms(contact, enforcement, beta.gf, gap, foundation_potential, state, test, normal)

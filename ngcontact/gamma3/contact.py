@@ -85,7 +85,7 @@ class Contact:
                 if getattr(self, name) != default and getattr(self, name) != value:
                     raise ValueError(f"Contact.{name} = {getattr(self, name)!r} disagrees with the method "
                                      f"{given!r}: give {name} to the method only")
-                object.__setattr__(self, name, value)
+                setattr(self, name, value)
         for name, allowed, words in (("method", tuple(METHODS), "one of " + ", ".join(map(repr, METHODS))),
                                      ("gating", ("gap", "pressure"), "'gap' or 'pressure'"),
                                      ("beta_update", ("explicit", "implicit"), "'explicit' or 'implicit'")):

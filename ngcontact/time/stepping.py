@@ -44,6 +44,7 @@ class AccuracyWarning(UserWarning):
     """An error-controlled run accepted a step whose error estimate it could not bring within
     rtol (``FLOOR_SHRINK``); the message is also in ``Simulation.flags``."""
 
+
 SAFETY, MIN_SHRINK, MAX_GROWTH = 0.9, 0.2, 2.0
 """The controller's safety factor and the bounds of a step's change (MAX_GROWTH < 1 + √2, where
 variable-step BDF2 stays zero-stable)."""
@@ -72,6 +73,8 @@ def error_ratio(estimate, rtol, k, span):
     err = max(ratios.values(), default=0.0)
     factors = [SAFETY * ratio ** (-1 / ORDERS[CONTROLLED[f]]) for f, ratio in ratios.items() if ratio > 0]
     return err, min(MAX_GROWTH, max(MIN_SHRINK, min(factors, default=MAX_GROWTH)))
+
+
 FLOOR_SHRINK, FLOOR_FALL = 4.0, 2.0
 """A try FLOOR_SHRINK times shorter than the first one rejected for its error whose estimate fell
 by less than FLOOR_FALL has met a floor of the estimate that the step size does not reduce (a

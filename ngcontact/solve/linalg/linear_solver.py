@@ -34,7 +34,8 @@ from ngcontact.solve.linalg import petsc_solver
 from ngcontact.solve.linalg.gmres import gmres
 
 
-NAMES = tuple(dict.fromkeys(("sparsecholesky", "umfpack") + tuple(sorted(ngs.la.GetAvailableSolvers())) + petsc_solver.NAMES))
+NAMES = tuple(dict.fromkeys(("sparsecholesky", "umfpack") + tuple(sorted(ngs.la.GetAvailableSolvers()))
+                            + petsc_solver.NAMES))
 """The direct solvers by name: every name of this NGSolve's ``la.GetAvailableSolvers()`` (some need
 a package of their own: "pardiso" the ``mkl`` wheel, "cudss" nvmath-python; a factorisation
 that NGSolve cannot make here is refused at the first one, by name) and PETSc's MUMPS

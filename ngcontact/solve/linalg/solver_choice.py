@@ -1,5 +1,6 @@
-"""Which linear solver makes the Newton corrections of a simulation (``Simulation(inverse=,
-reuse_factorization=, iterative=)``), chosen by the system's symmetry, size and dimension.
+"""Which linear solver makes the Newton corrections of a simulation (``Simulation(solver=)``, or
+the earlier options ``inverse=``, ``reuse_factorization=``, ``iterative=``): the one place that
+reads a solver's name; by default chosen by the system's symmetry, size and dimension.
 
 * ``iterative`` (``multigrid.MultigridSolver``, GMRES with Γ3 solves around block multigrid
   for P1, block BDDC for P2 and higher): by default in 3D from ``ITERATIVE_FROM`` DOFs
@@ -20,7 +21,6 @@ from ngcontact.solve.linalg.linear_solver import (NAMES, PARALLEL_NAMES, DirectS
                                                   factorization_worth)
 from ngcontact.meshes import refinements
 from ngcontact import parallel
-from ngcontact.parallel import oversubscribed
 from ngcontact.solve.linalg.multigrid import MultigridSolver, needs_nested_mesh
 from ngcontact.solve.linalg.petsc_iterative import GamgSolver
 
@@ -43,62 +43,52 @@ def iterative_by_default(body, condense, distributed=False):
     return "multigrid" if nested else False
 
 
-def names(distributed=False):
+def names():
     """The names ``Simulation(solver=...)`` takes: the direct solvers (``linear_solver.NAMES``,
     NGSolve's and MUMPS) and the iterative ones (``ITERATIVE``)."""
-    return NAMES + (PARALLEL_NAMES if distributed and PARALLEL_NAMES[0] not in NAMES else ()) + ITERATIVE
-
-
-def resolve(spec, body, contact, system, space, *, electric, condense, realcompile=None, distributed=False,
-            inverse=None, reuse_factorization=True, iterative=None):
-    """(the Newton corrections' solver, the solver of the potential at t = 0) for the
-    ``Simulation(solver=spec)``: None (chosen by the system, as ``choose``: with the options
-    ``inverse``, ``reuse_factorization`` and ``iterative`` of earlier releases), a name of
-    ``names()`` (a direct solver kept as GMRES's preconditioner between iterations, or an
-    iterative one), or an object with the ``protocol.LinearSolver`` protocol, used as it is (the
-    potential at t = 0 is then solved as without it). The only place that reads a solver's name."""
-    options = dict(electric=electric, condense=condense, realcompile=realcompile, distributed=distributed)
-    if spec is None:
-        return choose(body, contact, system, space, inverse=inverse, reuse_factorization=reuse_factorization,
-                      iterative=iterative, **options)
-    if isinstance(spec, str):
-        allowed = names(distributed)
-        if spec not in allowed:
-            raise ValueError(f"solver must be None, an object with a solve() method (ngcontact.solve.linalg."
-                             f"protocol.LinearSolver) or one of {', '.join(map(repr, allowed))}; got {spec!r}")
-        if spec in ITERATIVE:
-            return choose(body, contact, system, space, inverse=None, reuse_factorization=True, iterative=spec,
-                          **options)
-        return choose(body, contact, system, space, inverse=spec, reuse_factorization=True, iterative=False,
-                      **options)
-    if not (callable(getattr(spec, "solve", None)) and isinstance(getattr(spec, "name", None), str)):
-        raise TypeError(f"solver must be None, a name or an object with a solve() method and a name "
-                        f"(ngcontact.solve.linalg.protocol.LinearSolver), got {type(spec).__name__}")
-    _, potential = choose(body, contact, system, space, inverse=None, reuse_factorization=True, iterative=False,
-                          **options)
-    return spec, potential
-
-
-def needs_petsc(name):
-    """Whether the solver ``name`` runs on PETSc ("mumps", "gamg"; "iterative" under mpiexec, which
-    is GAMG there): for the command line's refusals before any work."""
-    return name in petsc_solver.NAMES or name == "gamg" or (name == "iterative" and parallel.world() is not None)
+    return NAMES + ITERATIVE
 
 
 def as_options(spec, inverse, iterative, reuse_factorization):
-    """(inverse, iterative) of the earlier options for ``Simulation(solver=spec)`` (a name:
-    the direct or iterative solver it names; None or an object: the options as given), for the
-    checks on a distributed mesh (``check_simulation``). A solver given with the earlier options
-    (``inverse``, ``iterative``, ``reuse_factorization=False``) is refused: they would contradict."""
+    """(inverse, iterative) for ``Simulation(solver=spec)``, checked before any work: for a name, the
+    direct or iterative solver it names (one of ``names()``); for None, the earlier options as
+    given; an object must have a ``solve`` method and a ``name`` (``protocol.LinearSolver``). A
+    solver given with the earlier options (``inverse``, ``iterative``, ``reuse_factorization=False``)
+    is refused: they would contradict."""
     if spec is None:
         return inverse, iterative
     if inverse is not None or iterative is not None or reuse_factorization is False:
         raise ValueError("Simulation: give the linear solver by solver= alone, or by the earlier options inverse=, "
                          f"iterative=, reuse_factorization=, not both (solver={spec!r}, inverse={inverse!r}, "
                          f"iterative={iterative!r}, reuse_factorization={reuse_factorization!r})")
-    if isinstance(spec, str):
-        return (None, spec) if spec in ITERATIVE else (spec, False)
-    return None, False
+    if not isinstance(spec, str):
+        if not (callable(getattr(spec, "solve", None)) and isinstance(getattr(spec, "name", None), str)):
+            raise TypeError(f"solver must be None, a name or an object with a solve() method and a name "
+                            f"(ngcontact.solve.linalg.protocol.LinearSolver), got {type(spec).__name__}")
+        return None, False
+    if spec not in names():
+        raise ValueError(f"solver must be None, an object with a solve() method (ngcontact.solve.linalg."
+                         f"protocol.LinearSolver) or one of {', '.join(map(repr, names()))}; got {spec!r}")
+    return (None, spec) if spec in ITERATIVE else (spec, False)
+
+
+def resolve(spec, body, contact, system, space, *, inverse, reuse_factorization, iterative, **options):
+    """(the Newton corrections' solver, the solver of the potential at t = 0) for
+    ``Simulation(solver=spec)``, with ``inverse`` and ``iterative`` from ``as_options``: for None or a
+    name, ``choose`` (a direct solver is kept as GMRES's preconditioner between iterations unless
+    ``reuse_factorization`` is False); an object with the ``protocol.LinearSolver`` protocol is used
+    as it is (the potential at t = 0 solved as without it). ``options`` go to ``choose``."""
+    if spec is None or isinstance(spec, str):
+        return choose(body, contact, system, space, inverse=inverse, reuse_factorization=reuse_factorization,
+                      iterative=iterative, **options)
+    return spec, choose(body, contact, system, space, inverse=None, reuse_factorization=True, iterative=False,
+                        **options)[1]
+
+
+def needs_petsc(name):
+    """Whether the solver ``name`` runs on PETSc ("mumps", "gamg"; "iterative" under mpiexec, which
+    is GAMG there): for the command line's refusals before any work."""
+    return name in petsc_solver.NAMES or name == "gamg" or (name == "iterative" and parallel.world() is not None)
 
 
 def describe(solver):
@@ -121,10 +111,10 @@ def choose(body, contact, system, space, *, inverse, reuse_factorization, iterat
     the preconditioner forms' integrands; None: GAMG's by the mesh size, the multigrid
     hierarchy's not). ``distributed`` (a mesh over several MPI ranks):
     NGSolve's "masterinverse" at every iteration (``check_simulation``)."""
-    names = NAMES + (PARALLEL_NAMES if distributed else ())
-    if inverse is not None and inverse not in names:
-        raise ValueError(f"inverse must be one of {', '.join(map(repr, names))} or None, got {inverse!r}")
-    if iterative not in (None, True, False, "multigrid", "gamg"):
+    allowed = NAMES + (PARALLEL_NAMES if distributed else ())
+    if inverse is not None and inverse not in allowed:
+        raise ValueError(f"inverse must be one of {', '.join(map(repr, allowed))} or None, got {inverse!r}")
+    if iterative not in (None, True, False) + ITERATIVE:
         raise ValueError(f"iterative must be None (automatic), True, False, 'multigrid' or 'gamg', got {iterative!r}")
     symmetric = (contact is None or contact.symmetric) and body.tensors.linear   # a law's Nitsche term: not
     if iterative is None:
@@ -143,7 +133,7 @@ def choose(body, contact, system, space, *, inverse, reuse_factorization, iterat
     if distributed:                              # what cannot run there raised in check_simulation
         name = inverse or ("mumps" if petsc_solver.available() else PARALLEL_NAMES[0])
         sym = symmetric and name == "mumps"
-        if name == "mumps" and reuse_factorization and not oversubscribed():   # PETSc's GMRES, kept MUMPS
+        if name == "mumps" and reuse_factorization and not parallel.oversubscribed():   # PETSc's GMRES, kept MUMPS
             return (petsc_solver.KeptMumps(sym, budget=factorization_worth(body.ndof, body.dim)),
                     DirectSolver(name, symmetric=sym))
         return DirectSolver(name, symmetric=sym), DirectSolver(name, symmetric=sym)
@@ -190,12 +180,12 @@ def check_simulation(mesh, contact, inverse, condense, reuse_factorization, iter
         what, why = method.serial_only
         parallel.serial_only(mesh, f"Contact.method {method.name!r} ({what})", why)
     if inverse is not None and inverse not in ("mumps", "masterinverse"):
-        parallel.serial_only(mesh, f"inverse={inverse!r}", "use inverse='mumps' (PETSc) or 'masterinverse', or leave "
-                    "inverse=None (MUMPS where PETSc is installed, else NGSolve's 'masterinverse')")
+        parallel.serial_only(mesh, f"inverse={inverse!r}", "use inverse='mumps' (PETSc) or 'masterinverse', or "
+                             "leave inverse=None (MUMPS where PETSc is installed, else NGSolve's 'masterinverse')")
     if iterative == "multigrid":
-        parallel.serial_only(mesh, "iterative='multigrid' (GMRES with NGSolve's multigrid)", "a distributed mesh has no "
-                    "nested meshes (NGSolve 6.2.2608 cannot refine it); use iterative=True or 'gamg' (PETSc's "
-                    "algebraic multigrid)")
+        parallel.serial_only(mesh, "iterative='multigrid' (GMRES with NGSolve's multigrid)", "a distributed mesh "
+                             "has no nested meshes (NGSolve 6.2.2608 cannot refine it); use iterative=True or 'gamg' "
+                             "(PETSc's algebraic multigrid)")
     notes = []
     mumps = inverse == "mumps" or (inverse is None and petsc_solver.available())
     if reuse_factorization and not mumps:

@@ -76,7 +76,7 @@ def _case(dt, maxh, order):
     except ngc.NewtonError as err:     # a failed step ends the case: the study reports it
         failure = failure_kind(err.residuals)
     h = sim.history
-    load = APPLIED * np.array([reference_factor(t) for t in h.times[1:]])
+    load = APPLIED * np.interp(h.times[1:], *np.array(reference.LOAD_HISTORY).T)
     balance = h.reactions[1:, 1] + h.contact_column("force")[1:, 1] - load
     times, newton, crossed, touching = (np.array(c) for c in zip(*steps))
     first = int(np.argmax(touching))
@@ -90,11 +90,6 @@ def _case(dt, maxh, order):
                over_10=int(np.count_nonzero(newton[after] > 10)),
                balance=float(np.abs(balance).max() / APPLIED))
     return row, (times, newton, crossed)
-
-
-def reference_factor(t):
-    """The reference load history's factor at time t (s)."""
-    return float(np.interp(t, *np.array(reference.LOAD_HISTORY).T))
 
 
 def summary(rows):
