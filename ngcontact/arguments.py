@@ -97,11 +97,11 @@ def callback(on_step):
     return checks.callback("on_step", on_step, "the StepRecord")
 
 
-def run(sim, dt, T, max_cutbacks, progress, vtk, on_step, out):
-    """The arguments of ``Simulation.run``: (dt, T, max_cutbacks, progress) checked, the
-    directories of ``vtk`` and ``out`` writable (``out`` on every rank of a distributed mesh),
-    at most MAX_STEPS steps."""
-    dt, T = number("time step dt", dt, 0, low_open=True, unit="s"), later("final time T", T, sim.t)
+def run(t, mesh, dt, T, max_cutbacks, progress, vtk, on_step, out):
+    """The arguments of ``Simulation.run`` from the time t (s) on ``mesh``: (dt, T, max_cutbacks,
+    progress) checked, the directories of ``vtk`` and ``out`` writable (``out`` on every rank of
+    a distributed mesh), at most MAX_STEPS steps."""
+    dt, T = number("time step dt", dt, 0, low_open=True, unit="s"), later("final time T", T, t)
     max_cutbacks, progress = cutbacks(max_cutbacks), flag("progress", progress)
     callback(on_step)
     if vtk is not None:
@@ -109,15 +109,16 @@ def run(sim, dt, T, max_cutbacks, progress, vtk, on_step, out):
             raise TypeError(f"vtk must be a file name stem (str or pathlib.Path) or None, got {vtk!r}")
         writable_directory(pathlib.Path(vtk).parent, "vtk: the directory")
     if out is not None:
-        parallel.together(sim.body.mesh, writable_directory, out, "out: the directory")
-    if (T - sim.t) / dt > MAX_STEPS:
-        raise ValueError(f"time step dt = {dt:g} s gives {(T - sim.t) / dt:.3g} steps to T = {T:g} s; at "
+        parallel.together(mesh, writable_directory, out, "out: the directory")
+    if (T - t) / dt > MAX_STEPS:
+        raise ValueError(f"time step dt = {dt:g} s gives {(T - t) / dt:.3g} steps to T = {T:g} s; at "
                          f"most {MAX_STEPS:,} steps per run (a larger dt, or several runs)")
     return dt, T, max_cutbacks, progress
 
 
-def controlled(sim, dt, rtol, dt_min, event_dt, T=0.0):
-    """The error-controlled steps of ``run``: None without ``rtol`` (then ``dt_min`` and
+def controlled(newton_rtol, scheme, dt, rtol, dt_min, event_dt, T=0.0):
+    """The error-controlled steps of ``run`` with Newton's tolerance ``newton_rtol`` and the time
+    scheme ``scheme``: None without ``rtol`` (then ``dt_min`` and
     ``event_dt`` must be None too), else (dt_min, event_dt) in s, checked: rtol in (0, 0.1] and
     at least 100 times Newton's tolerance,
     a scheme with an error estimate, 0 < dt_min <= event_dt <= dt (defaults 1e-6 dt and
@@ -130,11 +131,11 @@ def controlled(sim, dt, rtol, dt_min, event_dt, T=0.0):
                 raise ValueError(f"run: {name} = {value!r} is for error-controlled steps: give rtol too")
         return None
     rtol = number("rtol", rtol, 0, 0.1, low_open=True)
-    if rtol < 100 * sim.newton.rtol:
-        raise ValueError(f"run: rtol = {rtol:g} is below 100 × Newton's tolerance ({sim.newton.rtol:g}): the error "
+    if rtol < 100 * newton_rtol:
+        raise ValueError(f"run: rtol = {rtol:g} is below 100 × Newton's tolerance ({newton_rtol:g}): the error "
                          "estimate would measure Newton's inexactness; a larger rtol, or Simulation(rtol=...) smaller")
-    if not hasattr(sim.scheme, "local_error"):
-        raise ValueError(f"run(rtol={rtol:g}): the scheme {sim.scheme.name!r} has no local error estimate to choose "
+    if not hasattr(scheme, "local_error"):
+        raise ValueError(f"run(rtol={rtol:g}): the scheme {scheme.name!r} has no local error estimate to choose "
                          "steps by; use Simulation(scheme='bdf2'), or fixed steps (no rtol)")
     smallest = max(MIN_DT, RESOLUTION * abs(T))               # the smallest step ``step`` takes up to T
     dt_min = number("dt_min", max(1e-6 * dt, smallest) if dt_min is None else dt_min, smallest, dt, unit="s")

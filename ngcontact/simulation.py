@@ -20,11 +20,11 @@ import scipy.sparse as sp
 
 from ngcontact import arguments, parallel
 from ngcontact.solve import continuation
-from ngcontact.gamma3.build import build as build_gamma3, gamma3_data
+from ngcontact.gamma3.build import build as build_gamma3
 from ngcontact.output import paraview, results
 from ngcontact.time import stepping
-from ngcontact.output.fingerprint import fingerprint
-from ngcontact.model.admissible import (PhysicsWarning, check_initial_displacement, check_supports_at_start, flags,
+from ngcontact.output.fingerprint import fingerprint, options as fingerprint_options
+from ngcontact.model.admissible import (PhysicsWarning, check_initial_displacement, check_supports_at_start,
                                         scene_flags)
 from ngcontact.checks import integer, number, uses_only
 from ngcontact.model.electric_part import electric_parts, solves_potential
@@ -38,7 +38,9 @@ from ngcontact.output.progress import bar
 from ngcontact.output.records import History, StepRecord
 from ngcontact.time.schemes import DEFAULT, StepCoefficients, scheme_class
 from ngcontact.solve.linalg.solver_choice import as_options, check_simulation, resolve
+from ngcontact.solve.nested import COARSE_OPTIONS, coarse_body
 from ngcontact.solve.starts import Approach, Starts
+from ngcontact.time.step import Step
 from ngcontact.solve.step_length import StepLength
 from ngcontact.solve.linalg.matrices import free_jacobian
 from ngcontact.solve.linalg.protocol import LinearSolver
@@ -148,7 +150,7 @@ class Simulation:
         number("rtol", rtol, 0, 1, low_open=True, high_open=True)
         integer("maxit", maxit, 1)
         uses_only(self.time, self.loads.coefficients() + (contact.coefficients() if contact is not None else []))
-        self.contact, self.keep_states = contact, keep_states
+        self.contact = contact
         self.X = body.space()
         self._electric_parts = electric_parts(body, self.loads, contact)
         self.electric = solves_potential(electric, self._electric_parts, body)
@@ -186,16 +188,25 @@ class Simulation:
         self.scheme = Scheme(coefficients, self.system, self.newton, self.gfu,
                              self.gamma3.beta if contact is not None else None, predictor,
                              self.gamma3.normal if contact is not None else None)
-        self.starts = Starts(self)              # checks that the supports and the contact hold the body
+        # checks that the supports and the contact hold the body; the levels of nested iteration
+        self.starts = Starts(body, self.gamma3, self.system, coefficients.at, partial(
+            self._coarse, dict(u0=u0, scheme=scheme, rtol=rtol, maxit=maxit, limit_steps=limit_steps,
+                               electric=self.electric)))
         self.recorder = Recorder(body, self.gfu, self.system, self.gamma3)
-        self.history = History()
-        self.cutbacks, self.rejections = [], []
-        self.physical_checks = bool(physical_checks)
-        self.flags = scene_flags(contact) if self.physical_checks else []     # what makes no physical sense
+        self.steps = Step(body, self.loads, contact, self.gamma3, self.scheme, self.starts, self.recorder, History(),
+                          electric=self.electric, keep_states=keep_states, physical_checks=bool(physical_checks),
+                          gap_check=self._gap_check, machine_code=self._machine_code,
+                          flags=scene_flags(contact) if physical_checks else [])     # what makes no physical sense
         for message in self.flags:
             warnings.warn(message, PhysicsWarning, stacklevel=2)
         self._resumed, self.u0 = None, u0         # the run info of resume(); u0 as given
         self._start(u0)
+
+    def _coarse(self, options, mesh, order):
+        """The Step of this scene on ``mesh`` at ``order`` (None: the body's), with Simulation's
+        ``options`` and ``nested.COARSE_OPTIONS``: a level of nested iteration."""
+        coarse = coarse_body(self.body, mesh, order)
+        return Simulation(coarse, self.loads, contact=self.contact, time=self.time, **options, **COARSE_OPTIONS).steps
 
     @property
     def realcompile(self):
@@ -221,6 +232,13 @@ class Simulation:
     enforcement = property(lambda self: self.gamma3.enforcement, doc="The enforcement method on Γ3.")
 
     t = property(lambda self: self.scheme.t, doc="The time of the last step, s.")
+    history = property(lambda self: self.steps.history, doc="The History: one StepRecord per step, step 0 first.")
+    cutbacks = property(lambda self: self.steps.cutbacks, doc="The failed tries of ``advance`` (dicts).")
+    rejections = property(lambda self: self.steps.rejections,
+                          doc="The tries an error-controlled ``run`` rejected (dicts).")
+    flags = property(lambda self: self.steps.flags, doc="The messages of what makes no physical sense.")
+    physical_checks = property(lambda self: self.steps.physical_checks, doc="Whether steps are checked.")
+    keep_states = property(lambda self: self.steps.keep_states, doc="Whether records keep (u, φ).")
     solver = property(lambda self: self.newton.solver_name,
                       doc="The linear solver of the Newton corrections, as it is actually used.")
 
@@ -250,17 +268,7 @@ class Simulation:
             residual = self.gfu.vec.CreateVector()
             self.system.Apply(self.gfu.vec, residual)
             result = NewtonResult(0, [0.0], residual)
-        self.history.append(self._record(0, result, start, timings))
-
-    def _record(self, n, result, start, timings):
-        """The StepRecord of step n, with its wall time since ``start`` split into ``timings``."""
-        record = self.recorder.record(n, self.t, result, keep_state=self.keep_states)
-        record.scheme = self.scheme.name
-        if n:
-            record.dt, record.order = self.t - self.history[-1].time, self.scheme.last_order
-        record.wall_s = wallclock.perf_counter() - start
-        record.timings = dict(timings, other=record.wall_s - sum(timings.values()))
-        return record
+        self.history.append(self.steps.record(0, result, start, timings))
 
     # ----------------------------------------------------------------------- stepping
     def step(self, dt: float, guess: Guess = None) -> StepRecord:
@@ -270,32 +278,7 @@ class Simulation:
         φ, β and the history all advance, or they are left bitwise as they were and the error
         (``NewtonError`` if Newton fails) is raised. dt, the guess and the data of Γ3 at t + dt
         are checked first (``arguments.time_step``, ``gamma3.build.gamma3_data``)."""
-        dt, guessed = arguments.time_step(dt, self.t), self.starts.resolve(guess)
-        n, start = len(self.history), wallclock.perf_counter()
-        saved, timings = self.scheme.checkpoint(), Timings()
-        try:
-            if self.contact is not None:                    # the data at t_n, before the solve
-                at = self.scheme.coefficients.at
-                gamma3_data(self.contact, self.gamma3, self.body.mesh, at, self.t + dt)
-                if self.contact.obstacle is None and isinstance(self.contact.gap, ngs.CoefficientFunction):
-                    with at(self.t + dt):
-                        self._gap_check(self.t + dt)
-            result = self.scheme.advance(dt, step=n, timer=timings, start=partial(self.starts.apply, guessed))
-            if self.system.laws is not None:        # (2.16)-(2.17) at the step's strains (``law_terms``)
-                self.system.laws.check_step(self.gfu.vec, n, self.t)
-            record = self._record(n, result, start, timings)
-        except BaseException:
-            self.scheme.restore(saved)
-            raise
-        self.history.append(record)
-        if self._machine_code is not None:
-            self._machine_code.account(record.newton_iterations)
-        found = flags(self.body, record, self.u, self.gamma3.side if self.gamma3 else None) \
-            if self.physical_checks else []
-        for message in found:
-            self.flags.append(message)
-            warnings.warn(message, PhysicsWarning, stacklevel=2)
-        return record
+        return self.steps.take(arguments.time_step(dt, self.t), guess)
 
     def advance(self, target: float, max_cutbacks: int = 6, on_step: Callable | None = None,
                 guess: Guess = None) -> list[StepRecord]:
@@ -307,7 +290,7 @@ class Simulation:
         cut-back is listed in ``cutbacks``. If even the smallest step fails, the NewtonError
         names the time steps tried; the state is that of the last computed step."""
         max_cutbacks, on_step = arguments.cutbacks(max_cutbacks), arguments.callback(on_step)
-        return stepping.advance(self, arguments.later("target time", target, self.t), max_cutbacks, on_step, guess)
+        return self.steps.advance(arguments.later("target time", target, self.t), max_cutbacks, on_step, guess)
 
     def run(self, dt: float, T: float, *, max_cutbacks: int = 6, progress: bool = False, vtk: str | None = None,
             on_step: Callable | None = None, out: str | os.PathLike | None = None, guess: Guess = None,
@@ -336,8 +319,9 @@ class Simulation:
         of ``vtk`` and ``out`` must be writable, at most ``checks.MAX_STEPS`` steps).
         """
         results.check_incomplete(self._resumed, self.history, T)      # resumed, complete: say so
-        dt, T, max_cutbacks, progress = arguments.run(self, dt, T, max_cutbacks, progress, vtk, on_step, out)
-        control = arguments.controlled(self, dt, rtol, dt_min, event_dt, T)
+        dt, T, max_cutbacks, progress = arguments.run(self.t, self.body.mesh, dt, T, max_cutbacks, progress, vtk,
+                                                      on_step, out)
+        control = arguments.controlled(self.newton.rtol, self.scheme, dt, rtol, dt_min, event_dt, T)
         self.starts.resolve(guess)
         resumed = self._resumed
         start = resumed["start"] if resumed and (resumed["dt"], resumed["T"], resumed.get("rtol")) == (dt, T, rtol) \
@@ -364,9 +348,9 @@ class Simulation:
                     f"t -> {self.time.Get():.4g} s, Newton {it}, residual {r:.1e}")
             try:
                 if control:
-                    stepping.controlled_steps(self, start, T, dt, rtol, after, shown, *control)
+                    stepping.controlled_steps(self.steps, start, T, dt, rtol, after, shown, *control)
                 else:
-                    stepping.nominal_steps(self, start, T, steps, max_cutbacks, after, shown, guess)
+                    stepping.nominal_steps(self.steps, start, T, steps, max_cutbacks, after, shown, guess)
             finally:
                 self.newton.on_iteration = None
         return self.history
@@ -403,8 +387,15 @@ class Simulation:
         body, X, side = self.body, self.X, self.gamma3.side if self.gamma3 is not None else None
         return results.Source(body.mesh, (self.u, self.phi), max(body.order, body.order_phi) - 1, side, self.history,
                               dict(ndof=X.ndofglobal, dim=body.dim, model=self.model, scheme=self.scheme.name),
-                              partial(fingerprint, self), self._restart_state,
-                              (self.gfu.vec.FV().NumPy(), [X.Range(0), X.Range(1)]))
+                              self.fingerprint, self._restart_state, (self.gfu.vec.FV().NumPy(), [X.Range(0), X.Range(1)]))
+
+    def fingerprint(self, T: float) -> dict:
+        """The fingerprint of this simulation's scene and options for a run to T (s): what
+        ``results`` stores and compares (``output.fingerprint``)."""
+        options = fingerprint_options(self.newton, self.scheme, self.electric, self.condense,
+                                      self._machine_code is not None)
+        return fingerprint(self.body, self.loads, self.contact, self.X.ndofglobal, options,
+                           self.scheme.coefficients.at, T)
 
     # ----------------------------------------------------------------------- reading the state
     def state(self, n: int) -> ngs.GridFunction:

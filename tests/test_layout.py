@@ -268,3 +268,30 @@ def test_readme_layout_table_matches_the_tree():
                if p.name not in ("__init__.py", "__main__.py", "__pycache__")}
     entries.discard("ngcontact/geometries/")                     # the link to geometries/
     assert entries <= listed, sorted(entries - listed)
+
+
+BELOW_SIMULATION = LAYERS + ("ngcontact.arguments", "ngcontact.estimators")
+"""What Simulation hands parts or its ``steps`` (``time.step.Step``) to, never itself."""
+
+
+def test_no_module_below_simulation_takes_the_simulation():
+    """No parameter named ``sim``/``simulation`` and no import of ``ngcontact.simulation`` below it:
+    they receive a ``Step``, its parts or plain data."""
+    wrong = []
+    for name, path in modules():
+        if not name.startswith(BELOW_SIMULATION):
+            continue
+        tree = ast.parse(path.read_text())
+        for node in ast.walk(tree):
+            if isinstance(node, (ast.FunctionDef, ast.Lambda)):
+                arguments = node.args.posonlyargs + node.args.args + node.args.kwonlyargs
+                wrong += [f"{name}: {getattr(node, 'name', 'lambda')}({a.arg})" for a in arguments
+                          if a.arg in ("sim", "simulation") and not (name.startswith("ngcontact.estimators")
+                                                                      and getattr(node, "name", "") in PUBLIC_ENTRY)]
+        wrong += [f"{name} imports {target}" for target, _ in imports(name, path) if target == "ngcontact.simulation"
+                  or target == "ngcontact" and "simulation" in (_ or [])]
+    assert not wrong, "\n".join(wrong)
+
+
+PUBLIC_ENTRY = ("__init__", "check")
+"""The estimator's documented entry ``EquilibratedEstimator(sim)``: it takes the simulation's ``steps``."""

@@ -286,7 +286,7 @@ def test_the_same_scene_resumes_however_its_data_are_written(stored):
     sim = reference.simulation(1, COARSE, contact=reference.contact(gap=ngs.CF(reference.CONTACT["gap"])))
     assert len(sim.resume(stored / "piezo").history) == 3 and sim.t == pytest.approx(2 * DT, abs=1e-15)
     sim.time.Set(0.0123)
-    found = fingerprint.fingerprint(sim, 0.5)
+    found = sim.fingerprint(0.5)
     assert sim.time.Get() == 0.0123
     times = np.array(found["sample times"])
     assert times.tolist() == [0.0, 0.125, 0.25, 0.375, 0.5]

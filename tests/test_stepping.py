@@ -186,13 +186,14 @@ def test_steps_at_a_floor_of_the_estimate_take_the_step_that_met_it_again(monkey
 
 
 def test_equal_nominal_steps_are_one_step_size():
-    """``run(0.005, 0.1)``: the steps are differences of target times (t_n − t_{n−1}), whose
-    round-off made 1/k differ in the last bits; the rate coefficient is rounded to 12 digits
-    (``schemes.coefficients.RATE_DIGITS``), so the system changes its bulk matrix once (the
-    start's c = 1/s, then 200/s: generation 2; without it 14) and the kept factorisation is made
-    2 times instead of 13."""
+    """``run(0.005, 0.1)``: step n reaches n·dt and its rate coefficient is 1/dt (the nominal
+    step, not t_n − t_{n−1}, whose round-off made 1/k differ in the last bits), so the system
+    changes its bulk matrix once (the start's c = 1/s, then 200/s: generation 2; from the
+    differences of target times, 14) and the kept factorisation is made 2 times instead of 13;
+    the times are the targets n·dt."""
     from ngcontact.scenes import reference
     sim = reference.simulation(1, 0.01, keep_states=False)
     sim.run(0.005, 0.1)
     assert sim.system.generation == 2 and sim.scheme.coefficients.rate.Get() == 200.0
     assert sum(r.factorizations for r in sim.history[1:]) <= 3
+    assert [r.time for r in sim.history] == [n * 0.005 for n in range(20)] + [0.1]

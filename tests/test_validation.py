@@ -284,7 +284,7 @@ def test_cutbacks_halve_without_recursion(mesh):
     def attempt(k, max_cutbacks):
         sim, depths = ngc.Simulation(body, keep_states=False), []
 
-        def step(dt, guess=None):
+        def take(dt, guess=None, target=None):
             depths.append(stack_depth())
             if dt > dt0 / 2 ** k * (1 + 1e-12):
                 raise ngc.NewtonError("did not converge", iteration=1, residuals=[1.0, 0.5], step=len(sim.history),
@@ -292,7 +292,7 @@ def test_cutbacks_halve_without_recursion(mesh):
             sim.scheme.t += dt
             sim.history.append(sim.scheme.t)
             return sim.scheme.t
-        sim.step, sim.history = step, [0.0]
+        sim.steps.take, sim.steps.history = take, [0.0]
         return sim, sim.advance(dt0, max_cutbacks=max_cutbacks), max(depths)
     (sim, times, deep), (_, _, shallow) = attempt(10, 10), attempt(2, 2)
     assert np.allclose(times, np.arange(1, 2 ** 10 + 1) * dt0 / 2 ** 10)

@@ -47,6 +47,7 @@ import numpy as np
 from ngcontact.model import forms
 from ngcontact import parallel
 from ngcontact.model.loads import as_cf
+from ngcontact.time.step import Step
 from .equilibration import Equilibration, Patches
 
 
@@ -105,12 +106,14 @@ def _stress_matrix(voigt, dim):
 
 
 def check(sim):
-    """Refuse what the estimator cannot estimate (``adapt`` asks before each level's solve): ``sim``
-    not a Simulation (TypeError), a distributed mesh, a nonlinear law, weak 'normal' supports."""
-    from ngcontact.simulation import Simulation
-    if not isinstance(sim, Simulation):
-        raise TypeError(f"the equilibrated estimator estimates an ngcontact.Simulation (sim), got {type(sim).__name__}")
-    body = sim.body
+    """The ``time.step.Step`` of ``sim`` (an ngcontact.Simulation's ``steps``, or a Step) after
+    refusing what the estimator cannot estimate (``adapt`` asks before each level's solve):
+    anything else (TypeError), a distributed mesh, a nonlinear law, weak 'normal' supports."""
+    steps = getattr(sim, "steps", sim)
+    if not isinstance(steps, Step):
+        raise TypeError(f"the equilibrated estimator estimates an ngcontact.Simulation (sim) or its steps, got "
+                        f"{type(sim).__name__}")
+    body = steps.body
     parallel.serial_only(body.mesh, "the equilibrated error estimator", "its vertex patches cross the ranks' "
                          "parts and are solved as one scipy system of one process")
     if not body.tensors.linear:
@@ -120,6 +123,7 @@ def check(sim):
         if support.normal:
             raise ValueError(f"the equilibrated estimator does not take weak 'normal' supports yet "
                              f"(support {support.key!r}: its normal is not an axis)")
+    return steps
 
 
 class EquilibratedEstimator:
@@ -128,13 +132,14 @@ class EquilibratedEstimator:
 
     Parameters
     ----------
-    sim : a Simulation (2D or 3D, any order); its mesh, body, loads and contact are read.
+    sim : a Simulation (2D or 3D, any order), or its ``steps`` (``time.step.Step``): its body,
+        loads, contact and state are read.
     """
 
     def __init__(self, sim):
-        check(sim)
-        body = sim.body
-        self.sim, self.body, self.dim = sim, body, body.dim
+        steps = check(sim)
+        body = steps.body
+        self.steps, self.body, self.dim = steps, body, body.dim
         T, dim = body.tensors, body.dim
         self.patches = Patches(body.mesh)
         self._rate = None
@@ -145,7 +150,7 @@ class EquilibratedEstimator:
         self._held = held
         grounded = set(body.boundaries["grounded"])
         self._flux = Equilibration(body.mesh, 1, body.order_phi + RAISE, self._electric_weight(T),
-                                   lambda name, i: name not in grounded, self.patches) if sim.electric else None
+                                   lambda name, i: name not in grounded, self.patches) if steps.electric else None
         self._stress = None                        # built for the rate c of the step (its weight)
         self._diameters, self._gamma3 = None, None
 
@@ -173,19 +178,19 @@ class EquilibratedEstimator:
     # ------------------------------------------------------------------ one step
     def __call__(self):
         """The ``Estimate`` of the simulation's current step."""
-        sim, body, dim = self.sim, self.body, self.dim
+        steps, body, dim = self.steps, self.body, self.dim
         T = body.tensors
-        coefficients = sim.system.coefficients
+        coefficients = steps.system.coefficients
         rate = coefficients.rate.Get() if T.viscous else 0.0
         C, S, s_max = self._compliance(rate)
         if self._stress is None or rate != self._rate:
             self._stress = Equilibration(body.mesh, dim, body.order + RAISE, self._stress_weight(S, SKEW_WEIGHT * s_max),
                                          lambda name, i: name not in self._held[i], self.patches)
             self._rate = rate
-        u, phi = sim.u, sim.phi
+        u, phi = steps.u, steps.phi
         strain_rate = rate * (forms.strain(u) - forms.strain(coefficients.anchor)) if T.viscous else None
         sigma_h = _stress_matrix(forms.stress(T, u, phi, strain_rate), dim)
-        loads, n = sim.loads, ngs.specialcf.normal(dim)
+        loads, n = steps.loads, ngs.specialcf.normal(dim)
         f0 = as_cf(loads.f0, dim) if loads.f0 is not None else ngs.CF((0.0,) * dim)
         t_mech, t_elec = self._boundary_data()
         values = self._stress(sigma_h, f0, t_mech)
@@ -220,9 +225,9 @@ class EquilibratedEstimator:
         """The Neumann data of σ* and D* on the boundary (CFs of dim and 1 components): the
         tractions f2 and charges qb where given (0 elsewhere on Γ2, Γb), and on Γ3 the
         representatives of the discrete Γ3 functional."""
-        sim, body, dim = self.sim, self.body, self.dim
+        steps, body, dim = self.steps, self.body, self.dim
         mesh = body.mesh
-        loads = sim.loads
+        loads = steps.loads
         t = {name: ngs.CF((0.0,) * dim) for name in mesh.GetBoundaries()}
         q = {name: ngs.CF(0.0) for name in mesh.GetBoundaries()}
         for key, value in loads.f2.items():
@@ -232,9 +237,9 @@ class EquilibratedEstimator:
             for name in key.split("|"):
                 q[name] = as_cf(value, 1)
         self._corrections = None
-        if sim.contact is not None:
+        if steps.contact is not None:
             if self._gamma3 is None:
-                self._gamma3 = Representative(sim)
+                self._gamma3 = Representative(steps)
             t_rep, q_rep, self._corrections = self._gamma3()
             for name in body.boundaries["contact_side"]:
                 t[name], q[name] = t_rep, q_rep
@@ -266,12 +271,12 @@ class EquilibratedEstimator:
 
     def _contact_term(self):
         """η_Γ3 = (∫_Γ3 λ_h |u_hν − g|)^½ (J^½; (J/m)^½ in 2D)."""
-        sim = self.sim
-        if sim.contact is None:
+        steps = self.steps
+        if steps.contact is None:
             return 0.0
-        g = sim.gamma3
-        lam = g.enforcement.multiplier(sim.u, sim.phi, forms.adhesion_traction(sim.contact, g.beta.gf, sim.u * g.normal))
-        opening = sim.u * g.normal - g.gap
+        g = steps.gamma3
+        lam = g.enforcement.multiplier(steps.u, steps.phi, forms.adhesion_traction(steps.contact, g.beta.gf, steps.u * g.normal))
+        opening = steps.u * g.normal - g.gap
         value = g.side.integrate(lam * ngs.IfPos(opening, opening, -opening))
         return float(np.sqrt(max(value, 0.0)))
 
@@ -299,27 +304,27 @@ def element_diameters(mesh):
     return out
 
 
-def pointwise_data(sim):
+def pointwise_data(steps):
     """(T_h, j_h): the traction on the body and the charge flux out of it that the Γ3 terms of
     the step residual give at each point of Γ3 at the current state — the coefficients of v and
     ξ in the integrand of R_Γ3 (``forms.contact_terms``) with ∇v = ∇ξ = 0: −λ_h ν and the
     glue's and the layer's pull and push, and the conduction flux ψ φ_L (CFs of dim and 1
     components). Nitsche's θ-term tests ∇v and is not among them."""
-    body, dim = sim.body, sim.body.dim
-    g = sim.gamma3
+    body, dim = steps.body, steps.body.dim
+    g = steps.gamma3
     V1 = ngs.VectorH1(body.mesh, order=1)
     W1 = ngs.H1(body.mesh, order=1)
     zero_v, zero_s = ngs.GridFunction(V1), ngs.GridFunction(W1)
-    state = (sim.u, sim.phi)
+    state = (steps.u, steps.phi)
     traction = []
     for i in range(dim):
         e_i = ngs.GridFunction(V1)
         e_i.Set(ngs.CF(tuple(1.0 if k == i else 0.0 for k in range(dim))))
-        traction.append(-forms.contact_terms(sim.contact, g.enforcement, g.beta.gf, g.gap, g.foundation_potential,
+        traction.append(-forms.contact_terms(steps.contact, g.enforcement, g.beta.gf, g.gap, g.foundation_potential,
                                              state, (e_i, zero_s), g.normal))
     one = ngs.GridFunction(W1)
     one.Set(1.0)
-    flux = -forms.contact_terms(sim.contact, g.enforcement, g.beta.gf, g.gap, g.foundation_potential, state,
+    flux = -forms.contact_terms(steps.contact, g.enforcement, g.beta.gf, g.gap, g.foundation_potential, state,
                                 (zero_v, one), g.normal)
     return ngs.CF(tuple(traction)), flux
 
@@ -333,17 +338,17 @@ class Representative:
     charge flux. c_h is what of the discrete Γ3 functional no pointwise traction gives (Nitsche's
     θ-term, quadrature). The P1 space of Γ3, its mass matrix and the DOF maps are set up once."""
 
-    def __init__(self, sim):
-        body = sim.body
+    def __init__(self, steps):
+        body = steps.body
         mesh, dim = body.mesh, body.dim
-        self.sim, self.dim = sim, dim
+        self.steps, self.dim = steps, dim
         self.region = body.region("contact_side")
         self.P1 = ngs.H1(mesh, order=1, definedon=self.region)
         self.w = self.P1.TestFunction()
         mass = ngs.BilinearForm(self.P1)
         mass += self.P1.TrialFunction() * self.w * ngs.ds(self.region)
         self.inverse = mass.Assemble().mat.Inverse(self.P1.FreeDofs(), inverse="sparsecholesky")
-        X = sim.X
+        X = steps.X
         V, W = X.components
         local, targets = [], [[] for _ in range(dim + 1)]
         for v in range(mesh.nv):
@@ -362,7 +367,7 @@ class Representative:
         # take the surface gradient): evaluated from the volume, then projected facet by facet
         # onto SurfaceL2 of order p, so that every later form reads them cheaply; the projection
         # keeps their moments against the hat functions, which is all the patch problems see
-        T_h, j_h = pointwise_data(sim)
+        T_h, j_h = pointwise_data(steps)
         surface = ngs.SurfaceL2(mesh, order=body.order, definedon=self.region)
         self._traction = ngs.GridFunction(surface ** dim if dim > 1 else surface)
         self._flux = ngs.GridFunction(surface)
@@ -371,9 +376,9 @@ class Representative:
 
     def __call__(self):
         """(t_h, j_h, (c_t, c_j)) at the simulation's current state."""
-        sim, dim = self.sim, self.dim
-        residual = sim.system.boundary_residual.FV().NumPy().copy()
-        hook = sim.gamma3.enforcement.newton_hook
+        steps, dim = self.steps, self.dim
+        residual = steps.system.boundary_residual.FV().NumPy().copy()
+        hook = steps.gamma3.enforcement.newton_hook
         if hook is not None:
             residual += hook.forces.FV().NumPy()
         T_cf, j_cf = self._pointwise_cf

@@ -67,12 +67,14 @@ _CENTRES = {et: ngs.IntegrationRule(et, 0) for et in
             (ngs.SEGM, ngs.TRIG, ngs.QUAD, ngs.TET, ngs.HEX, ngs.PRISM, ngs.PYRAMID)}
 
 
-def fingerprint(sim, T):
-    """The fingerprint of ``sim``'s scene (see the module), with the data sampled at
-    ``SAMPLE_TIMES`` times in [0, T] (T in s, the final time of the run)."""
-    body, mesh = sim.body, sim.body.mesh
-    sample = _Sampler(sim, np.linspace(0.0, float(T), SAMPLE_TIMES))
-    found = {"sample times": sample.times.tolist(), **_mesh(mesh, body.size), "space.ndof": sim.X.ndofglobal,
+def fingerprint(body, loads, contact, ndof, options, at, T):
+    """The fingerprint of the scene of ``body``, ``loads`` and ``contact`` (see the module) on a
+    space of ``ndof`` DOFs (over all ranks), solved with ``options`` (the ``options.*`` and
+    ``scheme`` fields, ``options``), with the data sampled at ``SAMPLE_TIMES`` times in [0, T]
+    (T in s, the final time of the run) inside ``at(t)`` (``StepCoefficients.at``)."""
+    mesh = body.mesh
+    sample = _Sampler(at, mesh, np.linspace(0.0, float(T), SAMPLE_TIMES))
+    found = {"sample times": sample.times.tolist(), **_mesh(mesh, body.size), "space.ndof": ndof,
              "body.order": body.order, "body.order_phi": body.order_phi}
     found.update({f"body.{part}": list(names) for part, names in body.boundaries.items()})
     found["body.supports"] = [repr(s) for s in body.supports]
@@ -81,20 +83,28 @@ def fingerprint(sim, T):
     for key, law in (("elasticity_law", body.tensors.F_law), ("viscosity_law", body.tensors.A_law)):
         if law is not None:      # its name (a built-in's parameters) and its sampled constants and tangent
             found[f"material.{key}"] = [law.name, law.lipschitz, law.monotonicity, law.linear.tolist()]
-    found.update(_contact(sim.contact, body, sample))
+    found.update(_contact(contact, body, sample))
     for f in dataclasses.fields(Loads):
-        value = getattr(sim.loads, f.name)
+        value = getattr(loads, f.name)
         if isinstance(value, dict):
             found.update({f"loads.{f.name}[{key!r}]": sample(v, mesh.Boundaries(key)) for key, v in value.items()})
         else:
             found[f"loads.{f.name}"] = sample(value, ngs.VOL)
-    found.update({"options.rtol": sim.newton.rtol, "options.maxit": sim.newton.maxit,
-                  "options.electric": bool(sim.electric), "options.predictor": bool(sim.scheme.predictor),
-                  "options.limit_steps": sim.newton.step_length is not None,
-                  "options.globalise": sim.newton.line_search is not None,
-                  "options.condense": bool(sim.condense), "options.solver": sim.solver, **_solver(sim),
-                  "scheme": sim.scheme.name})
+    found.update(options)
     return found
+
+
+def options(newton, scheme, electric, condense, machine_code_rule):
+    """The ``options.*`` and ``scheme`` fields of a simulation solved by ``newton`` with the time
+    scheme ``scheme``: Newton's rtol, maxit, step limit, globalisation and linear solver as used
+    (``solver_choice.describe``), ``electric`` and ``condense`` (as used), and ``realcompile``
+    (None where ``machine_code_rule`` decides, else whether the Γ3 integrand is compiled)."""
+    return {"options.rtol": newton.rtol, "options.maxit": newton.maxit, "options.electric": bool(electric),
+            "options.predictor": bool(scheme.predictor), "options.limit_steps": newton.step_length is not None,
+            "options.globalise": newton.line_search is not None, "options.condense": bool(condense),
+            "options.solver": newton.solver_name, **describe(newton.solver),
+            "options.realcompile": None if machine_code_rule else bool(scheme.system.machine_code),
+            "scheme": scheme.name}
 
 
 RUN_OPTIONS = ("dt", "T", "rtol", "dt_min", "event_dt", "max_cutbacks", "guess")
@@ -112,14 +122,6 @@ def run_options(dt, T, rtol=None, dt_min=None, event_dt=None, max_cutbacks=None,
             "run.event_dt": _plain(event_dt) if controlled else None,
             "run.max_cutbacks": None if controlled else _plain(max_cutbacks),
             "run.guess": guess if isinstance(guess, str) and not controlled else None}
-
-
-def _solver(sim):
-    """The ``options.*`` fields of the linear solver as used (``solver_choice.describe``: ``inverse``,
-    ``reuse_factorization``, ``iterative``) and ``realcompile`` (as given: True, False, or None where
-    the rule of ``machine_code`` decides)."""
-    automatic = getattr(sim, "_machine_code", None) is not None
-    return {**describe(sim.newton.solver), "options.realcompile": None if automatic else bool(sim.realcompile)}
 
 
 def differences(stored, current):
@@ -212,8 +214,8 @@ class _Sampler:
     """Values of a scene's data as plain JSON values: numbers as numbers, CoefficientFunctions
     sampled on a region at ``times`` on the simulation's time Parameter."""
 
-    def __init__(self, sim, times):
-        self.at, self.mesh, self.times = sim.scheme.coefficients.at, sim.body.mesh, times
+    def __init__(self, at, mesh, times):
+        self.at, self.mesh, self.times = at, mesh, times
         self._points = {}
 
     def __call__(self, value, region):

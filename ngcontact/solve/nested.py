@@ -11,8 +11,9 @@ cold-start count at 1/16 of the DOFs (docs/speed.md). The same in order instead 
 mesh first, for meshes without a hierarchy.
 
 The levels are the meshes of ``meshes.nested_mesh`` (the geometries' ``refine=``): its
-kept coarse mesh refined 0, 1, ... times, curved as the finest. Each coarser level has a
-Simulation of the same scene (``coarse_simulation``), stepped to the same times.
+kept coarse mesh refined 0, 1, ... times, curved as the finest. Each coarser level has the
+``time.step.Step`` of the same scene (made by the simulation, with ``COARSE_OPTIONS``), stepped
+to the same times.
 
 The prolongation from level k to k + 1 is exact for the displacement as a polynomial on the
 reference element: NGSolve's prolongation of H1 on a refined mesh carries only the vertex
@@ -30,7 +31,7 @@ from ngcontact import meshes, parallel
 from ngcontact.solve.newton import NewtonError
 
 COARSE_OPTIONS = dict(keep_states=False, physical_checks=False, realcompile=False, reuse_factorization=False)
-"""Options of the coarse levels' Simulations: no copies of their states, no warnings (their
+"""Options of the coarse levels' simulations: no copies of their states, no warnings (their
 results are starts only), no compilation to machine code and a factorisation per iteration
 (neither pays on a small system solved a few times)."""
 
@@ -95,61 +96,60 @@ def level_mesh(mesh, level):
     return result
 
 
-def coarse_simulation(sim, mesh, order=None):
-    """A Simulation of ``sim``'s scene (body, loads, contact, time Parameter, u0, Newton's
-    tolerance, limit and model) on ``mesh``, at ``order`` (default: the body's orders), with
-    ``COARSE_OPTIONS``."""
-    body = sim.body
+def coarse_body(body, mesh, order=None):
+    """A Body of ``body``'s material, boundary parts and supports on ``mesh``, at ``order``
+    (default: the body's orders): a level of nested iteration."""
     names = {part: body.region_names(part) or None for part in ("clamped", "grounded", "contact_side")}
     supports = {s.key: "normal" if s.normal or s.sign != 1 else "".join("xyz"[a] for a in s.axes)
                 for s in body.supports}
     orders = dict(order=body.order, order_phi=body.order_phi) if order is None else dict(order=order, order_phi=order)
-    coarse = type(body)(mesh, body.material, supports=supports or None, **orders, **names)
-    return type(sim)(coarse, sim.loads, contact=sim.contact, time=sim.time, u0=sim.u0, scheme=sim.scheme.name, rtol=sim.newton.rtol,
-                     maxit=sim.newton.maxit, limit_steps=sim.newton.step_length is not None, electric=sim.electric,
-                     **COARSE_OPTIONS)
+    return type(body)(mesh, body.material, supports=supports or None, **orders, **names)
 
 
 class Nested:
-    """The start of nested iteration for the Simulation ``sim`` (module docstring): built at
-    its first use, kept for later steps (the coarse levels are stepped to the times of the
-    steps they start). ``iterations``: the Newton iterations of each coarse level in the last
-    start (coarsest first); ``fallback``: why the last start fell back to the warm start
-    (a coarse level failed), or None.
+    """A start from coarser ``levels`` (module docstring): kept for later steps (the coarse
+    levels are stepped to the times of the steps they start). ``iterations``: the Newton
+    iterations of each coarse level in the last start (coarsest first); ``fallback``: why the
+    last start fell back to the warm start (a coarse level failed), or None.
 
-    ``levels`` and ``prolongation(k, values)`` (level k's u to level k + 1's, the last level's
-    to ``sim``'s) default to the coarser meshes; ``first_order`` builds the start "p1"."""
+    ``levels``: the ``time.step.Step`` of each level, coarsest first; ``prolongation(k,
+    values)``: level k's u to level k + 1's, the last level's to the body's.
+    ``on_coarser_meshes`` builds the start "nested", ``first_order`` the start "p1"."""
 
-    def __init__(self, sim, levels=None, prolongation=None):
-        if levels is None:
-            count = levels_below(sim.body.mesh)
-            prolongation = Prolongation(sim.body.mesh, sim.body.order)
-            levels = [coarse_simulation(sim, level_mesh(sim.body.mesh, k)) for k in range(count)]
+    def __init__(self, levels, prolongation):
         self.levels, self.prolongation = levels, prolongation
         self._saved = [None] * len(levels)
         self.iterations, self.fallback = [], None
 
     @classmethod
-    def first_order(cls, sim):
-        """The start "p1": the step solved with P1 on ``sim``'s own mesh first, its u
+    def on_coarser_meshes(cls, body, coarse):
+        """The start "nested" of ``body``: its coarser meshes (``levels_below``), each level the
+        Step ``coarse(mesh, None)``."""
+        count = levels_below(body.mesh)
+        prolongation = Prolongation(body.mesh, body.order)
+        return cls([coarse(level_mesh(body.mesh, k), None) for k in range(count)], prolongation)
+
+    @classmethod
+    def first_order(cls, body, coarse):
+        """The start "p1": the step solved with P1 on the body's own mesh first, its u
         interpolated into the body's space (exact: P1 is in Pp). Any mesh, no hierarchy: Hertz
         P2/P3 on one to three refinements 1.2-2.7x faster than the warm start (docs/speed.md).
-        A ValueError naming ``guess`` for a body of order 1."""
-        if sim.body.order < 2:
+        A ValueError naming ``guess`` for a body of order 1. ``coarse(mesh, order)``: the level's Step."""
+        if body.order < 2:
             raise ValueError(f"guess='p1' starts a body of order >= 2 from P1 on its mesh; the body has order "
-                             f"{sim.body.order} (guess='nested' starts from coarser meshes)")
-        level = coarse_simulation(sim, sim.body.mesh, order=1)
-        into = ngs.GridFunction(sim.body.V)
+                             f"{body.order} (guess='nested' starts from coarser meshes)")
+        level = coarse(body.mesh, 1)
+        into = ngs.GridFunction(body.V)
 
         def interpolate(k, values):
             level.u.vec.FV().NumPy()[:] = values
             into.Set(level.u)
             return into.vec.FV().NumPy().copy()
 
-        return cls(sim, [level], interpolate)
+        return cls([level], interpolate)
 
-    def __call__(self, sim, t, target):
-        """The DOF values of u on ``sim``'s mesh at ``target`` (s), prolonged from the coarse
+    def __call__(self, starts, u, t, target):
+        """The DOF values of u on the body's mesh at ``target`` (s), prolonged from the coarse
         levels stepped from t to ``target``; None if a coarse level's Newton fails
         (``fallback``)."""
         values, self.iterations, self.fallback = None, [], None

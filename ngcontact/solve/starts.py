@@ -59,28 +59,30 @@ class Approach:
                 raise ValueError(f"Approach: direction must be a nonzero finite vector, got {direction!r}")
             self.direction = vector / np.linalg.norm(vector)
 
-    def check(self, sim):
-        """A ValueError naming ``guess`` where the approach cannot apply to ``sim``."""
-        if self.direction is None and sim.gamma3 is None:
+    def check(self, starts):
+        """A ValueError naming ``guess`` where the approach cannot apply (``starts``: the Starts of
+        a simulation)."""
+        body = starts.body
+        if self.direction is None and starts.gamma3 is None:
             raise ValueError("guess=Approach(depth) without a direction needs a contact (its normal): the simulation "
                              "has contact=None")
         if self.direction is None:
-            parallel.serial_only(sim.body.mesh, "guess=Approach(depth) without a direction",
+            parallel.serial_only(body.mesh, "guess=Approach(depth) without a direction",
                                  "give Approach(depth, direction=...)")
-        if self.direction is not None and len(self.direction) != sim.body.dim:
-            raise ValueError(f"guess=Approach: direction must have {sim.body.dim} components, got "
+        if self.direction is not None and len(self.direction) != body.dim:
+            raise ValueError(f"guess=Approach: direction must have {body.dim} components, got "
                              f"{len(self.direction)}")
 
-    def __call__(self, sim, t, target):
+    def __call__(self, starts, u, t, target):
         direction = self.direction
         if direction is None:                              # the contact normal where the gap is smallest
-            g = sim.gamma3
+            g = starts.gamma3
             facet, point = np.unravel_index(np.argmin(g.side.sample(g.gap)), g.side.sample_points.shape[:2])
             direction = g.side.normals[facet] if g.sampled_normal is None else \
                 g.side.sample(g.sampled_normal)[facet, point]
-        shift = ngs.GridFunction(sim.body.V)
+        shift = ngs.GridFunction(starts.body.V)
         shift.Set(ngs.CF(tuple(self.depth * direction)))
-        return sim.u.vec.FV().NumPy() + shift.vec.FV().NumPy()
+        return u.vec.FV().NumPy() + shift.vec.FV().NumPy()
 
     def __repr__(self):
         direction = None if self.direction is None else self.direction.tolist()
@@ -93,27 +95,30 @@ class Field:
     def __init__(self, value):
         self.value = value
 
-    def __call__(self, sim, t, target):
+    def __call__(self, starts, u, t, target):
         if isinstance(self.value, np.ndarray):
             return self.value
-        gf = ngs.GridFunction(sim.body.V)
+        gf = ngs.GridFunction(starts.body.V)
         gf.Set(self.value)
         values = gf.vec.FV().NumPy()
-        if parallel.any_rank(sim.body.mesh, not np.all(np.isfinite(values))):     # on every rank
+        if parallel.any_rank(starts.body.mesh, not np.all(np.isfinite(values))):     # on every rank
             raise ValueError(f"guess is not finite (NaN or inf) at t = {target:.6g} s")
         return values
 
 
 class Starts:
-    """The Newton starts of the Simulation ``sim``: ``resolve`` checks a guess before any work,
-    ``apply`` sets the start of a step; the nested levels are kept between steps (``nested``).
-    ``floating``: the rigid motions only the contact holds (``rigid.Floating``, checked when
-    the simulation is built); ``last``: what the last step started from ("warm", "guess",
-    "touch", or the fallback of a nested start)."""
+    """The Newton starts of a simulation of ``body`` with the Γ3 parts ``gamma3`` (or None) on
+    the StepSystem ``system``: ``resolve`` checks a guess before any work, ``apply`` sets the
+    start of a step; the nested levels are kept between steps (``nested``). ``at(t)``: the
+    context in which time-dependent data are evaluated at t (``StepCoefficients.at``);
+    ``coarse(mesh, order)``: the ``time.step.Step`` of the same scene on another mesh or order
+    (the levels of ``nested``). ``floating``: the rigid motions only the contact holds
+    (``rigid.Floating``, checked when the simulation is built); ``last``: what the last step
+    started from ("warm", "guess", "touch", or the fallback of a nested start)."""
 
-    def __init__(self, sim):
-        self.sim = sim
-        self.floating = Floating(sim.body, sim.gamma3)
+    def __init__(self, body, gamma3, system, at, coarse):
+        self.body, self.gamma3, self.system, self.at, self.coarse = body, gamma3, system, at, coarse
+        self.floating = Floating(body, gamma3)
         self._nested, self._first_order, self._motions = None, None, None
         self.last = None
 
@@ -121,20 +126,20 @@ class Starts:
     def nested(self):
         """The ``nested.Nested`` start, built at its first use."""
         if self._nested is None:
-            self._nested = Nested(self.sim)
+            self._nested = Nested.on_coarser_meshes(self.body, self.coarse)
         return self._nested
 
     @property
     def first_order(self):
         """The start "p1" (``nested.Nested.first_order``), built at its first use."""
         if self._first_order is None:
-            self._first_order = Nested.first_order(self.sim)
+            self._first_order = Nested.first_order(self.body, self.coarse)
         return self._first_order
 
     def resolve(self, guess):
         """The start for ``guess`` (module docstring), checked: a TypeError or ValueError naming
         ``guess`` for one of the wrong kind, shape or values, or that cannot apply here."""
-        body = self.sim.body
+        body = self.body
         if guess is None:
             return None
         if isinstance(guess, str):
@@ -142,7 +147,7 @@ class Starts:
                 raise ValueError(f"guess must be {GUESSES}; got the string {guess!r}")
             return self.nested if guess == "nested" else self.first_order
         if isinstance(guess, Approach):
-            guess.check(self.sim)
+            guess.check(self)
             return guess
         if isinstance(guess, np.ndarray):
             if parallel.any_rank(body.mesh, guess.shape != (body.V.ndof,) or not np.issubdtype(
@@ -166,7 +171,7 @@ class Starts:
         return Field(values)
 
     def _field(self, cf):
-        mesh = self.sim.body.mesh
+        mesh = self.body.mesh
         if not np.isfinite(parallel.sum(mesh, ngs.Integrate(ngs.InnerProduct(cf, cf), mesh))):
             raise ValueError("guess is not finite (NaN or inf) in the body")
         return Field(cf)
@@ -177,28 +182,28 @@ class Starts:
         ``resolve``), or, for a body held only by its contact whose start leaves Γ3 open, to
         ``touch``. The time Parameter is left as it was (at ``target``): the coarse levels of
         a nested start share it, and a level that fails restores it to its own time."""
-        with self.sim.scheme.coefficients.at(target):     # t_n kept: a coarse level may move it
-            values = start(self.sim, t, target) if start is not None else None
+        with self.at(target):                            # t_n kept: a coarse level may move it
+            values = start(self, u, t, target) if start is not None else None
         self.last = "warm" if start is None else "guess"
         if isinstance(start, Nested) and start.fallback:
             self.last = start.fallback
-        if values is None and self.floating and self.sim.gamma3 is not None and self.open(u):
+        if values is None and self.floating and self.gamma3 is not None and self.open(u):
             values = self.touch(u)
             self.last = "touch" if values is not None else self.last
         if values is not None:                           # u's free DOFs from values, the held ones kept
-            free = ~self.sim.system.held
+            free = ~self.system.held
             u.vec.FV().NumPy()[free] = values[free]
 
     def _components(self, u):
         """(u·n − g at the sample points of Γ3, r·n of the free motions there (points × motions))."""
-        g = self.sim.gamma3
+        g = self.gamma3
         opening = g.side.normal_displacement(u, g.sampled_normal).ravel() - g.side.sample(g.gap).ravel()
         return opening, normal_components(self.floating.fields, g.side, g.sampled_normal).T @ self.floating.basis
 
     def _holds(self, points, components, gathered=False):
         """Whether the sample points ``points`` (a mask) of Γ3 hold every free motion; the
         rank's points, or with ``gathered`` every rank's (``parallel.gather``: no sum)."""
-        total = (lambda a: a) if gathered else (lambda a: parallel.sum(self.sim.body.mesh, a))
+        total = (lambda a: a) if gathered else (lambda a: parallel.sum(self.body.mesh, a))
         gram = total(components[points].T @ components[points])
         full = total(components.T @ components)
         return np.linalg.eigvalsh(gram)[0] > 1e-6 * np.linalg.eigvalsh(full)[-1]
@@ -212,7 +217,7 @@ class Starts:
         """u's DOF values moved rigidly, in the free motions along which the loads push, until
         the points of Γ3 nearest to the obstacle hold every free motion; None where the loads
         push along no free motion towards the obstacle."""
-        body, system = self.sim.body, self.sim.system
+        body, system = self.body, self.system
         if self._motions is None:
             self._motions = self.floating.vectors(body.V)
         load = system.f.vec.FV().NumPy()[:body.V.ndof]

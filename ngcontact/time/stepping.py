@@ -92,20 +92,26 @@ estimate extrapolates from the earlier states, and a kink among them (conduction
 switching on at points of Γ3) keeps it large however short the new step is."""
 
 
-def advance(sim, target, max_cutbacks, on_step, guess):
-    """``Simulation.advance``: the cut-back policy (its docstring)."""
-    records, pending = [], [(target, 0)]        # (time to reach, halvings so far): a stack
+def advance(steps, target, max_cutbacks, on_step, guess, dt=None):
+    """``Simulation.advance``: the cut-back policy (its docstring), for the ``step.Step``
+    ``steps``. ``dt``: the nominal length of the step to ``target`` (s), which sets the scheme's
+    rate coefficient, and the first half of a failed step is half its step; otherwise (a step
+    that starts part-way, the second half) the step is target − t."""
+    if dt is not None and abs(target - steps.t - dt) > 1e-9 * dt:      # a resumed run may start part-way
+        dt = None
+    records, pending = [], [(target, dt, 0)]        # (time to reach, nominal step or None, halvings): a stack
     while pending:
-        goal, halvings = pending.pop()
-        dt, first, guess = goal - sim.t, guess, None
+        goal, k, halvings = pending.pop()
+        k, first, guess = goal - steps.t if k is None else k, guess, None
         try:
-            record = sim.step(dt, guess=first)
+            record = steps.take(k, guess=first, target=goal)
         except NewtonError as err:
-            n = len(sim.history)
-            sim.cutbacks.append(dict(step=n, time=goal, dt=dt, iterations=err.iteration, residuals=err.residuals))
+            n = len(steps.history)
+            steps.cutbacks.append(dict(step=n, time=goal, dt=goal - steps.t, iterations=err.iteration,
+                                       residuals=err.residuals))
             if halvings == max_cutbacks or not err.recoverable:   # (not recoverable: smaller steps fail too)
-                raise _named(sim, err, n, goal)
-            pending += [(goal, halvings + 1), (sim.t + dt / 2, halvings + 1)]   # first half on top
+                raise _named(steps, err, n, goal)
+            pending += [(goal, None, halvings + 1), (steps.t + k / 2, k / 2, halvings + 1)]   # first half on top
             continue
         if on_step is not None:
             on_step(record)
@@ -113,10 +119,10 @@ def advance(sim, target, max_cutbacks, on_step, guess):
     return records
 
 
-def _named(sim, err, n, goal):
+def _named(steps, err, n, goal):
     """The NewtonError of step n with the time steps tried and the stiff Γ3 terms named."""
-    err.tried = [c["dt"] for c in sim.cutbacks if c["step"] == n]
-    stiff = "" if sim.contact is None else stiff_contact_terms(sim.body, sim.contact, sim.side)
+    err.tried = [c["dt"] for c in steps.cutbacks if c["step"] == n]
+    stiff = "" if steps.contact is None else stiff_contact_terms(steps.body, steps.contact, steps.side)
     err.hint += stiff
     tried = ", ".join(f"{dt:.3g}" for dt in err.tried)
     err.args = (f"{err.args[0]}. Time steps tried for step {n} (t -> {goal:.6g} s): dt = {tried} s; "
@@ -124,20 +130,23 @@ def _named(sim, err, n, goal):
     return err
 
 
-def nominal_steps(sim, start, T, steps, max_cutbacks, after, shown, guess):
-    """The nominal steps of ``run`` not reached yet, the first from ``guess``."""
-    for i in range(steps):
-        target = start + (T - start) * (i + 1) / steps
-        if target <= sim.t * (1 + 1e-12):          # reached before a resume
+def nominal_steps(steps, start, T, count, max_cutbacks, after, shown, guess):
+    """The ``count`` nominal steps of ``run`` from ``start`` to T (s) not reached yet, the first
+    from ``guess``: step i reaches start + i·dt with the nominal dt = (T − start)/count (equal
+    steps have one rate coefficient, so one factorisation)."""
+    dt = (T - start) / count
+    for i in range(count):
+        target = T if i == count - 1 else start + (i + 1) * dt
+        if target <= steps.t * (1 + 1e-12):          # reached before a resume
             shown.update(1)
             continue
         try:
-            records = advance(sim, target, max_cutbacks, after, guess)
+            records = advance(steps, target, max_cutbacks, after, guess, dt)
             guess = guess if isinstance(guess, str) else None           # "nested", "p1": every step
         except NewtonError as err:
-            err.history = sim.history
+            err.history = steps.history
             raise
-        shown.set_postfix_str(f"t = {sim.t:.4g} s, newton {records[-1].newton_iterations}")
+        shown.set_postfix_str(f"t = {steps.t:.4g} s, newton {records[-1].newton_iterations}")
         shown.update(1)
 
 
@@ -156,38 +165,38 @@ def events(before, after):
     return ", ".join(found) or None
 
 
-def controlled_steps(sim, start, T, dt, rtol, after, shown, dt_min, event_dt):
-    """Steps from sim.t to T (s) chosen by the error target ``rtol`` (module docstring) in the
+def controlled_steps(steps, start, T, dt, rtol, after, shown, dt_min, event_dt):
+    """Steps from steps.t to T (s) chosen by the error target ``rtol`` (module docstring) in the
     run that began at ``start`` (s), the first proposed of length dt (or the last accepted
     step's ``dt_next`` after a resume); steps shorter than ``dt_min`` fail: a NewtonError or a
     ValueError naming the time and why, with every step computed so far kept."""
-    last = sim.history[-1]
+    last = steps.history[-1]
     k = last.dt_next if last.dt_next is not None else dt
     span = T - start
-    if hasattr(sim.scheme, "beta_tolerance"):   # β consistent with u_n to the level the error test asks
-        sim.scheme.beta_tolerance = min(sim.scheme.beta_tolerance, rtol)
+    if hasattr(steps.scheme, "beta_tolerance"):   # β consistent with u_n to the level the error test asks
+        steps.scheme.beta_tolerance = min(steps.scheme.beta_tolerance, rtol)
     rejected, streak = [], []           # streak: (k, err) of the tries rejected for their error at this step
     # the floor of the estimate met in this run (the first step accepted above rtol), from the records: a resume sees it
     # and the step that met it: the next steps at the floor take it again, not a shorter one an event made
-    met = next((r for r in sim.history if r.time > start and r.error_estimate is not None and r.error_estimate > 1),
+    met = next((r for r in steps.history if r.time > start and r.error_estimate is not None and r.error_estimate > 1),
                None)
     floor_level, floor_k = (None, None) if met is None else (met.error_estimate, met.dt)
-    while sim.t < T * (1 - 1e-12) and T - sim.t > 1e-9 * min(dt, span):
-        k = min(k, T - sim.t)
-        if T - sim.t - k < 0.01 * k:                  # no sliver of a step before T
-            k = T - sim.t
-        saved, before = sim.scheme.checkpoint(), sim.history[-1]
+    while steps.t < T * (1 - 1e-12) and T - steps.t > 1e-9 * min(dt, span):
+        k = min(k, T - steps.t)
+        if T - steps.t - k < 0.01 * k:                  # no sliver of a step before T
+            k = T - steps.t
+        saved, before = steps.scheme.checkpoint(), steps.history[-1]
         try:
-            record = sim.step(k)
+            record = steps.take(k)
         except NewtonError as err:
-            rejected.append(dict(time=sim.t + k, dt=k, reason=f"Newton failed at iteration {err.iteration}"))
-            sim.rejections.append(rejected[-1])
+            rejected.append(dict(time=steps.t + k, dt=k, reason=f"Newton failed at iteration {err.iteration}"))
+            steps.rejections.append(rejected[-1])
             if k / 2 < dt_min:
-                err.history = sim.history
-                raise _named(sim, err, len(sim.history), sim.t + k)
+                err.history = steps.history
+                raise _named(steps, err, len(steps.history), steps.t + k)
             k /= 2
             continue
-        estimate = sim.scheme.estimate
+        estimate = steps.scheme.estimate
         err, growth = (None, MAX_GROWTH) if estimate is None else error_ratio(estimate, rtol, k, span)
         event = events(before, record)
         if event:                       # a kink in time: the estimate does not hold across it
@@ -199,7 +208,7 @@ def controlled_steps(sim, start, T, dt, rtol, after, shown, dt_min, event_dt):
             or floor_level is not None and err <= FLOOR_FALL * floor_level)
         if floor and floor_level is None:              # the step size does not reduce the estimate: say so once
             floor_level, floor_k = err, k
-            _flag(sim, f"step {len(sim.history) - 1} (t = {sim.t:.6g} s): the local error estimate stayed at "
+            _flag(steps, f"step {len(steps.history) - 1} (t = {steps.t:.6g} s): the local error estimate stayed at "
                        f"{err:.3g} × rtol on tries from {streak[0][0]:.3g} s to {k:.3g} s (a time error falls as "
                        f"k³): it measures what the step does not reduce (with Nitsche: the contact law changes with "
                        f"the step, γ follows c; docs/time.md); the step is accepted; rtol = {rtol:g} is below what "
@@ -208,36 +217,36 @@ def controlled_steps(sim, start, T, dt, rtol, after, shown, dt_min, event_dt):
         if floor:
             reason = None
         if reason is not None and k > dt_min:
-            sim.scheme.restore(saved)                 # the state, β and the scheme's memory, bitwise
-            del sim.history[-1]
-            rejected.append(dict(time=sim.t + k, dt=k, reason=reason, estimate=estimate))
-            sim.rejections.append(rejected[-1])
+            steps.scheme.restore(saved)                 # the state, β and the scheme's memory, bitwise
+            del steps.history[-1]
+            rejected.append(dict(time=steps.t + k, dt=k, reason=reason, estimate=estimate))
+            steps.rejections.append(rejected[-1])
             if err is None or err <= 1:               # an event inside: halve towards it
                 k /= 2
             else:
                 streak.append((k, err))
                 k *= growth
                 if before.dt is not None and k < RESTART_BELOW * before.dt:
-                    sim.scheme.restart()              # the estimate sees a kink among the earlier states
+                    steps.scheme.restart()              # the estimate sees a kink among the earlier states
             continue
         if reason is not None:
             hint = ("; an estimate that stays near rtol on ever shorter steps measures Newton's inexactness: a "
                     "larger rtol, or a smaller Simulation(rtol=...)" if err is not None else "")
-            raise ValueError(f"run(rtol={rtol:g}): the step from t = {sim.t - k:.6g} s reached dt_min = {dt_min:.3g} s "
+            raise ValueError(f"run(rtol={rtol:g}): the step from t = {steps.t - k:.6g} s reached dt_min = {dt_min:.3g} s "
                              f"({reason}); every step so far is kept in the history{hint}")
         record.error_estimate, record.rejected, record.event = err, len(rejected), event
         record.dt_next = max(k, floor_k) if floor else k * (growth if err is not None else 1.0)
         if event:                                      # located: restart from the short step
-            sim.scheme.restart()
+            steps.scheme.restart()
             record.dt_next = k
         rejected, streak = [], []
         k = record.dt_next
         after(record)
         shown.update(record.dt)
-        shown.set_postfix_str(f"t = {sim.t:.4g} s, dt {record.dt:.3g} s, newton {record.newton_iterations}")
+        shown.set_postfix_str(f"t = {steps.t:.4g} s, dt {record.dt:.3g} s, newton {record.newton_iterations}")
 
 
-def _flag(sim, message):
-    """Say ``message`` (an ``AccuracyWarning``) and keep it in ``sim.flags``."""
-    sim.flags.append(message)
+def _flag(steps, message):
+    """Say ``message`` (an ``AccuracyWarning``) and keep it in ``steps.flags``."""
+    steps.flags.append(message)
     warnings.warn(message, AccuracyWarning, stacklevel=3)

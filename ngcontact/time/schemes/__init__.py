@@ -6,8 +6,9 @@ A scheme is a class with
 * ``name``: its name in ``SCHEMES`` (``Simulation(scheme=...)``, the run.json of a stream);
 * ``__init__(coefficients, system, newton, state, beta=None, predictor=False, normal=None)``;
 * ``start()``: the coefficients of step 0 (t = 0, u held at u0) and ``system.begin_step``;
-* ``advance(dt, *, step, timer, start)``: one step of length dt from the current state;
-  returns Newton's result;
+* ``advance(dt, *, step, timer, start, target)``: one step of nominal length dt (its rate
+  coefficient comes from dt) from the current state to ``target`` (default t + dt); returns
+  Newton's result;
 * ``t``: the time of the last step (s);
 * ``checkpoint()`` / ``restore(saved)``: an in-memory copy of everything ``advance`` changes;
 * ``save()`` / ``load(arrays)``: the same as named numpy arrays, for a restart from disk

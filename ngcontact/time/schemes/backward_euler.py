@@ -65,8 +65,9 @@ class BackwardEuler:
         self.coefficients.set(0.0, 1.0, self.state.components[0].vec)
         self.system.begin_step(self.state)
 
-    def advance(self, dt, *, step=None, timer=None, start=None):
-        """One step of length dt (s) from the current state; returns the NewtonResult.
+    def advance(self, dt, *, step=None, timer=None, start=None, target=None):
+        """One step of length dt (s) from the current state to ``target`` (s; default t + dt: a
+        run's steps reach n·dt, their c = 1/dt is one number); returns the NewtonResult.
         ``start(u, t_{n−1}, t_n)``, if given, changes Newton's start: the displacement u after
         u_{n−1} is kept and the supports' values at t_n are set (``starts``).
         Not transactional: on failure the state is part-way (``checkpoint``/``restore``)."""
@@ -75,7 +76,7 @@ class BackwardEuler:
         self.coefficients.anchor.vec.data = self.state.components[0].vec        # û = u_{n−1}
         if self.predictor:
             self._predict(dt)
-        before, self.t = self.t, self.t + dt
+        before, self.t = self.t, self.t + dt if target is None else target
         self.coefficients.set(self.t, 1.0 / dt)             # c = 1/k
         self.system.begin_step(self.state)
         if start is not None:

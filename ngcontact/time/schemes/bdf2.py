@@ -86,8 +86,9 @@ class BDF2(BackwardEuler):
         a kink in time that a second-order formula would straddle)."""
         self._past = []
 
-    def advance(self, dt, *, step=None, timer=None, start=None):
-        """One BDF2 step of length dt (s) (or a backward Euler one: module docstring)."""
+    def advance(self, dt, *, step=None, timer=None, start=None, target=None):
+        """One BDF2 step of length dt (s) to ``target`` (default t + dt), or a backward Euler one
+        (module docstring)."""
         u = self.state.components[0]
         before = self.state.vec.FV().NumPy().copy()
         before_u = before[:self._n_u]
@@ -111,7 +112,7 @@ class BDF2(BackwardEuler):
         self.coefficients.anchor.vec.FV().NumPy()[:] = hat
         if self.predictor:
             self._predict(dt)
-        before_t, self.t = self.t, self.t + dt
+        before_t, self.t = self.t, self.t + dt if target is None else target
         self.coefficients.set(self.t, c)
         self.system.begin_step(self.state)
         if start is not None:

@@ -22,11 +22,6 @@ from contextlib import contextmanager
 import ngsolve as ngs
 
 
-RATE_DIGITS = 12
-"""Significant digits of the rate coefficient c (module docstring, ``StepCoefficients.set``):
-c = 1/k differs from 1/(t_n − t_{n−1}) by less than 5e-13 relative."""
-
-
 class StepCoefficients:
     """t_n, c and û of the current step (module docstring).
 
@@ -53,16 +48,12 @@ class StepCoefficients:
 
     def set(self, t, rate=None, anchor=None):
         """The scheme's: t_n = ``t`` (s), c = ``rate`` (1/s) and û = ``anchor`` (a vector of V)
-        where given. c is rounded to ``RATE_DIGITS`` significant digits: the steps of ``run``
-        are differences of target times, t_n − t_{n−1}, whose round-off made 1/k of equal
-        nominal steps differ in the last bits (dt = 5 ms: 200.00000000000003, then
-        199.99999999999997), and each such change counted as a new step size (a new
-        factorisation, GAMG's preconditioner built again: 4 s instead of 0.05 s per step).
-        Rounding, unlike keeping the last value, depends on the step alone, so a resumed run
-        continues bitwise."""
+        where given. c comes from the step's nominal length (``Simulation.run`` steps to n·dt
+        with k = dt, not t_n − t_{n−1}, whose round-off would make equal steps differ in the
+        last bits of c: a new step size each, a new factorisation)."""
         self.time.Set(t)
         if rate is not None:
-            self.rate.Set(float(f"{rate:.{RATE_DIGITS}g}"))
+            self.rate.Set(float(rate))
         if anchor is not None:
             self.anchor.vec.data = anchor
 
