@@ -1,47 +1,91 @@
-"""Nested meshes: a Netgen mesh refined uniformly, with its coarse mesh kept; and adapted meshes:
-a copy refined where marked (``refined``, for ``adapt``).
+"""Nested meshes: a Netgen mesh refined uniformly, with its coarse mesh kept (a ``Hierarchy``);
+and adapted meshes: a copy refined where marked (``refined``, for ``adapt``).
 
 The ground floor of everything that needs the levels below a mesh: the geometries and the
 scenes make their meshes here, the multigrid preconditioner (``multigrid``) and nested
-iteration (``nested``) rebuild the levels from the kept coarse mesh. ``mesh.Refine()``
-bisects every element (h halves); the coarse mesh is a copy of the Netgen mesh before the
-first refinement, stored on the ``ngsolve.Mesh`` with the number of refinements. NGSolve
-6.2.2608 cannot refine a distributed mesh: a mesh distributed over MPI ranks keeps none.
+iteration (``nested``) rebuild the levels from the hierarchy a Body holds (``Body.hierarchy``).
+``mesh.Refine()`` bisects every element (h halves); the coarse mesh is a copy of the Netgen mesh
+before the first refinement. NGSolve 6.2.2608 cannot refine a distributed mesh: a mesh
+distributed over MPI ranks has no hierarchy.
 """
 import pickle
+from dataclasses import dataclass
 
 import ngsolve as ngs
 import numpy as np
 
-COARSE = "ngcontact_coarse"
-"""The attribute of an ngsolve.Mesh that holds (coarse netgen mesh, refinements)."""
+COARSE = "ngcontact_hierarchy"
+"""The attribute by which ``nested_mesh`` hands its ``Hierarchy`` to the Body of the mesh it makes."""
+
+
+@dataclass(frozen=True, eq=False)
+class Hierarchy:
+    """Nested meshes: the ``coarse`` Netgen mesh (a copy, kept) refined uniformly ``refinements``
+    times (h halves each time) makes a mesh of ``vertices`` vertices, its finest level."""
+
+    coarse: object
+    refinements: int
+    vertices: int
+
+    def levels(self, curve_order=1):
+        """The levels 0 (a copy of the coarse mesh), 1, ..., ``refinements`` as one ngsolve.Mesh
+        refined in place: yields it at each level (curved to ``curve_order`` where > 1)."""
+        mesh = ngs.Mesh(self.coarse.Copy())
+        for level in range(self.refinements + 1):
+            if level:
+                mesh.Refine()
+            if curve_order > 1:
+                mesh.Curve(curve_order)
+            yield mesh
+
+    def level(self, k, curve_order=1):
+        """Level k (0: the coarse mesh) as a new ngsolve.Mesh, curved to ``curve_order``."""
+        mesh = nested_mesh(self.coarse.Copy(), k)
+        if curve_order > 1:
+            mesh.Curve(curve_order)
+        return mesh
+
+    def check(self, replica, mesh, size, what):
+        """A ValueError naming ``what`` if ``replica`` (the finest level rebuilt) and ``mesh`` differ
+        in their vertices (to 1e-12 of ``size``, m): ``mesh`` was changed after it was made."""
+        mine, theirs = np.asarray(replica.ngmesh.Coordinates()), np.asarray(mesh.ngmesh.Coordinates())
+        if mine.shape != theirs.shape or not np.allclose(mine, theirs, rtol=0, atol=1e-12 * size):
+            raise ValueError(f"{what}: the mesh's vertices differ from its kept coarse mesh refined "
+                             f"{self.refinements} times: the mesh was changed after nested_mesh()")
 
 
 def nested_mesh(ngmesh, refine=0):
     """``ngsolve.Mesh(ngmesh)`` refined ``refine`` times by ``mesh.Refine()`` (h halves each
-    time), keeping a copy of the coarse mesh (``coarse``)."""
+    time), with its ``Hierarchy`` (``hierarchy``: what a Body of it takes by default)."""
     if int(refine) != refine or refine < 0:
         raise ValueError(f"refine must be an integer >= 0, got {refine}")
     coarse = ngmesh.Copy()
     mesh = ngs.Mesh(ngmesh)
     for _ in range(int(refine)):
         mesh.Refine()
-    setattr(mesh, COARSE, (coarse, int(refine)))
+    setattr(mesh, COARSE, Hierarchy(coarse, int(refine), mesh.nv))
     return mesh
 
 
-def refinements(mesh):
-    """How many times ``mesh`` was refined from its kept coarse mesh (None if it keeps none:
-    not made by ``nested_mesh``)."""
+def hierarchy(mesh):
+    """The ``Hierarchy`` of a mesh made by ``nested_mesh``, or None: for another mesh, or one
+    refined or changed in its vertex count since (its levels would not be the mesh's)."""
     kept = getattr(mesh, COARSE, None)
-    return None if kept is None else kept[1]
+    return kept if kept is not None and kept.vertices == mesh.nv else None
+
+
+def refinements(mesh):
+    """How many times ``mesh`` was refined from its kept coarse mesh (None without a
+    ``hierarchy``)."""
+    kept = hierarchy(mesh)
+    return None if kept is None else kept.refinements
 
 
 def coarse(mesh):
-    """(a copy of the kept coarse Netgen mesh, refinements) of ``mesh``, or None if it keeps
-    none."""
-    kept = getattr(mesh, COARSE, None)
-    return None if kept is None else (kept[0].Copy(), kept[1])
+    """(a copy of the kept coarse Netgen mesh, refinements) of ``mesh``, or None without a
+    ``hierarchy``."""
+    kept = hierarchy(mesh)
+    return None if kept is None else (kept.coarse.Copy(), kept.refinements)
 
 
 def refined(mesh, marked, polygonal=False):

@@ -69,9 +69,12 @@ class Simulation:
         symmetry, size and dimension, see ``inverse``, ``reuse_factorization`` and ``iterative``,
         the options of earlier releases that tune it), a name (``solver_choice.names()``: every
         direct solver of NGSolve's ``la.GetAvailableSolvers()`` and "mumps", each kept as GMRES's
-        preconditioner between iterations as by default; or "multigrid", "gamg"), or an object
-        with the protocol ``solve.linalg.protocol.LinearSolver`` (a ``solve`` method and a
-        ``name``), used as it is.
+        preconditioner between iterations as by default; or "multigrid", "gamg"), a dict of PETSc
+        options as a PETSc user writes them, without the dash (``petsc_options.check``: e.g.
+        ``{"pc_type": "gamg", "pc_gamg_threshold": 0.02}``, or ``{"ksp_type": "preonly",
+        "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"}`` for MUMPS at every iteration), or
+        an object with the protocol ``solve.linalg.protocol.LinearSolver`` (a ``solve`` method and
+        a ``name``), used as it is.
     inverse : the direct factorisation of the Newton corrections ("sparsecholesky",
         "umfpack", "pardiso", or "mumps": PETSc's MUMPS, LDLᵀ or LU by the Jacobian's
         symmetry, serial or distributed, where PETSc is installed: ``petsc_solver``); default
@@ -128,7 +131,7 @@ class Simulation:
 
     def __init__(self, body: Body, loads: Loads | None = None, *, contact: Contact | None = None,
                  time: ngs.Parameter | None = None, u0: tuple | ngs.CoefficientFunction | None = None,
-                 solver: str | LinearSolver | None = None, inverse: str | None = None, rtol: float = 1e-10,
+                 solver: str | dict | LinearSolver | None = None, inverse: str | None = None, rtol: float = 1e-10,
                  maxit: int = 50, keep_states: bool = True, predictor: bool = False, condense: bool | None = None,
                  realcompile: bool | None = None, limit_steps: bool = True, reuse_factorization: bool = True,
                  iterative: bool | str | None = None, electric: bool | None = None, physical_checks: bool = True,

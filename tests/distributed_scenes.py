@@ -1,9 +1,9 @@
-"""Run by tests/test_petsc.py and tests/test_parallel.py, serially or under mpiexec: a scene
-over a load history with ``inverse`` = argv[2] ("default" for None, "gamg" for
-``iterative="gamg"``); rank 0 writes per step
-the contact force, the charge flux into the foundation, the reactions of the supports, u and φ
-at a probe point (where the scene has one) and the Newton iterations, and the solver used, as
-JSON to argv[3].
+"""Run by tests/test_petsc.py, tests/test_petsc_options.py and tests/test_parallel.py, serially
+or under mpiexec: a scene over a load history with ``inverse`` = argv[2] ("default" for None,
+"gamg" for ``iterative="gamg"``, "petsc-gamg" or "petsc-lu" for ``solver=`` a dict of PETSc
+options, ``PETSC_OPTIONS``); rank 0 writes per step the contact force, the charge flux into the
+foundation, the reactions of the supports, u and φ at a probe point (where the scene has one)
+and the Newton iterations, and the solver used, as JSON to argv[3].
 
 argv[1]:
 
@@ -42,10 +42,15 @@ def indenter3d(options):
                           keep_states=False, **options), 1.0, 4, (0.0, 0.0, H / 2)
 
 
+PETSC_OPTIONS = {"petsc-gamg": {"pc_type": "gamg", "pc_gamg_threshold": 0.02, "ksp_rtol": 1e-6},
+                 "petsc-lu": {"pc_type": "lu", "ksp_type": "preonly", "mat_mumps_icntl_7": 2}}
+"""argv[2] naming ``Simulation(solver={...})``."""
 scene, inverse, out = sys.argv[1], None if sys.argv[2] == "default" else sys.argv[2], sys.argv[3]
 options = dict(inverse=inverse)
 if inverse == "gamg":                      # the iterative solver on PETSc instead of a factorisation
     options = dict(iterative="gamg")
+elif inverse in PETSC_OPTIONS:             # the solver as a dict of PETSc options
+    options = dict(solver=PETSC_OPTIONS[inverse])
 T, probe = reference.LOAD_HISTORY[-1][0], None
 if scene == "reference":
     sim, steps = reference.simulation(2, 0.01, keep_states=False, **options), 20

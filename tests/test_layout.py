@@ -177,7 +177,7 @@ def test_the_public_api_is_typed():
         assert {p.name for p in parameters} <= set(hints) and "return" in hints, function.__qualname__
     assert dataclasses.is_dataclass(ngc.Contact) and dataclasses.is_dataclass(ngc.Loads)
     assert typing.get_type_hints(LinearSolver.solve)["return"] is type(None)
-    assert typing.get_type_hints(ngc.Simulation.__init__)["solver"] == str | LinearSolver | None
+    assert typing.get_type_hints(ngc.Simulation.__init__)["solver"] == str | dict | LinearSolver | None
 
 
 def test_every_package_is_installed():

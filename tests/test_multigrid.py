@@ -127,13 +127,37 @@ def test_bad_input_names_the_parameter():
 
 
 def test_a_mesh_changed_after_nesting_is_refused():
-    """Refining the mesh again after nested_mesh breaks the replica's numbering: the first
-    solve says so instead of preconditioning with another mesh's DOFs."""
+    """Refining the mesh again after nested_mesh leaves it without a hierarchy (its levels would
+    not be the mesh's): the multigrid solver is refused before any work instead of
+    preconditioning with another mesh's DOFs."""
     mesh = block(maxh=0.03)
+    assert ngc.meshes.hierarchy(mesh) is not None
     mesh.Refine()
     body = ngc.Body(mesh, ngc.pzt5a(relaxation_time=2e-3), clamped="left", grounded="top", contact_side="bottom")
+    assert body.hierarchy is None and ngc.meshes.refinements(mesh) is None
     t = ngs.Parameter(0)
-    sim = ngc.Simulation(body, scene.loads(t, 3), contact=scene.contact(), time=t, iterative=True,
-                         realcompile=False)
-    with pytest.raises(ValueError, match="replica"):
-        sim.run(2.5e-3, 2.5e-3)
+    with pytest.raises(ValueError, match="needs nested meshes"):
+        ngc.Simulation(body, scene.loads(t, 3), contact=scene.contact(), time=t, iterative=True, realcompile=False)
+
+
+def test_a_hierarchy_given_to_the_body_is_the_one_multigrid_uses():
+    """A mesh refined by hand is nested when the Body is given its ``meshes.Hierarchy``: the
+    multigrid solver then takes its 2 levels and gives the factorisation's state; a hierarchy
+    whose finest level is not the mesh is refused by name."""
+    from netgen.geom2d import unit_square
+    ngmesh = unit_square.GenerateMesh(maxh=0.25)
+    coarse = ngmesh.Copy()
+    mesh = ngs.Mesh(ngmesh)
+    mesh.Refine()
+    assert meshes.hierarchy(mesh) is None
+    given = meshes.Hierarchy(coarse, 1, mesh.nv)
+    material = ngc.pzt5a(relaxation_time=2e-3)
+    body = ngc.Body(mesh, material, clamped="left", grounded="bottom", hierarchy=given)
+    loads = ngc.Loads(f2={"right": (0.0, -1e5)})
+    mg, direct = (ngc.Simulation(body, loads, solver=s, realcompile=False) for s in ("multigrid", None))
+    mg.step(1e-3), direct.step(1e-3)
+    assert "multigrid (2 levels)" in mg.solver
+    assert np.abs(mg.gfu.vec.FV().NumPy() - direct.gfu.vec.FV().NumPy()).max() <= \
+        1e-7 * np.abs(direct.gfu.vec.FV().NumPy()).max()
+    with pytest.raises(ValueError, match="hierarchy must be an ngcontact.meshes.Hierarchy whose finest level"):
+        ngc.Body(mesh, material, clamped="left", grounded="bottom", hierarchy=meshes.Hierarchy(coarse, 2, mesh.nv + 1))

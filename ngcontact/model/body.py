@@ -16,7 +16,7 @@ import functools
 import ngsolve as ngs
 import numpy as np
 
-from ngcontact import checks, parallel
+from ngcontact import checks, meshes, parallel
 from ngcontact.model.materials import Material
 from ngcontact.model.supports import dirichlet_flags
 from ngcontact.model.supports import parse as parse_supports
@@ -50,6 +50,9 @@ class Body:
     order : int in [1, 10] (``checks.MAX_ORDER``), polynomial order of u (1 = the paper's P1
         space (4.1)).
     order_phi : int in [1, 10] or None, order of φ (default: ``order``).
+    hierarchy : the nested meshes whose finest level is ``mesh`` (``meshes.Hierarchy``: the coarse
+        mesh and its refinements, for multigrid and nested iteration); default: the one
+        ``meshes.nested_mesh`` made the mesh with (``ngcontact.geometries`` do), else None.
 
     ``X = V × W`` is the body's space; each simulation works on its own copy (``space()``),
     so that what one simulation sets on it (static condensation) does not reach another.
@@ -57,7 +60,8 @@ class Body:
 
     def __init__(self, mesh: ngs.Mesh, material: Material, *, clamped: str | tuple | None = None,
                  grounded: str | tuple | None = None, contact_side: str | tuple | None = None,
-                 supports: tuple | list | None = None, order: int = 1, order_phi: int | None = None, **renamed) -> None:
+                 supports: tuple | list | None = None, order: int = 1, order_phi: int | None = None,
+                 hierarchy: meshes.Hierarchy | None = None, **renamed) -> None:
         if "contact" in renamed:
             raise TypeError("Body(contact=...) is now Body(contact_side=...): the boundary names of Γ3 "
                             "(contact= is the contact law, given to Simulation)")
@@ -77,6 +81,10 @@ class Body:
                              "GenerateMesh(..., comm=MPI.COMM_WORLD) or parallel.distributed_mesh) or run without "
                              "mpiexec")
         self.mesh = mesh
+        self.hierarchy = meshes.hierarchy(mesh) if hierarchy is None else hierarchy
+        if hierarchy is not None and (not isinstance(hierarchy, meshes.Hierarchy) or hierarchy.vertices != mesh.nv):
+            raise ValueError(f"hierarchy must be an ngcontact.meshes.Hierarchy whose finest level is the mesh "
+                             f"({mesh.nv} vertices), got {hierarchy!r}")
         self.dim = mesh.dim
         self.material = material
         self.tensors = material.tensors(self.dim)

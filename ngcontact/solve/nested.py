@@ -10,8 +10,8 @@ cold-start count at 1/16 of the DOFs (docs/speed.md). The same in order instead 
 (``Nested.first_order``, the start "p1"): a body of order p >= 2 solved with P1 on its own
 mesh first, for meshes without a hierarchy.
 
-The levels are the meshes of ``meshes.nested_mesh`` (the geometries' ``refine=``): its
-kept coarse mesh refined 0, 1, ... times, curved as the finest. Each coarser level has the
+The levels are those of the body's ``meshes.Hierarchy`` (``Body.hierarchy``; the geometries'
+``refine=``): its kept coarse mesh refined 0, 1, ... times, curved as the finest. Each coarser level has the
 ``time.step.Step`` of the same scene (made by the simulation, with ``COARSE_OPTIONS``), stepped
 to the same times.
 
@@ -22,12 +22,11 @@ coarse mesh misses the points of a refined curved boundary outside the coarse me
 start that is no better than u = 0). So u goes H1 → L2 (``ConvertOperator``, exact: the same
 polynomials) → refined L2 (NGSolve's L2 prolongation, exact on each child) → H1
 (``ConvertOperator``, exact for the continuous result), as sparse matrices built once on a
-replica of the coarse mesh refined as the body's (``multigrid``'s replica).
+replica of the coarse mesh refined as the body's (``Hierarchy.levels``, as ``multigrid``'s).
 """
 import ngsolve as ngs
-import numpy as np
 
-from ngcontact import meshes, parallel
+from ngcontact import parallel
 from ngcontact.solve.newton import NewtonError
 
 COARSE_OPTIONS = dict(keep_states=False, physical_checks=False, realcompile=False, reuse_factorization=False)
@@ -36,42 +35,39 @@ results are starts only), no compilation to machine code and a factorisation per
 (neither pays on a small system solved a few times)."""
 
 
-def levels_below(mesh):
-    """The number of coarser levels of ``mesh`` (made by ``meshes.nested_mesh``), or a
-    ValueError naming ``guess`` if it has none."""
-    levels = meshes.refinements(mesh)
+def levels_below(body):
+    """The number of coarser levels of ``body``'s mesh (its ``hierarchy``), or a ValueError naming
+    ``guess`` if it has none."""
+    levels = None if body.hierarchy is None else body.hierarchy.refinements
     if not levels:
         why = ("it keeps no coarse mesh" if levels is None else "it was not refined (refine=0)")
         raise ValueError(f"guess='nested' needs coarser levels of the mesh and {why}: build it with "
                          "ngcontact.meshes.nested_mesh(ngmesh, refine) with refine >= 1 (ngcontact.geometries "
-                         "and scenes take refine=...)")
+                         "and scenes take refine=...), or give Body(hierarchy=...)")
     return levels
 
 
 class Prolongation:
-    """u from level k to level k + 1 of the nested meshes of ``mesh`` (k = 0 the kept coarse
-    mesh), exact for the displacement's polynomials on the reference element (module
-    docstring), as sparse matrices; ``spaces[k]``: the H1 space of level k on the replica
-    (numbered as a Body's V on that level)."""
+    """u from level k to level k + 1 of ``body``'s hierarchy (k = 0 the kept coarse mesh), exact
+    for the displacement's polynomials on the reference element (module docstring), as sparse
+    matrices; ``sizes[k]``: the DOFs of u on level k (numbered as a Body's V on that level)."""
 
-    def __init__(self, mesh, order):
-        parallel.serial_only(mesh, "guess='nested'", "NGSolve cannot refine a distributed mesh")
-        coarse, levels = getattr(mesh, meshes.COARSE)
-        replica = ngs.Mesh(coarse.Copy())
-        H, L = ngs.VectorH1(replica, order=order), ngs.VectorL2(replica, order=order)
-        self.matrices, self.sizes = [], [H.ndof]
-        for _ in range(levels):
+    def __init__(self, body):
+        parallel.serial_only(body.mesh, "guess='nested'", "NGSolve cannot refine a distributed mesh")
+        hierarchy, order = body.hierarchy, body.order
+        self.matrices, self.sizes = [], []
+        H = L = to_l2 = None
+        for replica in hierarchy.levels():
+            if H is None:
+                H, L = ngs.VectorH1(replica, order=order), ngs.VectorL2(replica, order=order)
+            else:
+                H.Update()
+                L.Update()
+                self.matrices.append((to_l2, L.Prolongation().CreateMatrix(replica.levels - 1),
+                                      ngs.ConvertOperator(L, H)))
             to_l2 = ngs.ConvertOperator(H, L)
-            replica.Refine()
-            H.Update()
-            L.Update()
-            self.matrices.append((to_l2, L.Prolongation().CreateMatrix(replica.levels - 1), ngs.ConvertOperator(L, H)))
             self.sizes.append(H.ndof)
-        mine = np.asarray(replica.ngmesh.Coordinates())
-        theirs = np.asarray(mesh.ngmesh.Coordinates())
-        if mine.shape != theirs.shape or not np.allclose(mine, theirs, rtol=0, atol=1e-12 * np.ptp(theirs)):
-            raise ValueError("guess='nested': the mesh's vertices differ from its kept coarse mesh refined "
-                             f"{levels} times: the mesh was changed after nested_mesh()")
+        hierarchy.check(replica, body.mesh, body.size, "guess='nested'")
 
     def __call__(self, k, values):
         """The DOF values (numpy) of u on level k prolonged to level k + 1 (numpy)."""
@@ -87,13 +83,9 @@ class Prolongation:
         return result.FV().NumPy().copy()
 
 
-def level_mesh(mesh, level):
-    """The mesh of ``level`` (0: the kept coarse mesh) below ``mesh``, curved as ``mesh``."""
-    coarse, _ = getattr(mesh, meshes.COARSE)
-    result = meshes.nested_mesh(coarse.Copy(), level)
-    if mesh.GetCurveOrder() > 1:
-        result.Curve(mesh.GetCurveOrder())
-    return result
+def level_mesh(body, level):
+    """The mesh of ``level`` (0: the kept coarse mesh) of ``body``'s hierarchy, curved as its mesh."""
+    return body.hierarchy.level(level, body.mesh.GetCurveOrder())
 
 
 def coarse_body(body, mesh, order=None):
@@ -125,9 +117,9 @@ class Nested:
     def on_coarser_meshes(cls, body, coarse):
         """The start "nested" of ``body``: its coarser meshes (``levels_below``), each level the
         Step ``coarse(mesh, None)``."""
-        count = levels_below(body.mesh)
-        prolongation = Prolongation(body.mesh, body.order)
-        return cls([coarse(level_mesh(body.mesh, k), None) for k in range(count)], prolongation)
+        count = levels_below(body)
+        prolongation = Prolongation(body)
+        return cls([coarse(level_mesh(body, k), None) for k in range(count)], prolongation)
 
     @classmethod
     def first_order(cls, body, coarse):

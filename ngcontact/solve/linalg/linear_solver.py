@@ -99,15 +99,17 @@ class DirectSolver:
     ----------
     name : one of ``NAMES``, or of ``PARALLEL_NAMES`` for a distributed mesh.
     symmetric : for "mumps": LDLᵀ (the matrix is symmetric) instead of LU.
+    options : for "mumps": the ``petsc_options.SolverOptions`` of ``Simulation(solver={...})``
+        (their ``database`` reaches the factorisation), or None.
     """
 
-    def __init__(self, name, symmetric=False):
+    def __init__(self, name, symmetric=False, options=None):
         if name not in NAMES + PARALLEL_NAMES:
             raise ValueError(f"inverse must be one of {', '.join(map(repr, NAMES + PARALLEL_NAMES))}, "
                              f"got {name!r}")
         if name in petsc_solver.NAMES:
             petsc_solver.load()                       # missing PETSc: the install line, before any work
-        self.name, self.symmetric = name, symmetric
+        self.name, self.symmetric, self.options = name, symmetric, options
         self.factorizations = 0
         self._inverse = self._matrix = self._freedofs = None
 
@@ -128,7 +130,8 @@ class DirectSolver:
                 except Exception:                     # an inverse without Update: factorise anew
                     pass
             if self.name in petsc_solver.NAMES:
-                self._inverse = petsc_solver.MumpsFactorization(matrix, freedofs, self.symmetric)
+                self._inverse = petsc_solver.MumpsFactorization(matrix, freedofs, self.symmetric,
+                                                                self.options.database if self.options else None)
             else:
                 try:
                     self._inverse = matrix.Inverse(freedofs, inverse=self.name)

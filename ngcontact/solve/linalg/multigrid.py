@@ -72,14 +72,15 @@ class Hierarchy:
 
     def __init__(self, body, rate, realcompile=False, displacement=True):
         self.kind = bulk_kind(body)
-        kept = getattr(body.mesh, COARSE, None)
+        kept = body.hierarchy
         if self.kind == "bddc":
             self.mesh, levels = body.mesh, 0
         elif kept is None:
             raise ValueError("the multigrid solver needs nested meshes: build the mesh with "
-                             "ngcontact.meshes.nested_mesh(ngmesh, refine) (ngcontact.geometries do)")
+                             "ngcontact.meshes.nested_mesh(ngmesh, refine) (ngcontact.geometries do), or give "
+                             "Body(hierarchy=...)")
         else:
-            coarse, levels = kept
+            coarse, levels = kept.coarse, kept.refinements
             self.mesh = ngs.Mesh(coarse.Copy())
         self.V = ngs.VectorH1(self.mesh, order=body.order,
                               **dirichlet_flags(body.boundaries["clamped"], body.supports, body.dim))

@@ -33,7 +33,8 @@ error names both reasons.
 PETSc options reach the parts through the prefixes ``ngcontact_u_`` and ``ngcontact_phi_``
 (the GAMG preconditioners, e.g. ``-ngcontact_u_pc_gamg_threshold 0.02``; ``GAMG_OPTIONS`` are
 the defaults) and
-``ngcontact_gamma3_`` (the Γ3 factorisation).
+``ngcontact_gamma3_`` (the Γ3 factorisation); those of ``Simulation(solver={"pc_type": "gamg",
+...})`` reach both GAMG preconditioners under their prefixes (``options``).
 """
 from contextlib import nullcontext
 
@@ -45,7 +46,7 @@ from ngcontact import parallel
 from ngcontact.checks import node_memory
 from ngcontact.model.machine_code import compile_bulk, compiled
 from ngcontact.solve.linalg.petsc_blocks import index_set, node_by_node, petsc_vector, rigid_motion_values
-from ngcontact.solve.linalg.petsc_options import reading_options
+from ngcontact.solve.linalg.petsc_options import given_options, reading_options
 from ngcontact.solve.linalg.petsc_solver import MumpsFactorization, PetscMatrix, WeightedGmres, load
 
 
@@ -73,6 +74,10 @@ class GamgSolver:
     maxiter : GMRES iterations before a solve counts as failed.
     realcompile : compile the preconditioner forms' integrands to machine code (True, False;
         None: from ``machine_code.BULK_COMPILED_FROM`` elements).
+    options : the ``petsc_options.SolverOptions`` of ``Simulation(solver={...})``, or None: their
+        ``database`` (``pc_gamg_*``, ``mg_levels_*``, ...) reaches both GAMG preconditioners (over
+        ``GAMG_OPTIONS``), ``max_it`` replaces ``maxiter``, and ``rtol`` bounds the tolerance
+        Newton asks for: GMRES reduces the residual by at least that much.
 
     ``forcing`` (0.01): after every correction but a step's first Newton asks for no more
     than ``inexact.forcing_term`` (0.01 (‖r_k‖ / ‖r_{k−1}‖)² after a fall, Eisenstat–Walker;
@@ -86,9 +91,11 @@ class GamgSolver:
     margin = 0.1
     forcing = 0.01
 
-    def __init__(self, body, system, layer=None, *, tol=1e-8, maxiter=300, realcompile=None):
+    def __init__(self, body, system, layer=None, *, tol=1e-8, maxiter=300, realcompile=None, options=None):
         load("iterative='gamg'")
-        self.body, self.system, self.layer = body, system, layer
+        self.body, self.system, self.layer, self.options = body, system, layer, options
+        if options is not None and options.max_it is not None:
+            maxiter = options.max_it
         self.tol, self.maxiter, self.realcompile = tol, int(maxiter), realcompile
         self.factorizations = self.krylov_iterations = self.krylov_failures = self.oversized = 0
         self._integrand = None                        # the preconditioner forms', compiled once
@@ -158,7 +165,8 @@ class GamgSolver:
             for key, value in GAMG_OPTIONS.items():          # the defaults, where PETSC_OPTIONS says nothing
                 if not options.hasName(prefix + key):
                     options.setValue(prefix + key, value)
-            with reading_options(f"the GAMG preconditioner of {name} (prefix -{prefix})"):
+            what = f"the GAMG preconditioner of {name} (prefix -{prefix})"
+            with reading_options(what), given_options(prefix, self.options.database if self.options else None, what):
                 pc.setFromOptions()
                 pc.setUp()
             x, y = block.createVecs()
@@ -270,9 +278,11 @@ class GamgSolver:
                 self._preconditioners(freedofs)
                 self._generation = generation
             self._factor_surface()
+        tol = self.tol if tol is None else tol
+        if self.options is not None and self.options.rtol is not None:
+            tol = min(tol, self.options.rtol)
         with timer("solve"):
-            converged, iterations, reason = self.gmres.solve(r, w, weights, self.tol if tol is None else tol,
-                                                             self.maxiter)
+            converged, iterations, reason = self.gmres.solve(r, w, weights, tol, self.maxiter)
         self.krylov_iterations += iterations
         if not converged:                      # a fresh factorisation of J solves instead, where it fits
             self.krylov_failures += 1

@@ -24,7 +24,7 @@ import ngsolve as ngs
 import numpy as np
 
 from ngcontact import mpi_launch
-from ngcontact.solve.linalg.petsc_options import check_factorisation, reading_options
+from ngcontact.solve.linalg.petsc_options import check_factorisation, given_options, reading_options
 
 NAMES = ("mumps",)
 """The ``inverse=`` names of the PETSc engine."""
@@ -136,14 +136,16 @@ class MumpsFactorization(ngs.BaseMatrix):
     matrix : ngsolve SparseMatrix or ParallelMatrix.
     freedofs : BitArray of the free DOFs.
     symmetric : LDLᵀ (PETSc "cholesky") instead of LU; only for a symmetric matrix.
+    options : PETSc options of the factorisation (``mat_mumps_*``, names without the dash) from
+        ``Simulation(solver={...})``, set while it reads them (``petsc_options.given_options``).
 
     ``relaxation``: MUMPS's workspace relaxation ICNTL(14) (%) the last factorisation needed.
     """
 
-    def __init__(self, matrix, freedofs, symmetric=False):
+    def __init__(self, matrix, freedofs, symmetric=False, options=None):
         super().__init__()
         PETSc, _ = load()
-        self.matrix, self.freedofs, self.symmetric = matrix, freedofs, symmetric
+        self.matrix, self.freedofs, self.symmetric, self.options = matrix, freedofs, symmetric, options or {}
         self.petsc = PetscMatrix(matrix, freedofs)
         self._mark_symmetric()
         self.pc = PETSc.PC().create(comm=self.petsc.mat.getComm())
@@ -153,7 +155,8 @@ class MumpsFactorization(ngs.BaseMatrix):
         self.pc.setFactorSetUpSolverType()
         self.relaxation = WORKSPACE_RELAXATION
         self.pc.getFactorMatrix().setMumpsIcntl(14, self.relaxation)
-        with reading_options('the MUMPS factorisation of inverse="mumps"'):
+        with reading_options('the MUMPS factorisation of inverse="mumps"'), \
+                given_options("", self.options, "the MUMPS factorisation"):
             self.pc.setFromOptions()                # PETSC_OPTIONS, e.g. -mat_mumps_icntl_4 2
             check_factorisation(self.pc, self.symmetric, 'inverse="mumps"')
             self._factorise()                       # MUMPS reads its -mat_mumps_* options here
@@ -200,7 +203,8 @@ class MumpsFactorization(ngs.BaseMatrix):
         self.petsc.refill()
         self._mark_symmetric()
         self.pc.setOperators(self.petsc.mat)
-        self._factorise()
+        with given_options("", self.options):         # a factorisation made again reads them again
+            self._factorise()
 
     def Height(self):
         return self.matrix.height
@@ -320,17 +324,19 @@ class KeptMumps:
     there is none, when ``generation`` or the free DOFs changed, or when GMRES does not reach
     ``tol`` within ``budget`` iterations. GMRES measures the preconditioned residual in
     Newton's weighted norm (``WeightedGmres``). Same ``solve`` protocol and counters as
-    ``linear_solver.KeptFactorization``."""
+    ``linear_solver.KeptFactorization``. ``options``: the ``petsc_options.SolverOptions`` of
+    ``Simulation(solver={...})`` (their ``database`` reaches the factorisation), or None."""
 
-    def __init__(self, symmetric=False, *, tol=1e-8, budget=20):
-        self.symmetric, self.tol, self.budget = symmetric, tol, int(max(1, budget))
+    def __init__(self, symmetric=False, *, tol=1e-8, budget=20, options=None):
+        self.symmetric, self.tol, self.budget, self.options = symmetric, tol, int(max(1, budget)), options
         self.krylov_iterations = self.krylov_failures = self.factorizations = 0
         self._factorization = self._current = self._gmres = self._generation = None
 
     name = "GMRES preconditioned by a kept MUMPS factorisation of an earlier Jacobian (PETSc)"
 
     def _setup(self, matrix, freedofs):
-        self._factorization = MumpsFactorization(matrix, freedofs, self.symmetric)
+        self._factorization = MumpsFactorization(matrix, freedofs, self.symmetric,
+                                                 self.options.database if self.options else None)
         self._current = PetscMatrix(matrix, freedofs)
         self._gmres = WeightedGmres(self._current, lambda x, y: self._factorization.pc.apply(x, y))
         self.factorizations += 1

@@ -15,11 +15,16 @@ reads a solver's name; by default chosen by the system's symmetry, size and dime
   (``linear_solver.KeptFactorization``; of the symmetric part for a non-symmetric Jacobian),
   or made at every iteration (``reuse_factorization=False``, and Nitsche's θ = −1, whose
   skew Γ3 part makes GMRES slower than factorising, docs/speed.md).
+
+``Simulation(solver={...})``, PETSc options as a PETSc user writes them
+(``petsc_options.check``), builds the same solvers on PETSc: ``pc_type`` "lu" or "cholesky"
+MUMPS's factorisation (LU or LDLᵀ as asked; ``ksp_type`` "gmres", PETSc's default, keeps it as
+GMRES's preconditioner as ``solver="mumps"`` does, "preonly" factorises at every Newton
+iteration), "gamg" the solver of ``solver="gamg"``; their other options reach PETSc.
 """
-from ngcontact.solve.linalg import petsc_solver
+from ngcontact.solve.linalg import petsc_options, petsc_solver
 from ngcontact.solve.linalg.linear_solver import (NAMES, PARALLEL_NAMES, DirectSolver, KeptFactorization,
                                                   factorization_worth)
-from ngcontact.meshes import refinements
 from ngcontact import parallel
 from ngcontact.solve.linalg.multigrid import MultigridSolver, needs_nested_mesh
 from ngcontact.solve.linalg.petsc_iterative import GamgSolver
@@ -39,7 +44,7 @@ def iterative_by_default(body, condense, distributed=False):
         return False
     if distributed:
         return "gamg" if petsc_solver.available() else False
-    nested = (refinements(body.mesh) or 0) >= 1 or not needs_nested_mesh(body)
+    nested = (body.hierarchy is not None and body.hierarchy.refinements >= 1) or not needs_nested_mesh(body)
     return "multigrid" if nested else False
 
 
@@ -52,23 +57,31 @@ def names():
 def as_options(spec, inverse, iterative, reuse_factorization):
     """(inverse, iterative) for ``Simulation(solver=spec)``, checked before any work: for a name, the
     direct or iterative solver it names (one of ``names()``); for None, the earlier options as
-    given; an object must have a ``solve`` method and a ``name`` (``protocol.LinearSolver``). A
-    solver given with the earlier options (``inverse``, ``iterative``, ``reuse_factorization=False``)
-    is refused: they would contradict."""
+    given; for a dict of PETSc options (``petsc_options.check``), "mumps" or "gamg" by its
+    ``pc_type``, and PETSc must be installed (``petsc_solver.PetscMissing`` naming ``solver=``); an
+    object must have a ``solve`` method and a ``name`` (``protocol.LinearSolver``). A solver given
+    with the earlier options (``inverse``, ``iterative``, ``reuse_factorization=False``) is refused:
+    they would contradict."""
     if spec is None:
         return inverse, iterative
     if inverse is not None or iterative is not None or reuse_factorization is False:
         raise ValueError("Simulation: give the linear solver by solver= alone, or by the earlier options inverse=, "
                          f"iterative=, reuse_factorization=, not both (solver={spec!r}, inverse={inverse!r}, "
                          f"iterative={iterative!r}, reuse_factorization={reuse_factorization!r})")
+    if isinstance(spec, dict):
+        direct = petsc_options.check(spec).pc_type != "gamg"
+        petsc_solver.load(f"solver={spec!r}")
+        return ("mumps", False) if direct else (None, "gamg")
     if not isinstance(spec, str):
         if not (callable(getattr(spec, "solve", None)) and isinstance(getattr(spec, "name", None), str)):
             raise TypeError(f"solver must be None, a name or an object with a solve() method and a name "
-                            f"(ngcontact.solve.linalg.protocol.LinearSolver), got {type(spec).__name__}")
+                            f"(ngcontact.solve.linalg.protocol.LinearSolver) or a dict of PETSc options, got "
+                            f"{type(spec).__name__}")
         return None, False
     if spec not in names():
         raise ValueError(f"solver must be None, an object with a solve() method (ngcontact.solve.linalg."
-                         f"protocol.LinearSolver) or one of {', '.join(map(repr, names()))}; got {spec!r}")
+                         f"protocol.LinearSolver), a dict of PETSc options or one of "
+                         f"{', '.join(map(repr, names()))}; got {spec!r}")
     return (None, spec) if spec in ITERATIVE else (spec, False)
 
 
@@ -76,8 +89,14 @@ def resolve(spec, body, contact, system, space, *, inverse, reuse_factorization,
     """(the Newton corrections' solver, the solver of the potential at t = 0) for
     ``Simulation(solver=spec)``, with ``inverse`` and ``iterative`` from ``as_options``: for None or a
     name, ``choose`` (a direct solver is kept as GMRES's preconditioner between iterations unless
-    ``reuse_factorization`` is False); an object with the ``protocol.LinearSolver`` protocol is used
-    as it is (the potential at t = 0 solved as without it). ``options`` go to ``choose``."""
+    ``reuse_factorization`` is False); for a dict of PETSc options, ``choose`` with them (the
+    factorisation kept for ``ksp_type`` "gmres"); an object with the ``protocol.LinearSolver``
+    protocol is used as it is (the potential at t = 0 solved as without it). ``options`` go to
+    ``choose``."""
+    if isinstance(spec, dict):
+        petsc = petsc_options.check(spec)
+        return choose(body, contact, system, space, inverse=inverse, iterative=iterative, petsc=petsc,
+                      reuse_factorization=petsc.ksp_type == "gmres", **options)
     if spec is None or isinstance(spec, str):
         return choose(body, contact, system, space, inverse=inverse, reuse_factorization=reuse_factorization,
                       iterative=iterative, **options)
@@ -86,37 +105,55 @@ def resolve(spec, body, contact, system, space, *, inverse, reuse_factorization,
 
 
 def needs_petsc(name):
-    """Whether the solver ``name`` runs on PETSc ("mumps", "gamg"; "iterative" under mpiexec, which
-    is GAMG there): for the command line's refusals before any work."""
+    """Whether the solver ``name`` runs on PETSc ("mumps", "gamg", a dict of PETSc options;
+    "iterative" under mpiexec, which is GAMG there): for the command line's refusals before any
+    work."""
+    if isinstance(name, dict):
+        return True
     return name in petsc_solver.NAMES or name == "gamg" or (name == "iterative" and parallel.world() is not None)
 
 
 def describe(solver):
     """The ``options.*`` of a run's fingerprint for its solver as used: ``inverse`` (the
     factorisation's name, None for an iterative solver or one of the user's), ``reuse_factorization``
-    (kept as GMRES's preconditioner) and ``iterative`` ("multigrid", "gamg" or False)."""
+    (kept as GMRES's preconditioner) and ``iterative`` ("multigrid", "gamg" or False); for a solver
+    of ``Simulation(solver={...})`` also ``petsc``, the PETSc options as given (absent otherwise,
+    so that the records of other runs keep their fields)."""
     iterative = "multigrid" if isinstance(solver, MultigridSolver) else "gamg" if isinstance(solver, GamgSolver) \
         else False
     kept = isinstance(solver, (KeptFactorization, petsc_solver.KeptMumps))
     direct = getattr(solver, "direct", solver)
     inverse = None if iterative else "mumps" if isinstance(solver, petsc_solver.KeptMumps) else \
         direct.name if isinstance(direct, DirectSolver) else None
-    return {"options.inverse": inverse, "options.reuse_factorization": kept, "options.iterative": iterative}
+    fields = {"options.inverse": inverse, "options.reuse_factorization": kept, "options.iterative": iterative}
+    built = direct if isinstance(direct, DirectSolver) else solver if isinstance(
+        solver, (GamgSolver, petsc_solver.KeptMumps)) else None
+    if built is not None and built.options is not None:
+        fields["options.petsc"] = dict(sorted(built.options.given.items()))
+    return fields
 
 
 def choose(body, contact, system, space, *, inverse, reuse_factorization, iterative, electric, condense,
-           realcompile=None, distributed=False):
+           realcompile=None, distributed=False, petsc=None):
     """(the Newton corrections' solver, the solver of the potential at t = 0) for ``body``
     and ``contact`` on the StepSystem ``system`` of the product ``space`` (``realcompile``: of
     the preconditioner forms' integrands; None: GAMG's by the mesh size, the multigrid
     hierarchy's not). ``distributed`` (a mesh over several MPI ranks):
-    NGSolve's "masterinverse" at every iteration (``check_simulation``)."""
+    NGSolve's "masterinverse" at every iteration (``check_simulation``). ``petsc``: the
+    ``petsc_options.SolverOptions`` of ``Simulation(solver={...})``, for "mumps" (its ``pc_type``
+    chooses LU or LDLᵀ; "cholesky" of a non-symmetric Jacobian is a ValueError) or "gamg"."""
     allowed = NAMES + (PARALLEL_NAMES if distributed else ())
     if inverse is not None and inverse not in allowed:
         raise ValueError(f"inverse must be one of {', '.join(map(repr, allowed))} or None, got {inverse!r}")
     if iterative not in (None, True, False) + ITERATIVE:
         raise ValueError(f"iterative must be None (automatic), True, False, 'multigrid' or 'gamg', got {iterative!r}")
     symmetric = (contact is None or contact.symmetric) and body.tensors.linear   # a law's Nitsche term: not
+    if petsc is not None and petsc.pc_type != "gamg":
+        if petsc.pc_type == "cholesky" and not symmetric:
+            raise ValueError("solver: the PETSc option 'pc_type' = 'cholesky' (LDLᵀ) needs a symmetric Jacobian; "
+                             "this one is not (Contact.symmetric is False, or a material law is nonlinear): "
+                             "use 'lu'")
+        symmetric = petsc.pc_type == "cholesky"
     if iterative is None:
         iterative = inverse is None and iterative_by_default(body, condense, distributed)
     if iterative is True:
@@ -128,17 +165,17 @@ def choose(body, contact, system, space, *, inverse, reuse_factorization, iterat
             raise ValueError(f"iterative={iterative!r} needs condense=False (its preconditioner acts on all DOFs)")
         layer = space.GetDofs(body.region("contact_side")) if contact is not None else None
         if iterative == "gamg":                  # PETSc; distributed or serial
-            return (GamgSolver(body, system, layer, realcompile=realcompile),
-                    GamgSolver(body, system, layer, realcompile=realcompile))
+            return (GamgSolver(body, system, layer, realcompile=realcompile, options=petsc),
+                    GamgSolver(body, system, layer, realcompile=realcompile, options=petsc))
     if distributed:                              # what cannot run there raised in check_simulation
         name = inverse or ("mumps" if petsc_solver.available() else PARALLEL_NAMES[0])
         sym = symmetric and name == "mumps"
         if name == "mumps" and reuse_factorization and not parallel.oversubscribed():   # PETSc's GMRES, kept MUMPS
-            return (petsc_solver.KeptMumps(sym, budget=factorization_worth(body.ndof, body.dim)),
-                    DirectSolver(name, symmetric=sym))
-        return DirectSolver(name, symmetric=sym), DirectSolver(name, symmetric=sym)
+            return (petsc_solver.KeptMumps(sym, budget=factorization_worth(body.ndof, body.dim), options=petsc),
+                    DirectSolver(name, symmetric=sym, options=petsc))
+        return DirectSolver(name, symmetric=sym, options=petsc), DirectSolver(name, symmetric=sym, options=petsc)
     if iterative:                                # "multigrid": NGSolve's, on nested meshes
-        if needs_nested_mesh(body) and refinements(body.mesh) is None:
+        if needs_nested_mesh(body) and body.hierarchy is None:
             raise ValueError("iterative='multigrid' needs nested meshes: make the mesh with "
                              "ngcontact.meshes.nested_mesh(ngmesh, refine) (ngcontact.geometries do), or "
                              "use iterative='gamg' (PETSc)")
@@ -149,11 +186,10 @@ def choose(body, contact, system, space, *, inverse, reuse_factorization, iterat
     name = inverse or ("sparsecholesky" if symmetric else "umfpack")
     skew = contact is not None and contact.enforcement_method.skew_symmetric
     if name == "mumps":                          # LDLᵀ or LU by symmetry; kept as GMRES's preconditioner
-        direct = DirectSolver(name, symmetric=symmetric)
+        direct, potential = (DirectSolver(name, symmetric=symmetric, options=petsc) for _ in range(2))
         if not reuse_factorization:
-            return direct, DirectSolver(name, symmetric=symmetric)
-        return (KeptFactorization(direct, budget=factorization_worth(body.ndof, body.dim)),
-                DirectSolver(name, symmetric=symmetric))
+            return direct, potential
+        return KeptFactorization(direct, budget=factorization_worth(body.ndof, body.dim)), potential
     if not reuse_factorization or (inverse is None and skew):
         return DirectSolver(name), DirectSolver(name)
     budget = factorization_worth(body.ndof, body.dim)
