@@ -65,25 +65,29 @@ class Simulation:
         paper's (4.3)–(4.5)).
     u0 : initial displacement (number tuple or CoefficientFunction), zero on Γ1 and admissible;
         default 0. Newton's start of a step may differ from it (``step(dt, guess=...)``).
-    solver : the linear solver of the Newton corrections: None (default: chosen by the system's
-        symmetry, size and dimension, see ``inverse``, ``reuse_factorization`` and ``iterative``,
-        the options of earlier releases that tune it), a name (``solver_choice.names()``: every
-        direct solver of NGSolve's ``la.GetAvailableSolvers()`` and "mumps", each kept as GMRES's
-        preconditioner between iterations as by default; or "multigrid", "gamg"), a dict of PETSc
-        options as a PETSc user writes them, without the dash (``petsc_options.check``: e.g.
-        ``{"pc_type": "gamg", "pc_gamg_threshold": 0.02}``, or ``{"ksp_type": "preonly",
-        "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"}`` for MUMPS at every iteration), or
-        an object with the protocol ``solve.linalg.protocol.LinearSolver`` (a ``solve`` method and
-        a ``name``), used as it is.
-    inverse : the direct factorisation of the Newton corrections ("sparsecholesky",
-        "umfpack", "pardiso", or "mumps": PETSc's MUMPS, LDLᵀ or LU by the Jacobian's
-        symmetry, serial or distributed, where PETSc is installed: ``petsc_solver``); default
-        on a distributed mesh: "mumps" where PETSc is installed, else "masterinverse"; serially: "sparsecholesky" where the step Jacobian is symmetric
-        (no contact, or ``Contact.symmetric``), else, with ``reuse_factorization``, the
-        sparse Cholesky factorisation of its symmetric part as GMRES's preconditioner, and
-        "umfpack" without, and for Nitsche's θ = −1 (its skew Γ3 part makes GMRES slower
-        than factorising at every iteration). The nodal constraint (``method="active_set"``) solves its saddle
-        point systems itself. ``solver`` says what is used (distributed: ``solver_choice.check_simulation``).
+    solver : the linear solver of the Newton corrections (``solver_choice``; ``solver`` says what
+        is used):
+        None (default): by the system. Serially a factorisation kept as GMRES's preconditioner
+        between Newton iterations and made again only when that pays
+        (``linear_solver.KeptFactorization``): "sparsecholesky" of a symmetric Jacobian (no
+        contact, or ``Contact.symmetric``), else of its symmetric part; for Nitsche's θ = −1
+        "umfpack" at every iteration (its skew Γ3 part makes GMRES slower); in 3D from 10⁵ DOFs
+        without condensation, on nested meshes (``Body.hierarchy``), GMRES around multigrid.
+        Distributed: MUMPS where PETSc is installed, else "masterinverse".
+        A name (``solver_choice.names()``): every direct solver of NGSolve's
+        ``la.GetAvailableSolvers()`` and "mumps" (PETSc's; LDLᵀ or LU by the Jacobian's
+        symmetry), kept as by default; "multigrid" (GMRES with Γ3 solves around block multigrid,
+        P1 on nested meshes, or BDDC, P2+), "gamg" (around PETSc's GAMG); "direct" or
+        "iterative" (the kind, the rest by the system).
+        A dict of options as a PETSc user writes them, without the dash
+        (``petsc_options.check``): ``{"ksp_type": "preonly"}`` factorises at every iteration,
+        ``{"pc_type": "lu", "pc_factor_mat_solver_type": "umfpack"}`` names the factorisation,
+        ``{"pc_type": "gamg", "pc_gamg_threshold": 0.02}`` tunes GAMG.
+        An object with the protocol ``solve.linalg.protocol.LinearSolver`` (a ``solve`` method
+        and a ``name``), used as it is.
+        The nodal constraint (``method="active_set"``) solves its saddle point systems itself.
+    inverse, reuse_factorization, iterative : the earlier options of the solver, replaced by
+        ``solver`` (a DeprecationWarning names the ``solver=`` that does the same).
     rtol, maxit : Newton tolerance (relative) and iteration limit per step.
     keep_states : keep a copy of (u, φ) of every step in the history.
     predictor : start Newton from the linear extrapolation of the last two states instead of
@@ -95,7 +99,7 @@ class Simulation:
     realcompile : compile the Γ3 Jacobian's integrand to machine code (needs a C++ compiler,
         takes 6–9 s once, assembles the Γ3 Jacobian 6–12× faster): True at once, False never,
         None (default) when the Newton iterations a run expects pay for it (``machine_code``);
-        ``realcompile`` says whether it is. With ``iterative="gamg"`` the same choice for the
+        ``realcompile`` says whether it is. With ``solver="gamg"`` the same choice for the
         preconditioner forms' integrand (None: from ``machine_code.BULK_COMPILED_FROM`` elements).
     limit_steps : shorten Newton corrections that would carry open points of Γ3 deep into
         the foundation (``step_length``): Newton's iterations at first contact then no longer
@@ -110,14 +114,6 @@ class Simulation:
         facet of Γ3 or of the largest displacement, displacements beyond 0.05 of the body's
         size, a clipped β update (``admissible``); False for scale-free tests (manufactured
         solutions of unit size).
-    reuse_factorization : solve the Newton corrections by GMRES preconditioned with the
-        factorisation of an earlier Jacobian of the same time step size, factorising again
-        only when that pays (``linear_solver.KeptFactorization``); False: factorise at every
-        Newton iteration (also the default for Nitsche's θ = −1, see ``inverse``).
-    iterative : GMRES preconditioned by Γ3 solves around block multigrid (P1, nested meshes)
-        or BDDC (P2+) instead of a factorisation (``multigrid``): None (default) in 3D from
-        10⁵ DOFs, for P1 when the mesh was made by ``meshes.nested_mesh``
-        (``ngcontact.geometries`` do), without condensation (``solver_choice``); True or False.
     globalise : where Newton's full steps stop making progress, a line search on the residual
         norm and then a path through smoother laws of Γ3 (``line_search``, ``continuation``);
         False: full steps only.
@@ -144,9 +140,9 @@ class Simulation:
             physical_checks, globalise = options.values()
         Scheme = scheme_class(scheme)
         self.body = body
-        inverse_used, iterative_used = as_options(solver, inverse, iterative, reuse_factorization)
-        self.parallel_notes = check_simulation(body.mesh, contact, inverse_used, condense, reuse_factorization,
-                                               iterative_used)
+        choice = as_options(solver, inverse, iterative, reuse_factorization)
+        self.parallel_notes = check_simulation(body.mesh, contact, choice.inverse, condense, choice.reuse,
+                                               choice.iterative)
         self.loads = loads or Loads()
         self.loads.check(body)
         self.time = time if time is not None else ngs.Parameter(0.0)
@@ -160,7 +156,7 @@ class Simulation:
         self.gfu = ngs.GridFunction(self.X, name="state")
         self.u, self.phi = self.gfu.components
         distributed = parallel.is_distributed(body.mesh)     # see solver_choice.check_simulation, parallel_notes
-        automatic = has_interior_dofs(self.X) and body.tensors.linear and iterative_used in (None, False)  # not GMRES
+        automatic = has_interior_dofs(self.X) and body.tensors.linear and choice.iterative in (None, False)  # no GMRES
         self.condense = automatic if condense is None else bool(condense)
         self.condense &= contact is None or contact.enforcement_method.condensable
         kept = body.region("contact_side") if contact is not None else None
@@ -177,8 +173,7 @@ class Simulation:
             self.gamma3, self._gap_check = build_gamma3(body, contact, self.system, realcompile is True)
             if realcompile is None:              # by what the run will do (``machine_code``)
                 self._machine_code = MachineCode(self.system, self.gamma3.side.B.ndof, body.dim, self.electric)
-        solver, self._potential_solver = resolve(solver, body, contact, self.system, self.X, inverse=inverse_used,
-                                                 reuse_factorization=reuse_factorization, iterative=iterative_used,
+        solver, self._potential_solver = resolve(solver, body, contact, self.system, self.X, choice,
                                                  electric=self.electric, condense=self.condense,
                                                  realcompile=realcompile, distributed=distributed)
         hook = self.gamma3.enforcement.newton_hook if contact is not None else None

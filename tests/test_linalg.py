@@ -1,5 +1,7 @@
 """The linear solver of Newton's corrections behind one protocol: ``Simulation(solver=...)`` takes
 None, a name or an object, and every name gives the same steps."""
+import re
+
 import numpy as np
 import pytest
 import scipy.sparse as sp
@@ -39,7 +41,7 @@ def reference_forces():
     return forces(reference.simulation(1, 0.01))
 
 
-DIRECT = [name for name in solver_choice.names() if name not in solver_choice.ITERATIVE]
+DIRECT = [name for name in solver_choice.names() if name not in solver_choice.ITERATIVE + ("iterative",)]
 
 
 @pytest.mark.parametrize("name", DIRECT)
@@ -123,9 +125,40 @@ def test_the_solver_is_checked_before_any_work():
         reference.simulation(1, 0.02, solver="umfpack", reuse_factorization=False)
 
 
-def test_a_name_resolves_to_what_the_earlier_options_made():
-    """solver="umfpack" is inverse="umfpack"; solver="multigrid" is iterative="multigrid"."""
-    a = reference.simulation(1, 0.02, solver="umfpack")
-    b = reference.simulation(1, 0.02, inverse="umfpack")
+EARLIER = [(dict(inverse="umfpack"), "umfpack"), (dict(iterative=False), "direct"),
+           (dict(reuse_factorization=False), {"ksp_type": "preonly"}),
+           (dict(inverse="umfpack", reuse_factorization=False),
+            {"ksp_type": "preonly", "pc_factor_mat_solver_type": "umfpack"})]
+
+
+@pytest.mark.parametrize("earlier, solver", EARLIER)
+def test_the_earlier_options_warn_and_build_what_their_solver_builds(earlier, solver):
+    """inverse=, iterative= and reuse_factorization= still work, with a DeprecationWarning naming
+    the solver= that builds the same solver (the same fingerprint fields)."""
+    with pytest.warns(DeprecationWarning, match=re.escape(f"solver={solver!r}")):
+        a = reference.simulation(1, 0.02, **earlier)
+    b = reference.simulation(1, 0.02, solver=solver)
     assert repr(a.newton.solver) == repr(b.newton.solver)
     assert solver_choice.describe(a.newton.solver) == solver_choice.describe(b.newton.solver)
+
+
+def test_iterative_true_is_the_kind_iterative_on_the_3d_block():
+    with pytest.warns(DeprecationWarning, match="solver='iterative'"):
+        a = reference.simulation(1, 0.02, 1, dim=3, iterative=True)
+    b = reference.simulation(1, 0.02, 1, dim=3, solver="iterative")
+    assert a.solver == b.solver and "block multigrid" in b.solver
+
+
+def test_a_factorisation_at_every_iteration_by_options_gives_the_same_steps(reference_forces):
+    """{"ksp_type": "preonly"}: the factorisation chosen by symmetry, made at every Newton
+    iteration (one per iteration, no GMRES); {"pc_type": "lu", "pc_factor_mat_solver_type":
+    "superlu"} names NGSolve's SuperLU, kept as GMRES's preconditioner: no PETSc needed."""
+    every = reference.simulation(1, 0.01, solver={"ksp_type": "preonly"})
+    got = forces(every)
+    assert np.abs(got - reference_forces).max() <= 1e-8 * np.abs(reference_forces).max()
+    assert [r.factorizations for r in every.history[1:]] == [r.newton_iterations for r in every.history[1:]]
+    assert all(r.krylov_iterations == 0 for r in every.history[1:])
+    named = reference.simulation(1, 0.01, solver={"pc_type": "lu", "pc_factor_mat_solver_type": "superlu"})
+    assert "superlu" in named.solver and "kept" in named.solver
+    got = forces(named)
+    assert np.abs(got - reference_forces).max() <= 1e-8 * np.abs(reference_forces).max()

@@ -51,7 +51,12 @@ def _no_work(self):
 
 @pytest.mark.parametrize("spec, error, message", [
     ({"pc_type": "hypre"}, ValueError, r"'pc_type' = 'hypre', which is not supported here; accepted: 'lu' .*'gamg'"),
-    ({"ksp_type": "gmres"}, ValueError, r"give no 'pc_type', which is not supported here; accepted: 'lu'"),
+    ({"ksp_type": "cg"}, ValueError, r"'ksp_type' = 'cg' is not supported with pc_type None; accepted: 'gmres', "
+                                     r"'preonly'"),
+    ({"pc_type": "cholesky", "pc_factor_mat_solver_type": "umfpack"}, ValueError,
+     r"'pc_type' = 'cholesky' and 'pc_factor_mat_solver_type' = 'umfpack' disagree"),
+    ({"pc_factor_mat_solver_type": "umfpack", "mat_mumps_icntl_14": 50}, ValueError,
+     r"'mat_mumps_icntl_14' = 50 is not supported with pc_type None and 'umfpack'"),
     ({1: "gmres", "pc_type": "gamg"}, TypeError, r"a PETSc option's name must be a string .* got 1 \(= 'gmres'\)"),
     ({"-pc_type": "lu"}, ValueError, r"write the PETSc option '-pc_type' without the dash: 'pc_type'"),
     ({"pc_type": "gamg", "pc_gamg_threshold": "high"}, TypeError,
@@ -65,7 +70,7 @@ def _no_work(self):
      r"'snes_type' = 'newtonls' is not supported with pc_type 'gamg'; accepted: pc_type, ksp_type, ksp_rtol"),
     ({"pc_type": "lu", "ksp_rtol": 1e-6}, ValueError, r"'ksp_rtol' = 1e-06 is not supported with pc_type 'lu'"),
     ({"pc_type": "lu", "pc_factor_mat_solver_type": "superlu_dist"}, ValueError,
-     r"'pc_factor_mat_solver_type' = 'superlu_dist' is not supported; accepted: 'mumps'"),
+     r"'pc_factor_mat_solver_type' = 'superlu_dist' is not supported; accepted: 'sparsecholesky', 'umfpack'"),
     ({"pc_type": "gamg", "ksp_rtol": 2.0}, ValueError, r"'ksp_rtol' = 2.0 must lie in \(0, 1\)"),
 ])
 def test_a_bad_dict_names_its_option_before_any_work(monkeypatch, spec, error, message):

@@ -208,8 +208,8 @@ def test_bare_scene_uses_cholesky_and_matches_umfpack():
     """θ = 1 without glue and conduction: symmetric Jacobian, sparse Cholesky by default, the same steps
     as UMFPACK to the Newton tolerance."""
     steps = []
-    for inverse in (None, "umfpack"):
-        sim = scene.simulation(1, contact=scene.contact(bare=True), inverse=inverse)
+    for solver in (None, "umfpack"):
+        sim = scene.simulation(1, contact=scene.contact(bare=True), solver=solver)
         sim.run(2.5e-3, 0.03)
         steps.append(sim)
     assert "sparsecholesky" in steps[0].solver and steps[0].history[-1].contact.contact_area > 0

@@ -29,7 +29,7 @@ import ngsolve as ngs
 from ngcontact import parallel
 from ngcontact.solve.newton import NewtonError
 
-COARSE_OPTIONS = dict(keep_states=False, physical_checks=False, realcompile=False, reuse_factorization=False)
+COARSE_OPTIONS = dict(keep_states=False, physical_checks=False, realcompile=False, solver={"ksp_type": "preonly"})
 """Options of the coarse levels' simulations: no copies of their states, no warnings (their
 results are starts only), no compilation to machine code and a factorisation per iteration
 (neither pays on a small system solved a few times)."""

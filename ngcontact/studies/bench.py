@@ -52,9 +52,9 @@ x_new| / max |x_old| over the final state vectors, u and φ) on the new row of a
 cases run in ascending size, so it is the case's own peak unless a comparison's old path
 ran before it); ``hierarchy_s``: the multigrid solver's setup (replica hierarchy) inside the
 steps, s; ``ranks``: the MPI ranks of the run (1: serial)."""
-OLD_PATH = dict(reuse_factorization=False, limit_steps=False)
-"""The Simulation options of the old path (main before the kept factorisation, 71be180):
-factorise at every Newton iteration, full Newton steps."""
+OLD_PATH = dict(limit_steps=False)
+"""The Simulation options of the old path (main before the kept factorisation, 71be180): full
+Newton steps, and a factorisation at every Newton iteration (``solver``)."""
 THREADS_FROM = 30_000
 """Below this many DOFs TaskManager made steps slower (docs/speed.md: the ds(skeleton=True)
 loops over all facets lose more to threading than assembly gains)."""
@@ -79,13 +79,16 @@ def measure(order, level, *, dim=2, steps=10, dt=2.5e-3, inverse=None, realcompi
     vector (numpy)."""
     if path not in ("new", "old"):
         raise ValueError(f"path must be 'new' or 'old', got {path!r}")
+    solver = iterative if isinstance(iterative, str) else "iterative" if iterative else \
+        {"ksp_type": "preonly", **({"pc_factor_mat_solver_type": inverse} if inverse else {})} if path == "old" else \
+        inverse or ("direct" if iterative is False else None)
     start = wallclock.perf_counter()
     body = reference.body(order, MAXH[dim], refine=level, dim=dim)
     threads = body.ndof >= THREADS_FROM if threads is None else threads
     with ngs.TaskManager() if threads else nullcontext():
         sim = reference.simulation(order, MAXH[dim], level, dim, contact=reference.contact(bare=bare),
-                                   inverse=inverse, keep_states=False, realcompile=realcompile,
-                                   predictor=predictor, condense=condense, iterative=iterative,
+                                   solver=solver, keep_states=False, realcompile=realcompile,
+                                   predictor=predictor, condense=condense,
                                    **(OLD_PATH if path == "old" else {}))
         setup = wallclock.perf_counter() - start
         sim.run(dt, steps * dt)

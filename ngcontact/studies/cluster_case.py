@@ -37,9 +37,8 @@ unset, for MUMPS; NGSolve's OpenBLAS has read them before)."""
 
 SCENES = {"plate": 2, "block": 3}
 """The reference scene's variants: the 2D plate and the 3D block, by dimension."""
-SOLVERS = {"default": {}, "mumps": dict(inverse="mumps"), "masterinverse": dict(inverse="masterinverse"),
-           "gamg": dict(iterative="gamg"), "multigrid": dict(iterative="multigrid"),
-           "umfpack": dict(inverse="umfpack")}
+SOLVERS = {"default": {}, "mumps": dict(solver="mumps"), "masterinverse": dict(solver="masterinverse"),
+           "gamg": dict(solver="gamg"), "multigrid": dict(solver="multigrid"), "umfpack": dict(solver="umfpack")}
 """The solver configurations by name, as Simulation options: ``default`` (what the library
 chooses: serially a kept factorisation, NGSolve's multigrid in 3D from 1e5 DOFs; under
 mpiexec MUMPS where PETSc is installed, else "masterinverse", GAMG in 3D from 1e5 DOFs),
@@ -106,8 +105,7 @@ def factorisations(scene, order, level, rounds, dt, seed=0):
     petsc_solver.load("the factorisation comparison")
     start = wallclock.perf_counter()
     with ngs.TaskManager():
-        sim = reference.simulation(order, MAXH[dim], level, dim, keep_states=False, inverse="mumps",
-                                   iterative=False, condense=False)
+        sim = reference.simulation(order, MAXH[dim], level, dim, keep_states=False, solver="mumps", condense=False)
         build_s = wallclock.perf_counter() - start
         sim.step(dt)
         sim.system.AssembleLinearization(sim.gfu.vec)

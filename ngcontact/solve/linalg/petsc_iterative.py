@@ -92,7 +92,7 @@ class GamgSolver:
     forcing = 0.01
 
     def __init__(self, body, system, layer=None, *, tol=1e-8, maxiter=300, realcompile=None, options=None):
-        load("iterative='gamg'")
+        load("solver='gamg'")
         self.body, self.system, self.layer, self.options = body, system, layer, options
         if options is not None and options.max_it is not None:
             maxiter = options.max_it
@@ -209,7 +209,7 @@ class GamgSolver:
             self._surface.setOperators(self._surface_matrix)
             self._surface.setType("lu")
             self._surface.setFactorSolverType("mumps")
-            with reading_options("the Γ3 factorisation of iterative='gamg' (prefix -ngcontact_gamma3_)"):
+            with reading_options("the Γ3 factorisation of solver='gamg' (prefix -ngcontact_gamma3_)"):
                 self._surface.setFromOptions()
             self._sr, self._sy = self._surface_matrix.createVecs()
             self._sd, self._sz = self._surface_matrix.createVecs()
@@ -220,7 +220,7 @@ class GamgSolver:
             J.createSubMatrix(every[0], self.surface_rows, submat=columns)
             J.createSubMatrix(self.surface_rows, every[1], submat=rows)
             self._surface.setOperators(self._surface_matrix)
-        with reading_options("the Γ3 factorisation of iterative='gamg' (prefix -ngcontact_gamma3_)"):
+        with reading_options("the Γ3 factorisation of solver='gamg' (prefix -ngcontact_gamma3_)"):
             self._surface.setUp()
         if self._surface.getFailedReason():
             raise ArithmeticError(f"the MUMPS factorisation of the Γ3 block failed (PETSc's reason "

@@ -3,9 +3,9 @@
 factorisation something else than MUMPS's, is a ValueError naming ``PETSC_OPTIONS`` and the
 option, not a PETSc traceback or a Newton iteration that diverges.
 
-The options reach the solvers by prefix: none for ``inverse="mumps"``'s factorisation (e.g.
+The options reach the solvers by prefix: none for ``solver="mumps"``'s factorisation (e.g.
 ``-mat_mumps_icntl_4 2``, docs/cluster.md), ``ngcontact_u_``, ``ngcontact_phi_`` and
-``ngcontact_gamma3_`` for the parts of ``iterative="gamg"``. Options without a prefix meant for a
+``ngcontact_gamma3_`` for the parts of ``solver="gamg"``. Options without a prefix meant for a
 user's own PETSc solvers reach the factorisation too: ``-pc_type jacobi`` there would turn it
 into a preconditioner taken for a solve, so it is refused (``check_factorisation``).
 
@@ -71,14 +71,20 @@ def check_factorisation(pc, symmetric, what):
                          "own solvers' options a prefix)")
 
 
-PC_TYPES = {"lu": "MUMPS's LU", "cholesky": "MUMPS's LDLᵀ (a symmetric Jacobian only)",
-            "gamg": "GMRES with Γ3 MUMPS solves around block GAMG (petsc_iterative)"}
+PC_TYPES = {"lu": "an LU factorisation (MUMPS's unless pc_factor_mat_solver_type names another)",
+            "cholesky": "an LDLᵀ factorisation (MUMPS's, or 'sparsecholesky'; a symmetric Jacobian only)",
+            "gamg": "GMRES with Γ3 MUMPS solves around block GAMG (petsc_iterative)",
+            None: "none: the factorisation chosen by the Jacobian's symmetry, as by default"}
 """The ``pc_type`` values ``Simulation(solver={...})`` takes, and what each builds."""
-KSP_TYPES = {"lu": ("gmres", "preonly"), "cholesky": ("gmres", "preonly"), "gamg": ("gmres",)}
-"""The ``ksp_type`` each ``pc_type`` takes, PETSc's default (gmres) first."""
-FAMILIES = {"lu": ("mat_mumps_icntl_", "mat_mumps_cntl_"), "cholesky": ("mat_mumps_icntl_", "mat_mumps_cntl_"),
+KSP_TYPES = {"lu": ("gmres", "preonly"), "cholesky": ("gmres", "preonly"), "gamg": ("gmres",),
+             None: ("gmres", "preonly")}
+"""The ``ksp_type`` each ``pc_type`` takes, PETSc's default (gmres: the factorisation kept as
+GMRES's preconditioner between Newton iterations) first; "preonly": a factorisation per iteration."""
+MUMPS_FAMILIES = ("mat_mumps_icntl_", "mat_mumps_cntl_")
+FAMILIES = {"lu": MUMPS_FAMILIES, "cholesky": MUMPS_FAMILIES, None: MUMPS_FAMILIES,
             "gamg": ("pc_gamg_", "pc_mg_", "mg_levels_", "mg_coarse_")}
-"""The options each ``pc_type`` passes to PETSc's options database, by the start of their names."""
+"""The options each ``pc_type`` passes to PETSc's options database, by the start of their names
+(MUMPS's with MUMPS only)."""
 TYPES = {"pc_type": str, "ksp_type": str, "pc_factor_mat_solver_type": str, "ksp_rtol": float, "ksp_max_it": int,
          "mat_mumps_icntl_": int, "mat_mumps_cntl_": float, "pc_gamg_threshold": float,
          "pc_gamg_agg_nsmooths": int, "pc_gamg_type": str, "pc_gamg_coarse_eq_limit": int,
@@ -98,13 +104,17 @@ _KINDS = {str: ("a string", lambda v: isinstance(v, str)),
 class SolverOptions:
     """``Simulation(solver={...})``: PETSc options as a PETSc user writes them, checked
     (``check``). ``given``: the options as given (for the run's records); ``pc_type``,
-    ``ksp_type``: as given or PETSc's default (gmres); ``database``: the options the
-    preconditioner reads from PETSc's options database (``given_options``); ``rtol``,
-    ``max_it``: ``ksp_rtol``, ``ksp_max_it`` (None if not given)."""
+    ``ksp_type``: as given (pc_type None: by the Jacobian's symmetry) or PETSc's default (gmres);
+    ``package``: the factorisation's name (``pc_factor_mat_solver_type``; "mumps" for a pc_type
+    "lu" or "cholesky" given without it; None for a direct solver chosen by the Jacobian's
+    symmetry and for "gamg"); ``database``: the options the preconditioner reads from PETSc's
+    options database (``given_options``); ``rtol``, ``max_it``: ``ksp_rtol``, ``ksp_max_it``
+    (None if not given)."""
 
     given: dict
-    pc_type: str
+    pc_type: str | None
     ksp_type: str
+    package: str | None
     database: dict
     rtol: float | None
     max_it: int | None
@@ -120,12 +130,13 @@ def _typed(key, value):
         raise ValueError(f"solver: the PETSc option {key!r} must be finite, got {value!r}")
 
 
-def check(spec):
+def check(spec, factorisations=("mumps",)):
     """``spec`` (a dict of PETSc options, names without the leading dash) as SolverOptions, or a
     TypeError / ValueError naming the option, its value and what is accepted: ``pc_type`` (see
-    ``PC_TYPES``; required), ``ksp_type`` (``KSP_TYPES``), ``pc_factor_mat_solver_type``
-    "mumps" (lu, cholesky), ``ksp_rtol`` in (0, 1) and ``ksp_max_it`` ≥ 1 (gamg), and the options
-    of ``FAMILIES``. Needs no PETSc: it runs before any work."""
+    ``PC_TYPES``), ``ksp_type`` (``KSP_TYPES``), ``pc_factor_mat_solver_type`` one of
+    ``factorisations`` (the direct solvers by name: MUMPS, NGSolve's; with pc_type "cholesky"
+    MUMPS's or "sparsecholesky", with "lu" any other), ``ksp_rtol`` in (0, 1) and ``ksp_max_it``
+    ≥ 1 (gamg), and the options of ``FAMILIES``. Needs no PETSc: it runs before any work."""
     for key, value in spec.items():
         if not isinstance(key, str):
             raise TypeError(f"solver: a PETSc option's name must be a string without the dash (e.g. 'pc_type'), "
@@ -135,34 +146,40 @@ def check(spec):
         _typed(key, value)
     pc_type = spec.get("pc_type")
     if pc_type not in PC_TYPES:
-        given = "no 'pc_type'" if pc_type is None else f"'pc_type' = {pc_type!r}"
-        raise ValueError(f"solver: the PETSc options give {given}, which is not supported here; accepted: "
-                         + "; ".join(f"{k!r} ({v})" for k, v in PC_TYPES.items()))
+        raise ValueError(f"solver: the PETSc options give 'pc_type' = {pc_type!r}, which is not supported here; "
+                         "accepted: " + "; ".join(f"{k!r} ({v})" for k, v in PC_TYPES.items() if k))
     ksp_type = spec.get("ksp_type", KSP_TYPES[pc_type][0])
     if ksp_type not in KSP_TYPES[pc_type]:
         raise ValueError(f"solver: the PETSc option 'ksp_type' = {ksp_type!r} is not supported with pc_type "
                          f"{pc_type!r}; accepted: {', '.join(map(repr, KSP_TYPES[pc_type]))}")
     direct = pc_type != "gamg"
+    package = spec.get("pc_factor_mat_solver_type", "mumps" if pc_type in ("lu", "cholesky") else None)
+    if direct and package is not None and package not in factorisations:
+        raise ValueError(f"solver: the PETSc option 'pc_factor_mat_solver_type' = {package!r} is not supported; "
+                         f"accepted: {', '.join(map(repr, factorisations))}")
+    if pc_type is not None and package not in (None, "mumps") and (pc_type == "cholesky") != (
+            package == "sparsecholesky"):
+        raise ValueError(f"solver: the PETSc options 'pc_type' = {pc_type!r} and 'pc_factor_mat_solver_type' = "
+                         f"{package!r} disagree: 'sparsecholesky' is NGSolve's LDLᵀ ('cholesky'), the others LU "
+                         "('lu')")
     accepted = ("pc_type", "ksp_type") + (("pc_factor_mat_solver_type",) if direct else ("ksp_rtol", "ksp_max_it"))
+    families = FAMILIES[pc_type] if not direct or package == "mumps" else ()
     for key, value in spec.items():
-        if key not in accepted and not key.startswith(FAMILIES[pc_type]):
+        if key not in accepted and not (families and key.startswith(families)):
             raise ValueError(f"solver: the PETSc option {key!r} = {value!r} is not supported with pc_type "
-                             f"{pc_type!r}; accepted: {', '.join(accepted)} and the options starting with "
-                             f"{', '.join(FAMILIES[pc_type])}")
-        if key.startswith(("mat_mumps_icntl_", "mat_mumps_cntl_")) and not key.rsplit("_", 1)[1].isdigit():
+                             f"{pc_type!r}" + (f" and {package!r}" if direct and package else "") + "; accepted: "
+                             f"{', '.join(accepted)}" + (f" and the options starting with {', '.join(families)}"
+                                                         if families else ""))
+        if key.startswith(MUMPS_FAMILIES) and not key.rsplit("_", 1)[1].isdigit():
             raise ValueError(f"solver: the PETSc option {key!r} = {value!r} names no MUMPS parameter "
                              "(mat_mumps_icntl_<n>, mat_mumps_cntl_<n>)")
-    package = spec.get("pc_factor_mat_solver_type", "mumps")
-    if package != "mumps":
-        raise ValueError(f"solver: the PETSc option 'pc_factor_mat_solver_type' = {package!r} is not supported; "
-                         "accepted: 'mumps' (the default here)")
     rtol, max_it = spec.get("ksp_rtol"), spec.get("ksp_max_it")
     if rtol is not None and not 0 < rtol < 1:
         raise ValueError(f"solver: the PETSc option 'ksp_rtol' = {rtol!r} must lie in (0, 1)")
     if max_it is not None and max_it < 1:
         raise ValueError(f"solver: the PETSc option 'ksp_max_it' = {max_it!r} must be at least 1")
-    database = {k: v for k, v in spec.items() if k.startswith(FAMILIES[pc_type])}
-    return SolverOptions(dict(spec), pc_type, ksp_type, database, rtol, max_it)
+    database = {k: v for k, v in spec.items() if families and k.startswith(families)}
+    return SolverOptions(dict(spec), pc_type, ksp_type, package if direct else None, database, rtol, max_it)
 
 
 @contextmanager

@@ -1,6 +1,6 @@
 """Newton's linear solves on PETSc: MUMPS factorisations through ngsPETSc.
 
-``Simulation(inverse="mumps")`` factorises the step's Jacobian with MUMPS (LU for a
+``Simulation(solver="mumps")`` factorises the step's Jacobian with MUMPS (LU for a
 non-symmetric Jacobian, LDLᵀ for a symmetric one), serially or on a mesh distributed over MPI
 ranks, where it replaces NGSolve's "masterinverse" (which gathers the whole matrix on rank 0).
 The factorisation is an NGSolve ``BaseMatrix`` (``MumpsFactorization``), so the kept
@@ -14,7 +14,7 @@ so that MUMPS reuses its analysis (symbolic factorisation and ordering).
 
 Installing PETSc: PyPI has no binary petsc4py; on Python ≥ 3.12 the ``dolfinx-solver-real``
 wheel ships PETSc 3.25 with MUMPS and its own petsc4py (``INSTALL``); on a cluster, build
-petsc4py against the site's PETSc (docs/cluster.md). Without PETSc, ``inverse="mumps"`` is an
+petsc4py against the site's PETSc (docs/cluster.md). Without PETSc, ``solver="mumps"`` is an
 error that says how to install it, before any work (``PetscMissing``). PETSc's options
 (``PETSC_OPTIONS``) reach the factorisation; what they cannot do is named (``petsc_options``).
 """
@@ -30,7 +30,7 @@ NAMES = ("mumps",)
 """The ``inverse=`` names of the PETSc engine."""
 INSTALL = ('on Python >= 3.12: pip install --no-deps dolfinx-solver-real ngsPETSc && pip install packaging '
            '(or petsc4py built against a PETSc with MUMPS, and ngsPETSc; docs/cluster.md)')
-"""How to install what ``inverse="mumps"`` needs."""
+"""How to install what ``solver="mumps"`` needs."""
 
 WORKSPACE_RELAXATION = 30
 """MUMPS's ICNTL(14): the workspace beyond the analysis's estimate, in % (MUMPS's default 20 for
@@ -47,7 +47,7 @@ class PetscMissing(ImportError, ValueError):
     one line like any other bad value."""
 
 
-def load(what='inverse="mumps"'):
+def load(what='solver="mumps"'):
     """(petsc4py.PETSc, ngsPETSc), imported in the order the wheel needs (mpi4py's MPI first,
     so that PETSc finds the MPI library); ImportError naming ``what`` needs them, with
     ``INSTALL``, if missing."""
@@ -68,7 +68,7 @@ def load(what='inverse="mumps"'):
 
 
 def available():
-    """True if ``inverse="mumps"`` can run here."""
+    """True if ``solver="mumps"`` can run here."""
     try:
         load()
     except ImportError:
@@ -155,10 +155,10 @@ class MumpsFactorization(ngs.BaseMatrix):
         self.pc.setFactorSetUpSolverType()
         self.relaxation = WORKSPACE_RELAXATION
         self.pc.getFactorMatrix().setMumpsIcntl(14, self.relaxation)
-        with reading_options('the MUMPS factorisation of inverse="mumps"'), \
+        with reading_options('the MUMPS factorisation of solver="mumps"'), \
                 given_options("", self.options, "the MUMPS factorisation"):
             self.pc.setFromOptions()                # PETSC_OPTIONS, e.g. -mat_mumps_icntl_4 2
-            check_factorisation(self.pc, self.symmetric, 'inverse="mumps"')
+            check_factorisation(self.pc, self.symmetric, 'solver="mumps"')
             self._factorise()                       # MUMPS reads its -mat_mumps_* options here
         self._x, self._y = self.petsc.mat.createVecs()
 

@@ -1,27 +1,32 @@
-"""Which linear solver makes the Newton corrections of a simulation (``Simulation(solver=)``, or
-the earlier options ``inverse=``, ``reuse_factorization=``, ``iterative=``): the one place that
-reads a solver's name; by default chosen by the system's symmetry, size and dimension.
+"""Which linear solver makes the Newton corrections of a simulation (``Simulation(solver=...)``):
+the one place that reads a solver's name; by default chosen by the system's symmetry, size and
+dimension.
 
-* ``iterative`` (``multigrid.MultigridSolver``, GMRES with Γ3 solves around block multigrid
-  for P1, block BDDC for P2 and higher): by default in 3D from ``ITERATIVE_FROM`` DOFs
-  without static condensation, for P1 on nested meshes (``meshes.nested_mesh``); direct
-  factorisations fill in like n^(4/3) there.
-* on a mesh distributed over MPI ranks: MUMPS (``inverse="mumps"``, through PETSc: the
-  factorisation spread over the ranks) where PETSc is installed, else NGSolve's
-  "masterinverse" (the Jacobian gathered and factorised on rank 0), at every Newton iteration;
-* ``inverse="mumps"`` serially: MUMPS's LDLᵀ (symmetric Jacobian) or LU, kept as GMRES's
-  preconditioner like the other factorisations;
+* iterative (``multigrid.MultigridSolver``, GMRES with Γ3 solves around block multigrid for P1,
+  block BDDC for P2 and higher): by default in 3D from ``ITERATIVE_FROM`` DOFs without static
+  condensation, for P1 on nested meshes (``Body.hierarchy``); direct factorisations fill in
+  like n^(4/3) there.
+* on a mesh distributed over MPI ranks: MUMPS (through PETSc: the factorisation spread over the
+  ranks) where PETSc is installed, else NGSolve's "masterinverse" (the Jacobian gathered and
+  factorised on rank 0), at every Newton iteration;
+* "mumps" serially: MUMPS's LDLᵀ (symmetric Jacobian) or LU, kept as GMRES's preconditioner
+  like the other factorisations;
 * else a direct factorisation: kept between Newton iterations as GMRES's preconditioner
   (``linear_solver.KeptFactorization``; of the symmetric part for a non-symmetric Jacobian),
-  or made at every iteration (``reuse_factorization=False``, and Nitsche's θ = −1, whose
-  skew Γ3 part makes GMRES slower than factorising, docs/speed.md).
+  or made at every iteration (``{"ksp_type": "preonly"}``, and Nitsche's θ = −1, whose skew Γ3
+  part makes GMRES slower than factorising, docs/speed.md).
 
-``Simulation(solver={...})``, PETSc options as a PETSc user writes them
-(``petsc_options.check``), builds the same solvers on PETSc: ``pc_type`` "lu" or "cholesky"
-MUMPS's factorisation (LU or LDLᵀ as asked; ``ksp_type`` "gmres", PETSc's default, keeps it as
-GMRES's preconditioner as ``solver="mumps"`` does, "preonly" factorises at every Newton
-iteration), "gamg" the solver of ``solver="gamg"``; their other options reach PETSc.
+A dict of PETSc options as a PETSc user writes them (``petsc_options.check``) builds the same
+solvers: ``pc_type`` "gamg" the solver of ``solver="gamg"``; a factorisation by
+``pc_factor_mat_solver_type`` (MUMPS, the default for ``pc_type`` "lu" or "cholesky", or one
+of NGSolve's, which need no PETSc; none: by the Jacobian's symmetry), kept as GMRES's
+preconditioner for ``ksp_type`` "gmres" (PETSc's default), made at every Newton iteration for
+"preonly". The earlier options ``inverse=``, ``iterative=``, ``reuse_factorization=`` still
+work, with a DeprecationWarning naming their ``solver=`` (``earlier``).
 """
+import warnings
+from dataclasses import dataclass
+
 from ngcontact.solve.linalg import petsc_options, petsc_solver
 from ngcontact.solve.linalg.linear_solver import (NAMES, PARALLEL_NAMES, DirectSolver, KeptFactorization,
                                                   factorization_worth)
@@ -48,58 +53,93 @@ def iterative_by_default(body, condense, distributed=False):
     return "multigrid" if nested else False
 
 
+KINDS = ("direct", "iterative")
+"""Names of a kind of solver, the choice within it left to the system: "direct" the factorisation
+chosen by the Jacobian's symmetry (serially "sparsecholesky" or "umfpack", distributed MUMPS or
+"masterinverse"), kept as GMRES's preconditioner; "iterative" GMRES around multigrid (NGSolve's
+on nested meshes serially, PETSc's GAMG distributed)."""
+
+
 def names():
     """The names ``Simulation(solver=...)`` takes: the direct solvers (``linear_solver.NAMES``,
-    NGSolve's and MUMPS) and the iterative ones (``ITERATIVE``)."""
-    return NAMES + ITERATIVE
+    NGSolve's and MUMPS), the iterative ones (``ITERATIVE``) and the kinds (``KINDS``)."""
+    return NAMES + ITERATIVE + KINDS
+
+
+@dataclass(frozen=True)
+class Choice:
+    """What ``Simulation(solver=...)`` asks for, checked: ``inverse`` (a factorisation's name, or
+    None: by the Jacobian's symmetry), ``iterative`` (None: by size, False, True, or a name of
+    ``ITERATIVE``), ``reuse`` (a factorisation kept as GMRES's preconditioner between Newton
+    iterations) and ``petsc`` (the ``petsc_options.SolverOptions`` of a dict, or None)."""
+
+    inverse: str | None
+    iterative: bool | str | None
+    reuse: bool
+    petsc: object = None
+
+
+def earlier(inverse, iterative, reuse_factorization):
+    """The ``solver=`` that does what the earlier options ``inverse``, ``iterative`` and
+    ``reuse_factorization`` did: a name, a kind or a dict of options."""
+    if iterative not in (None, False):
+        return iterative if isinstance(iterative, str) else "iterative"
+    if reuse_factorization is False:
+        return {"ksp_type": "preonly", **({"pc_factor_mat_solver_type": inverse} if inverse else {})}
+    return inverse or "direct"
 
 
 def as_options(spec, inverse, iterative, reuse_factorization):
-    """(inverse, iterative) for ``Simulation(solver=spec)``, checked before any work: for a name, the
-    direct or iterative solver it names (one of ``names()``); for None, the earlier options as
-    given; for a dict of PETSc options (``petsc_options.check``), "mumps" or "gamg" by its
-    ``pc_type``, and PETSc must be installed (``petsc_solver.PetscMissing`` naming ``solver=``); an
-    object must have a ``solve`` method and a ``name`` (``protocol.LinearSolver``). A solver given
-    with the earlier options (``inverse``, ``iterative``, ``reuse_factorization=False``) is refused:
+    """The ``Choice`` of ``Simulation(solver=spec)``, checked before any work: for a name, the
+    solver it names (one of ``names()``); for a dict of PETSc options (``petsc_options.check``:
+    "gamg", or a factorisation by ``pc_factor_mat_solver_type``, kept for ``ksp_type`` "gmres",
+    made at every iteration for "preonly"), with PETSc installed where it needs it
+    (``petsc_solver.PetscMissing`` naming ``solver=``); an object must have a ``solve`` method and
+    a ``name`` (``protocol.LinearSolver``). For None, the earlier options as given, with a
+    DeprecationWarning naming the ``solver=`` that replaces them (``earlier``). A solver given with
+    the earlier options (``inverse``, ``iterative``, ``reuse_factorization=False``) is refused:
     they would contradict."""
+    given = inverse is not None or iterative is not None or reuse_factorization is False
     if spec is None:
-        return inverse, iterative
-    if inverse is not None or iterative is not None or reuse_factorization is False:
+        if given:
+            warnings.warn(f"Simulation: inverse=, iterative= and reuse_factorization= are replaced by solver= "
+                          f"(here solver={earlier(inverse, iterative, reuse_factorization)!r}); they will be "
+                          "removed in the next release", DeprecationWarning, stacklevel=3)
+        return Choice(inverse, iterative, bool(reuse_factorization))
+    if given:
         raise ValueError("Simulation: give the linear solver by solver= alone, or by the earlier options inverse=, "
                          f"iterative=, reuse_factorization=, not both (solver={spec!r}, inverse={inverse!r}, "
                          f"iterative={iterative!r}, reuse_factorization={reuse_factorization!r})")
     if isinstance(spec, dict):
-        direct = petsc_options.check(spec).pc_type != "gamg"
-        petsc_solver.load(f"solver={spec!r}")
-        return ("mumps", False) if direct else (None, "gamg")
+        options = petsc_options.check(spec, NAMES)
+        if options.pc_type == "gamg" or options.package == "mumps":
+            petsc_solver.load(f"solver={spec!r}")
+        if options.pc_type == "gamg":
+            return Choice(None, "gamg", True, options)
+        return Choice(options.package, False, options.ksp_type == "gmres", options)
     if not isinstance(spec, str):
         if not (callable(getattr(spec, "solve", None)) and isinstance(getattr(spec, "name", None), str)):
             raise TypeError(f"solver must be None, a name or an object with a solve() method and a name "
                             f"(ngcontact.solve.linalg.protocol.LinearSolver) or a dict of PETSc options, got "
                             f"{type(spec).__name__}")
-        return None, False
+        return Choice(None, False, True)
     if spec not in names():
         raise ValueError(f"solver must be None, an object with a solve() method (ngcontact.solve.linalg."
                          f"protocol.LinearSolver), a dict of PETSc options or one of "
                          f"{', '.join(map(repr, names()))}; got {spec!r}")
-    return (None, spec) if spec in ITERATIVE else (spec, False)
+    if spec in KINDS:
+        return Choice(None, spec == "iterative", True)
+    return Choice(None, spec, True) if spec in ITERATIVE else Choice(spec, False, True)
 
 
-def resolve(spec, body, contact, system, space, *, inverse, reuse_factorization, iterative, **options):
+def resolve(spec, body, contact, system, space, choice, **options):
     """(the Newton corrections' solver, the solver of the potential at t = 0) for
-    ``Simulation(solver=spec)``, with ``inverse`` and ``iterative`` from ``as_options``: for None or a
-    name, ``choose`` (a direct solver is kept as GMRES's preconditioner between iterations unless
-    ``reuse_factorization`` is False); for a dict of PETSc options, ``choose`` with them (the
-    factorisation kept for ``ksp_type`` "gmres"); an object with the ``protocol.LinearSolver``
-    protocol is used as it is (the potential at t = 0 solved as without it). ``options`` go to
-    ``choose``."""
-    if isinstance(spec, dict):
-        petsc = petsc_options.check(spec)
-        return choose(body, contact, system, space, inverse=inverse, iterative=iterative, petsc=petsc,
-                      reuse_factorization=petsc.ksp_type == "gmres", **options)
-    if spec is None or isinstance(spec, str):
-        return choose(body, contact, system, space, inverse=inverse, reuse_factorization=reuse_factorization,
-                      iterative=iterative, **options)
+    ``Simulation(solver=spec)`` with its ``Choice`` (``as_options``): an object with the
+    ``protocol.LinearSolver`` protocol is used as it is (the potential at t = 0 solved as without
+    it); else ``choose`` builds it. ``options`` go to ``choose``."""
+    if spec is None or isinstance(spec, (str, dict)):
+        return choose(body, contact, system, space, inverse=choice.inverse, iterative=choice.iterative,
+                      reuse_factorization=choice.reuse, petsc=choice.petsc, **options)
     return spec, choose(body, contact, system, space, inverse=None, reuse_factorization=True, iterative=False,
                         **options)[1]
 
@@ -148,12 +188,14 @@ def choose(body, contact, system, space, *, inverse, reuse_factorization, iterat
     if iterative not in (None, True, False) + ITERATIVE:
         raise ValueError(f"iterative must be None (automatic), True, False, 'multigrid' or 'gamg', got {iterative!r}")
     symmetric = (contact is None or contact.symmetric) and body.tensors.linear   # a law's Nitsche term: not
-    if petsc is not None and petsc.pc_type != "gamg":
+    if petsc is not None and petsc.pc_type in ("lu", "cholesky"):
         if petsc.pc_type == "cholesky" and not symmetric:
             raise ValueError("solver: the PETSc option 'pc_type' = 'cholesky' (LDLᵀ) needs a symmetric Jacobian; "
                              "this one is not (Contact.symmetric is False, or a material law is nonlinear): "
                              "use 'lu'")
         symmetric = petsc.pc_type == "cholesky"
+    if petsc is not None and petsc.pc_type != "gamg" and petsc.package != "mumps":
+        petsc = None                             # NGSolve's factorisations read no PETSc options
     if iterative is None:
         iterative = inverse is None and iterative_by_default(body, condense, distributed)
     if iterative is True:
@@ -162,7 +204,7 @@ def choose(body, contact, system, space, *, inverse, reuse_factorization, iterat
         if inverse is not None:
             raise ValueError(f"iterative={iterative!r} solves by GMRES; it takes no inverse= (got {inverse!r})")
         if condense:
-            raise ValueError(f"iterative={iterative!r} needs condense=False (its preconditioner acts on all DOFs)")
+            raise ValueError(f"solver={iterative!r} needs condense=False (its preconditioner acts on all DOFs)")
         layer = space.GetDofs(body.region("contact_side")) if contact is not None else None
         if iterative == "gamg":                  # PETSc; distributed or serial
             return (GamgSolver(body, system, layer, realcompile=realcompile, options=petsc),
@@ -176,9 +218,9 @@ def choose(body, contact, system, space, *, inverse, reuse_factorization, iterat
         return DirectSolver(name, symmetric=sym, options=petsc), DirectSolver(name, symmetric=sym, options=petsc)
     if iterative:                                # "multigrid": NGSolve's, on nested meshes
         if needs_nested_mesh(body) and body.hierarchy is None:
-            raise ValueError("iterative='multigrid' needs nested meshes: make the mesh with "
-                             "ngcontact.meshes.nested_mesh(ngmesh, refine) (ngcontact.geometries do), or "
-                             "use iterative='gamg' (PETSc)")
+            raise ValueError("solver='multigrid' needs nested meshes: make the mesh with "
+                             "ngcontact.meshes.nested_mesh(ngmesh, refine) (ngcontact.geometries do) or give "
+                             "Body(hierarchy=...), or use solver='gamg' (PETSc)")
         newton = MultigridSolver(body, system, layer, electric=electric, realcompile=realcompile is True)
         potential = MultigridSolver(body, system, layer, electric=True, realcompile=realcompile is True,
                                     displacement=False)
@@ -201,9 +243,9 @@ def choose(body, contact, system, space, *, inverse, reuse_factorization, iterat
 def check_simulation(mesh, contact, inverse, condense, reuse_factorization, iterative=None):
     """What a Simulation on a distributed mesh cannot do raises a ValueError naming the
     feature: the nodal constraint (``method="active_set"``: scipy saddle point systems of one
-    rank), a serial ``inverse``, ``iterative="multigrid"`` (NGSolve's
+    rank), a serial factorisation ``inverse``, ``iterative="multigrid"`` (NGSolve's
     multigrid: NGSolve 6.2.2608 cannot refine a distributed mesh, so it has no nested meshes;
-    ``iterative=True`` is PETSc's GAMG there). Returns the serial defaults switched off,
+    "iterative" is PETSc's GAMG there). Returns the serial defaults switched off,
     with the reason (``Simulation.parallel_notes``; [] on a serial mesh): without PETSc the
     corrections are solved by NGSolve's "masterinverse" (the Jacobian gathered and factorised
     on rank 0) at every Newton iteration. Static condensation runs distributed as serially
@@ -216,12 +258,12 @@ def check_simulation(mesh, contact, inverse, condense, reuse_factorization, iter
         what, why = method.serial_only
         parallel.serial_only(mesh, f"Contact.method {method.name!r} ({what})", why)
     if inverse is not None and inverse not in ("mumps", "masterinverse"):
-        parallel.serial_only(mesh, f"inverse={inverse!r}", "use inverse='mumps' (PETSc) or 'masterinverse', or "
-                             "leave inverse=None (MUMPS where PETSc is installed, else NGSolve's 'masterinverse')")
+        parallel.serial_only(mesh, f"solver={inverse!r}", "use solver='mumps' (PETSc) or 'masterinverse', or "
+                             "leave solver=None (MUMPS where PETSc is installed, else NGSolve's 'masterinverse')")
     if iterative == "multigrid":
-        parallel.serial_only(mesh, "iterative='multigrid' (GMRES with NGSolve's multigrid)", "a distributed mesh "
-                             "has no nested meshes (NGSolve 6.2.2608 cannot refine it); use iterative=True or 'gamg' "
-                             "(PETSc's algebraic multigrid)")
+        parallel.serial_only(mesh, "solver='multigrid' (GMRES with NGSolve's multigrid)", "a distributed mesh "
+                             "has no nested meshes (NGSolve 6.2.2608 cannot refine it); use solver='iterative' or "
+                             "'gamg' (PETSc's algebraic multigrid)")
     notes = []
     mumps = inverse == "mumps" or (inverse is None and petsc_solver.available())
     if reuse_factorization and not mumps:
