@@ -13,8 +13,8 @@ from ngcontact.geometries import plate
 from ngcontact.scenes import reference
 from ngcontact.solve.starts import Approach
 
-cases = {"active_set": dict(contact=reference.contact(method="active_set")), "iterative": dict(iterative="multigrid"),
-         "inverse": dict(inverse="umfpack")}
+cases = {"active_set": dict(contact=reference.contact(method="active_set")), "multigrid": dict(solver="multigrid"),
+         "umfpack": dict(solver="umfpack")}
 try:                                     # a script's own serial mesh: every rank would solve it whole
     ngc.Body(plate(maxh=0.02, comm=False), ngc.pzt5a(), clamped="left", grounded="top")
     message = "no error"

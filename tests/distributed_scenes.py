@@ -1,7 +1,7 @@
 """Run by tests/test_petsc.py, tests/test_petsc_options.py and tests/test_parallel.py, serially
-or under mpiexec: a scene over a load history with ``inverse`` = argv[2] ("default" for None,
-"gamg" for ``iterative="gamg"``, "petsc-gamg" or "petsc-lu" for ``solver=`` a dict of PETSc
-options, ``PETSC_OPTIONS``); rank 0 writes per step the contact force, the charge flux into the
+or under mpiexec: a scene over a load history with ``solver`` = argv[2] ("default" for None,
+a solver's name such as "mumps" or "gamg", "petsc-gamg" or "petsc-lu" for ``solver=`` a dict of
+PETSc options, ``PETSC_OPTIONS``); rank 0 writes per step the contact force, the charge flux into the
 foundation, the reactions of the supports, u and φ at a probe point (where the scene has one)
 and the Newton iterations, and the solver used, as JSON to argv[3].
 
@@ -45,12 +45,8 @@ def indenter3d(options):
 PETSC_OPTIONS = {"petsc-gamg": {"pc_type": "gamg", "pc_gamg_threshold": 0.02, "ksp_rtol": 1e-6},
                  "petsc-lu": {"pc_type": "lu", "ksp_type": "preonly", "mat_mumps_icntl_7": 2}}
 """argv[2] naming ``Simulation(solver={...})``."""
-scene, inverse, out = sys.argv[1], None if sys.argv[2] == "default" else sys.argv[2], sys.argv[3]
-options = dict(inverse=inverse)
-if inverse == "gamg":                      # the iterative solver on PETSc instead of a factorisation
-    options = dict(iterative="gamg")
-elif inverse in PETSC_OPTIONS:             # the solver as a dict of PETSc options
-    options = dict(solver=PETSC_OPTIONS[inverse])
+scene, solver, out = sys.argv[1], None if sys.argv[2] == "default" else sys.argv[2], sys.argv[3]
+options = dict(solver=PETSC_OPTIONS.get(solver, solver))    # a name, or the solver as a dict of PETSc options
 T, probe = reference.LOAD_HISTORY[-1][0], None
 if scene == "reference":
     sim, steps = reference.simulation(2, 0.01, keep_states=False, **options), 20
@@ -88,7 +84,7 @@ summary = dict(force=h.contact_column("force").tolist(), charge=h.contact_column
                solver=repr(sim.newton.solver),
                ranks=parallel.world().size if parallel.world() else 1,
                u_block_size=parallel.every(sim.body.mesh, sim.newton.solver.fields[0].getBlockSize())
-               if inverse == "gamg" else None)
+               if solver == "gamg" else None)
 if parallel.rank() == 0:
     with open(out, "w") as f:
         json.dump(summary, f)

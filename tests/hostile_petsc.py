@@ -1,5 +1,5 @@
 """Hostile inputs of class ``petsc`` (``tests/test_hostile.py``): the PETSc engine
-(``inverse="mumps"``, ``iterative="gamg"``; ``ngcontact.petsc_solver``, ``petsc_iterative``),
+(``solver="mumps"``, ``solver="gamg"``; ``ngcontact.petsc_solver``, ``petsc_iterative``),
 its options, their combinations, PETSc's own options (``PETSC_OPTIONS``) and the command line.
 
 The expected outcomes depend on whether PETSc is installed (``PETSC``: petsc4py, ngsPETSc and
@@ -8,8 +8,9 @@ option solves the scene correctly (the reference scene's contact force and defle
 default solver's result in the same process) or is refused by name; without it, every PETSc
 option ends in one ImportError naming the option and the install line (``petsc_solver.INSTALL``),
 raised before any work, and the command line prints it as one line. Combinations that cannot
-run (GAMG with a factorisation's ``inverse=``, with static condensation) are refused by name in
-both. ``.ci/run`` runs this class in its PETSc leg (``-k "petsc:"``).
+run (GAMG with static condensation, ``solver=`` with the earlier options, GAMG with a
+factorisation by the earlier options ``iterative=``, ``inverse=``) and bad values are refused by
+name in both. ``.ci/run`` runs this class in its PETSc leg (``-k "petsc:"``).
 """
 import importlib.util
 import os
@@ -130,41 +131,42 @@ def register(h):
 
     # ------------------------------------------------------------------ MUMPS: solves, or says how to install it
 
-    h.case("petsc", "inverse='mumps'", reference(inverse="mumps"), *petsc("mumps", DEFAULT))
-    h.case("petsc", "inverse='mumps', reuse_factorization=False",
-           reference(inverse="mumps", reuse_factorization=False), *petsc("mumps", DEFAULT))
-    h.case("petsc", "inverse='mumps', theta=-1", reference(dict(theta=-1), inverse="mumps"), *petsc("mumps", DEFAULT))
-    h.case("petsc", "inverse='mumps', active_set", reference(dict(method="active_set"), inverse="mumps"),
+    PREONLY = {"ksp_type": "preonly", "pc_factor_mat_solver_type": "mumps"}    # a factorisation per iteration
+    h.case("petsc", "solver='mumps'", reference(solver="mumps"), *petsc("mumps", DEFAULT))
+    h.case("petsc", "solver={'ksp_type': 'preonly', 'pc_factor_mat_solver_type': 'mumps'}",
+           reference(solver=PREONLY), *petsc("mumps", DEFAULT))
+    h.case("petsc", "solver='mumps', theta=-1", reference(dict(theta=-1), solver="mumps"), *petsc("mumps", DEFAULT))
+    h.case("petsc", "solver='mumps', active_set", reference(dict(method="active_set"), solver="mumps"),
            *petsc("mumps", DEFAULT))
-    h.case("petsc", "inverse='mumps', penalty", reference(dict(method="penalty"), inverse="mumps"),
+    h.case("petsc", "solver='mumps', penalty", reference(dict(method="penalty"), solver="mumps"),
            *petsc("mumps", DEFAULT))
-    h.case("petsc", "inverse='mumps', gamma0=1e15", reference(dict(gamma0=1e15), inverse="mumps"),
+    h.case("petsc", "solver='mumps', gamma0=1e15", reference(dict(gamma0=1e15), solver="mumps"),
            *petsc("mumps", *h.SOUND("gamma0", h.matches("default"))))
-    h.case("petsc", "inverse='mumps', no contact", free(inverse="mumps"), *petsc("mumps", FREE))
-    h.case("petsc", "inverse='mumps', P3, condense=True", against_default(3, inverse="mumps", condense=True),
+    h.case("petsc", "solver='mumps', no contact", free(solver="mumps"), *petsc("mumps", FREE))
+    h.case("petsc", "solver='mumps', P3, condense=True", against_default(3, solver="mumps", condense=True),
            *petsc("mumps", Correct(same)))
-    h.case("petsc", "inverse='mumps', a nonlinear law", against_default(material=nonlinear, inverse="mumps"),
+    h.case("petsc", "solver='mumps', a nonlinear law", against_default(material=nonlinear, solver="mumps"),
            *petsc("mumps", Correct(same)))
-    h.case("petsc", "inverse='mumps', held by the contact, pulled off", floating(2e6, inverse="mumps"),
+    h.case("petsc", "solver='mumps', held by the contact, pulled off", floating(2e6, solver="mumps"),
            *petsc("mumps", *REPORTED))
-    h.case("petsc", "inverse='mumps', held by the contact, pushed", floating(-2e6, inverse="mumps"),
+    h.case("petsc", "solver='mumps', held by the contact, pushed", floating(-2e6, solver="mumps"),
            *petsc("mumps", Correct(h.balanced), *REPORTED))
 
     # ------------------------------------------------------------------ GAMG
 
-    h.case("petsc", "iterative='gamg'", reference(iterative="gamg"), *petsc("gamg", DEFAULT))
-    h.case("petsc", "iterative='gamg', theta=-1", reference(dict(theta=-1), iterative="gamg"), *petsc("gamg", DEFAULT))
-    h.case("petsc", "iterative='gamg', active_set", reference(dict(method="active_set"), iterative="gamg"),
+    h.case("petsc", "solver='gamg'", reference(solver="gamg"), *petsc("gamg", DEFAULT))
+    h.case("petsc", "solver='gamg', theta=-1", reference(dict(theta=-1), solver="gamg"), *petsc("gamg", DEFAULT))
+    h.case("petsc", "solver='gamg', active_set", reference(dict(method="active_set"), solver="gamg"),
            *petsc("gamg", DEFAULT))
-    h.case("petsc", "iterative='gamg', penalty", reference(dict(method="penalty"), iterative="gamg"),
+    h.case("petsc", "solver='gamg', penalty", reference(dict(method="penalty"), solver="gamg"),
            *petsc("gamg", DEFAULT))
-    h.case("petsc", "iterative='gamg', no contact", free(iterative="gamg"), *petsc("gamg", FREE))
-    h.case("petsc", "iterative='gamg', a nonlinear law", against_default(material=nonlinear, iterative="gamg"),
+    h.case("petsc", "solver='gamg', no contact", free(solver="gamg"), *petsc("gamg", FREE))
+    h.case("petsc", "solver='gamg', a nonlinear law", against_default(material=nonlinear, solver="gamg"),
            *petsc("gamg", Correct(same)))
     # P3 has interior DOFs: condensation is automatic (condense=None) and must give way to GAMG
-    h.case("petsc", "iterative='gamg', P3 (condense automatic)", against_default(3, iterative="gamg"),
+    h.case("petsc", "solver='gamg', P3 (condense automatic)", against_default(3, solver="gamg"),
            *petsc("gamg", Correct(same)))
-    h.case("petsc", "iterative='gamg', held by the contact, pulled off", floating(2e6, iterative="gamg"),
+    h.case("petsc", "solver='gamg', held by the contact, pulled off", floating(2e6, solver="gamg"),
            *petsc("gamg", *REPORTED))
 
     # ------------------------------------------------------------------ combinations and values refused in both
@@ -172,11 +174,19 @@ def register(h):
     def refused(label, call, kind, *words):
         h.case("petsc", label, call, Error(kind, *words))
 
+    refused("solver='gamg', condense=True", reference(solver="gamg", condense=True), VE, "condense")
+    refused("solver='GAMG'", reference(solver="GAMG"), VE, "solver")
+    refused("solver='petsc'", reference(solver="petsc"), VE, "solver")
+    refused("solver='MUMPS'", reference(solver="MUMPS"), VE, "solver")
+    refused("solver='lu' (no such solver)", reference(solver="lu"), VE, "solver")
+    refused("solver=b'mumps'", reference(solver=b"mumps"), TE, "solver")
+    refused("solver=['mumps']", reference(solver=["mumps"]), TE, "solver")
+    refused("solver='mumps', inverse='mumps'", reference(solver="mumps", inverse="mumps"), VE, "solver", "inverse")
+    # the earlier options (inverse=, iterative=): their combinations and values, refused as before
     refused("iterative='gamg', inverse='mumps'", reference(iterative="gamg", inverse="mumps"), VE, "inverse", "gamg")
     refused("iterative=True, inverse='mumps'", reference(iterative=True, inverse="mumps"), VE, "inverse")
     refused("iterative='multigrid', inverse='mumps'", reference(iterative="multigrid", inverse="mumps"), VE,
             "inverse")
-    refused("iterative='gamg', condense=True", reference(iterative="gamg", condense=True), VE, "condense")
     refused("iterative='GAMG'", reference(iterative="GAMG"), VE, "iterative")
     refused("iterative='petsc'", reference(iterative="petsc"), VE, "iterative")
     refused("iterative=1", reference(iterative=1), TE, "iterative")
@@ -187,23 +197,23 @@ def register(h):
 
     # ------------------------------------------------------------------ partial installs (both: the missing module named)
 
-    h.case("petsc", "inverse='mumps' without ngsPETSc", without("ngsPETSc", reference(inverse="mumps")),
+    h.case("petsc", "solver='mumps' without ngsPETSc", without("ngsPETSc", reference(solver="mumps")),
            Error("ImportError", "ngsPETSc", "mumps", "pip install"))
-    h.case("petsc", "iterative='gamg' without petsc4py", without("petsc4py", reference(iterative="gamg")),
+    h.case("petsc", "solver='gamg' without petsc4py", without("petsc4py", reference(solver="gamg")),
            Error("ImportError", "petsc4py", "gamg", "pip install"))
-    h.case("petsc", "inverse='mumps' without mpi4py", without("mpi4py", reference(inverse="mumps")),
+    h.case("petsc", "solver='mumps' without mpi4py", without("mpi4py", reference(solver="mumps")),
            Error("ImportError", "mpi4py", "mumps", "pip install"))
 
     # ------------------------------------------------------------------ PETSc's own options (PETSC_OPTIONS)
 
     def options(environment, expect_mumps, expect_gamg=None, reuse=True):
         if expect_mumps is not None:
-            label = f"PETSC_OPTIONS='{environment}', inverse='mumps'" + ("" if reuse else ", reuse_factorization=False")
-            h.case("petsc", label, reference(environment=environment, inverse="mumps", reuse_factorization=reuse),
-                   *petsc("mumps", *expect_mumps))
+            solver = "mumps" if reuse else PREONLY
+            h.case("petsc", f"PETSC_OPTIONS='{environment}', solver={solver!r}",
+                   reference(environment=environment, solver=solver), *petsc("mumps", *expect_mumps))
         if expect_gamg is not None:
-            h.case("petsc", f"PETSC_OPTIONS='{environment}', iterative='gamg'",
-                   reference(environment=environment, iterative="gamg"), *petsc("gamg", *expect_gamg))
+            h.case("petsc", f"PETSC_OPTIONS='{environment}', solver='gamg'",
+                   reference(environment=environment, solver="gamg"), *petsc("gamg", *expect_gamg))
 
     def named(*words):
         return (Error(VE, "PETSC_OPTIONS", *words),)

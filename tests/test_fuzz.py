@@ -7,6 +7,7 @@ status 2, a failed Newton solve included.
 Hypothesis draws the values (non-finite numbers, out-of-range numbers, strings, None,
 booleans, lists); each parameter's rule of validity filters them to the invalid ones.
 """
+import contextlib
 import math
 import re
 import subprocess
@@ -96,6 +97,14 @@ def optional(rule):
     return lambda v: True if v is None else rule(v)
 
 
+def earlier_inverse(v):
+    """A Simulation with the earlier option ``inverse=v``: a string passes its type check and
+    warns (a DeprecationWarning naming ``solver=``) before the name is refused; any other value
+    is refused before that."""
+    with pytest.warns(DeprecationWarning) if isinstance(v, str) else contextlib.nullcontext():
+        return ngc.Simulation(BODY, inverse=v)
+
+
 # (what is built, parameter, the rule of a valid value, a call that uses the value)
 CASES = [
     *[("Contact", p, rule, lambda v, p=p: ngc.Contact(**{p: v})) for p, rule in [
@@ -130,7 +139,8 @@ CASES = [
     *[("Simulation", p, lambda v: v is None, lambda v, p=p: ngc.Simulation(BODY, **{p: v}))
       for p in ("loads", "contact", "time", "u0")],
     ("Simulation", "body", never, lambda v: ngc.Simulation(v)),
-    ("Simulation", "inverse", lambda v: v is None, lambda v: ngc.Simulation(BODY, inverse=v)),
+    ("Simulation", "solver", lambda v: v is None or v == {}, lambda v: ngc.Simulation(BODY, solver=v)),
+    ("Simulation", "inverse", lambda v: v is None, earlier_inverse),
     ("Simulation", "rtol", lambda v: real(v) and 0 < v < 1, lambda v: ngc.Simulation(BODY, rtol=v)),
     ("Simulation", "maxit", whole(1), lambda v: ngc.Simulation(BODY, maxit=v)),
     ("run", "dt", lambda v: positive(v) and v >= 1e-6, lambda v: SIM.run(v, 1.0)),

@@ -589,6 +589,9 @@ for label, value, kind in INTEGER_BAD + [("0", 0, VE), ("-3", -3, VE), ("inf", I
 for label, value, kind in [("'bogus'", "bogus", VE), ("5", 5, CHOICE), ("True", True, CHOICE),
                            ("['umfpack']", ["umfpack"], CHOICE)]:
     typed(f"Simulation(inverse={label})", lambda ctx, v=value: built(simulation(inverse=v)), kind, "inverse")
+for label, value, kind in [("'bogus'", "bogus", VE), ("5", 5, TE), ("True", True, TE), ("['umfpack']", ["umfpack"], TE),
+                           ("{'pc_type': 'jacobi'}", {"pc_type": "jacobi"}, VE)]:
+    typed(f"Simulation(solver={label})", lambda ctx, v=value: built(simulation(solver=v)), kind, "solver")
 
 
 # run, advance, step

@@ -297,11 +297,11 @@ def test_the_iterative_3d_solver_with_a_law_equals_the_direct_one():
     material = ngc.pzt5a(relaxation_time=reference.RELAXATION_TIME).with_elasticity(
         laws.ProjectionLaw(5e10, laws.VonMisesBall(1e-5)))
     runs = []
-    for iterative in (False, True):
-        sim = reference.simulation(1, 0.02, 1, dim=3, material=material, keep_states=False, iterative=iterative)
+    for solver in ("direct", "iterative"):
+        sim = reference.simulation(1, 0.02, 1, dim=3, material=material, keep_states=False, solver=solver)
         sim.run(0.02, 0.06)
         runs.append((sim.gfu.vec.FV().NumPy().copy(), list(sim.history.newton_iterations)))
-        assert ("Multigrid" in repr(sim.newton.solver)) == iterative
+        assert ("Multigrid" in repr(sim.newton.solver)) == (solver == "iterative")
     (direct, its_direct), (multigrid, its_multigrid) = runs
     assert np.abs(direct - multigrid).max() <= 1e-9 * np.abs(direct).max()
     assert len(its_direct) == len(its_multigrid)

@@ -14,8 +14,8 @@ from ngcontact.geometries import block
 from ngcontact.scenes import reference as scene
 
 
-def run(iterative, order=1, maxh=0.01, refine=1, steps=5):
-    sim = scene.simulation(order, maxh, refine, dim=3, keep_states=False, iterative=iterative)
+def run(solver, order=1, maxh=0.01, refine=1, steps=5):
+    sim = scene.simulation(order, maxh, refine, dim=3, keep_states=False, solver=solver)
     sim.run(2.5e-3, steps * 2.5e-3)
     sim.step(1.25e-3)                         # a new step size: the hierarchy's finest level follows
     return sim
@@ -26,7 +26,7 @@ class Pairs(dict):
     SIZES = {1: 0.01, 2: 0.025}
 
     def __missing__(self, order):
-        self[order] = (run(False, order, self.SIZES[order]), run(True, order, self.SIZES[order]))
+        self[order] = (run("direct", order, self.SIZES[order]), run("iterative", order, self.SIZES[order]))
         return self[order]
 
 
@@ -100,7 +100,7 @@ def test_chosen_by_size_and_dimension(monkeypatch):
     t = ngs.Parameter(0)
     sim = ngc.Simulation(body3, scene.loads(t, 3), contact=scene.contact(), time=t)
     assert isinstance(sim.newton.solver, multigrid.MultigridSolver)
-    sim = ngc.Simulation(body3, scene.loads(t, 3), contact=scene.contact(), time=t, iterative=False)
+    sim = ngc.Simulation(body3, scene.loads(t, 3), contact=scene.contact(), time=t, solver="direct")
     assert not isinstance(sim.newton.solver, multigrid.MultigridSolver)
 
 
@@ -114,14 +114,14 @@ def test_bad_input_names_the_parameter():
         make(iterative="yes")
     with pytest.raises(TypeError, match="iterative must be True, False or None"):
         make(iterative=1.5)
-    with pytest.raises(ValueError, match="takes no inverse"):
+    with pytest.raises(ValueError, match="takes no inverse"), pytest.warns(DeprecationWarning):
         make(iterative=True, inverse="umfpack")
     with pytest.raises(ValueError, match="condense=False"):
-        make(iterative=True, condense=True)
+        make(solver="iterative", condense=True)
     plain = ngc.Body(ngs.Mesh(block(maxh=0.02).ngmesh), body.material, clamped="left", grounded="top",
                      contact_side="bottom")
     with pytest.raises(ValueError, match="nested_mesh"):
-        ngc.Simulation(plain, scene.loads(t, 3), contact=scene.contact(), time=t, iterative=True)
+        ngc.Simulation(plain, scene.loads(t, 3), contact=scene.contact(), time=t, solver="iterative")
     with pytest.raises(ValueError, match="refine must be an integer"):
         meshes.nested_mesh(block(maxh=0.02).ngmesh, refine=-1)
 
@@ -137,7 +137,8 @@ def test_a_mesh_changed_after_nesting_is_refused():
     assert body.hierarchy is None and ngc.meshes.refinements(mesh) is None
     t = ngs.Parameter(0)
     with pytest.raises(ValueError, match="needs nested meshes"):
-        ngc.Simulation(body, scene.loads(t, 3), contact=scene.contact(), time=t, iterative=True, realcompile=False)
+        ngc.Simulation(body, scene.loads(t, 3), contact=scene.contact(), time=t, solver="iterative",
+                       realcompile=False)
 
 
 def test_a_hierarchy_given_to_the_body_is_the_one_multigrid_uses():

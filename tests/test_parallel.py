@@ -367,7 +367,7 @@ def test_a_failed_write_on_one_rank_stops_every_rank(tmp_path):
 
 def test_what_does_not_run_distributed_says_so(tmp_path):
     """A serial mesh given to Body, more computing ranks than elements, the nodal active set,
-    GMRES with NGSolve's multigrid, a serial inverse, the Jacobian as a scipy matrix, the
+    GMRES with NGSolve's multigrid, a serial factorisation, the Jacobian as a scipy matrix, the
     guesses that need the whole mesh, the error estimator, adaptive
     refinement and refining a mesh raise a ValueError naming the feature under mpiexec; ``run(vtk=)``
     writes one ParaView file per computing rank and step (the initial state and 2 steps),
@@ -377,8 +377,8 @@ def test_what_does_not_run_distributed_says_so(tmp_path):
     assert lines["serial mesh"].startswith("mesh: a serial mesh under mpiexec with 3 ranks (every rank would "
                                           "solve the whole problem); distribute it")
     assert "'active_set'" in lines["active_set"] and "distributed mesh" in lines["active_set"]
-    assert "iterative='multigrid'" in lines["iterative"] and "nested meshes" in lines["iterative"]
-    assert "inverse='umfpack'" in lines["inverse"]
+    assert "solver='multigrid'" in lines["multigrid"] and "nested meshes" in lines["multigrid"]
+    assert "solver='umfpack'" in lines["umfpack"] and "distributed mesh" in lines["umfpack"]
     assert lines["jacobian"].startswith("the Jacobian as a scipy matrix (Simulation.jacobian) does not run on a "
                                         "distributed mesh (mpiexec with 3 ranks)")
     assert lines["nested"].startswith("guess='nested'") and lines["approach"].startswith(

@@ -1,6 +1,6 @@
 """The PETSc engine (issue 27): MUMPS through ngsPETSc, serially and under mpiexec.
 
-Without PETSc (the default install) only the refusal runs: ``inverse="mumps"`` says how to
+Without PETSc (the default install) only the refusal runs: ``solver="mumps"`` says how to
 install it. With it (docs/cluster.md: on Python >= 3.12, ``pip install --no-deps
 dolfinx-solver-real ngsPETSc && pip install packaging``; ``.ci/run`` runs this file so), the
 MUMPS solves equal NGSolve's, and the distributed runs equal the serial one."""
@@ -25,13 +25,13 @@ needs_petsc = pytest.mark.skipif(not petsc_solver.available(),
 
 
 def test_mumps_without_petsc_says_how_to_install_it(monkeypatch):
-    """With petsc4py unimportable, ``Simulation(inverse="mumps")`` raises before any work,
+    """With petsc4py unimportable, ``Simulation(solver="mumps")`` raises before any work,
     naming what is missing and the install line."""
     monkeypatch.setattr(petsc_solver, "_modules", None)
     monkeypatch.setitem(sys.modules, "petsc4py", None)
-    with pytest.raises(ImportError, match=r'inverse="mumps" needs PETSc .* pip install --no-deps '
+    with pytest.raises(ImportError, match=r'solver="mumps" needs PETSc .* pip install --no-deps '
                                           r'dolfinx-solver-real ngsPETSc'):
-        reference.simulation(1, 0.02, inverse="mumps")
+        reference.simulation(1, 0.02, solver="mumps")
     assert not petsc_solver.available()
 
 
@@ -41,10 +41,10 @@ def test_mumps_lu_kept_across_newton_equals_the_default_solver():
     preconditioner), 20 steps over the push, hold and the start of the pull: the states equal
     the default solver's (LDLᵀ of the symmetric part + GMRES) to 1e-9 at every step."""
     runs = {}
-    for inverse in (None, "mumps"):
-        sim = reference.simulation(1, 0.005, inverse=inverse)
+    for solver in (None, "mumps"):
+        sim = reference.simulation(1, 0.005, solver=solver)
         sim.run(0.01, 0.2)
-        runs[inverse] = (sim, np.array([s.vec.FV().NumPy() for s in map(sim.state, range(len(sim.history)))]))
+        runs[solver] = (sim, np.array([s.vec.FV().NumPy() for s in map(sim.state, range(len(sim.history)))]))
     (default, a), (mumps, b) = runs[None], runs["mumps"]
     assert repr(mumps.newton.solver) == "KeptFactorization(DirectSolver('mumps'), symmetric=False)"
     assert np.abs(a - b).max() <= 1e-9 * np.abs(a).max()
@@ -56,13 +56,14 @@ def test_mumps_ldlt_on_a_symmetric_jacobian():
     """A body without contact has a symmetric Jacobian: MUMPS's LDLᵀ, equal to
     "sparsecholesky" to 1e-10 (the short-circuited column under a step load)."""
     states = []
-    for inverse in ("sparsecholesky", "mumps"):
+    for name in ("sparsecholesky", "mumps"):
         body = ngc.Body(plate(L1=0.01, L2=0.03, maxh=0.004), ngc.pzt5a(relaxation_time=0.1), clamped="bottom",
                         grounded="bottom|top", order=2)
-        sim = ngc.Simulation(body, ngc.Loads(f2={"top": (0, -2e6)}), inverse=inverse, reuse_factorization=False)
+        sim = ngc.Simulation(body, ngc.Loads(f2={"top": (0, -2e6)}),
+                             solver={"ksp_type": "preonly", "pc_factor_mat_solver_type": name})
         sim.run(0.02, 0.1)
         states.append(sim.gfu.vec.FV().NumPy().copy())
-        if inverse == "mumps":
+        if name == "mumps":
             assert repr(sim.newton.solver) == "DirectSolver('mumps', symmetric=True)"
     assert np.abs(states[0] - states[1]).max() <= 1e-10 * np.abs(states[0]).max()
 
@@ -104,7 +105,7 @@ def test_distributed_mumps_equals_the_serial_run(serial_runs, tmp_path, scene, r
 
 @needs_petsc
 def test_two_mumps_runs_are_bitwise_equal(tmp_path):
-    """Two processes with ``inverse="mumps"`` (the kept LU and GMRES, one thread): the contact
+    """Two processes with ``solver="mumps"`` (the kept LU and GMRES, one thread): the contact
     force, the charge flux and Newton's iterations of every step are bitwise equal."""
     runs = []
     for name in ("a", "b"):
@@ -213,10 +214,10 @@ def test_a_failed_mumps_factorisation_says_why(symmetric):
         petsc_solver.MumpsFactorization(a.mat, V.FreeDofs(), symmetric=symmetric)
 
 
-def _block(iterative, steps=5, **options):
+def _block(solver, steps=5, **options):
     """The 3D reference block (P1, maxh 10 mm, refined once: 3 260 DOFs), ``steps`` steps of
     2.5 ms into first contact, then one of half the size (a new rate coefficient)."""
-    sim = reference.simulation(1, 0.01, 1, dim=3, keep_states=False, iterative=iterative, realcompile=False,
+    sim = reference.simulation(1, 0.01, 1, dim=3, keep_states=False, solver=solver, realcompile=False,
                                **options)
     sim.run(2.5e-3, steps * 2.5e-3)
     sim.step(1.25e-3)
@@ -225,7 +226,7 @@ def _block(iterative, steps=5, **options):
 
 @pytest.fixture(scope="module")
 def block_direct():
-    return _block(False)
+    return _block("direct")
 
 
 @needs_petsc
@@ -260,7 +261,7 @@ def test_a_gmres_that_does_not_converge_falls_back_to_a_factorisation(block_dire
     gamg = _block("gamg", steps=2)
     records = gamg.history[1:]
     assert all(r.krylov_failures == r.newton_iterations > 0 for r in records)
-    direct = _block(False, steps=2)
+    direct = _block("direct", steps=2)
     a, b = direct.gfu.vec.FV().NumPy(), gamg.gfu.vec.FV().NumPy()
     assert np.abs(a - b).max() <= 1e-8 * np.abs(a).max()
 
@@ -286,7 +287,7 @@ def test_gamg_preconditioner_follows_the_rate_coefficient():
     φ's GAMG (the permittivity, without c) is the one made at the first step."""
     import ngsolve as ngs
     from ngcontact.model import forms
-    sim = reference.simulation(1, 0.01, 1, dim=3, keep_states=False, iterative="gamg", realcompile=False)
+    sim = reference.simulation(1, 0.01, 1, dim=3, keep_states=False, solver="gamg", realcompile=False)
     sim.step(2.5e-3)
     solver = sim.newton.solver
     first_u, first_phi = solver._bulk[0][0], solver._bulk[1][0]
@@ -316,7 +317,7 @@ def test_gamg_preconditioner_is_the_surface_bulk_surface_product():
     """M r of ``GamgSolver._apply`` (J's strips J[:, Γ3] and J[Γ3, :] for J) is the module's
     y = S r; y += B (r − J y); y += S (r − J y) written with all of J, to round-off, on the 3D
     block in contact; and it is not B r alone (the check can fail)."""
-    sim = reference.simulation(1, 0.01, 1, dim=3, keep_states=False, iterative="gamg", realcompile=False)
+    sim = reference.simulation(1, 0.01, 1, dim=3, keep_states=False, solver="gamg", realcompile=False)
     sim.run(2.5e-3, 5 * 2.5e-3)
     solver = sim.newton.solver
     assert solver._surface is not None and solver.surface_rows.getSize() > 0
@@ -359,7 +360,7 @@ def test_gamg_compiles_its_preconditioner_forms_on_large_meshes(monkeypatch):
     give u's GAMG operator to round-off."""
     from ngcontact.model import machine_code
     from ngcontact.solve.linalg import petsc_iterative
-    sim = reference.simulation(1, 0.01, 1, dim=3, keep_states=False, iterative="gamg", realcompile=False)
+    sim = reference.simulation(1, 0.01, 1, dim=3, keep_states=False, solver="gamg", realcompile=False)
     sim.step(2.5e-3)
     solver = sim.newton.solver
     interpreted = solver._bulk[0][0].getOperators()[0]
@@ -412,18 +413,18 @@ def test_rigid_motions_from_the_vertices_are_the_interpolated_motions(order, dim
 
 
 def test_gamg_without_petsc_says_how_to_install_it(monkeypatch):
-    """``iterative='gamg'`` without PETSc: an ImportError naming it and the install line."""
+    """``solver='gamg'`` without PETSc: an ImportError naming it and the install line."""
     monkeypatch.setattr(petsc_solver, "_modules", None)
     monkeypatch.setitem(sys.modules, "petsc4py", None)
-    with pytest.raises(ImportError, match=r"iterative='gamg' needs PETSc .* pip install --no-deps dolfinx-solver-real"):
-        reference.simulation(1, 0.02, dim=3, iterative="gamg")
+    with pytest.raises(ImportError, match=r"solver='gamg' needs PETSc .* pip install --no-deps dolfinx-solver-real"):
+        reference.simulation(1, 0.02, dim=3, solver="gamg")
 
 
 @needs_petsc
 @pytest.mark.parametrize("ranks", [2, 3])
 @pytest.mark.parametrize("scene", ["block", "indenter3d"])
 def test_distributed_gamg_equals_the_serial_run(serial_runs, serial_indenter, tmp_path, scene, ranks):
-    """``iterative="gamg"`` under ``mpiexec -n 2|3`` (GMRES, Γ3 MUMPS solves and GAMG on every
+    """``solver="gamg"`` under ``mpiexec -n 2|3`` (GMRES, Γ3 MUMPS solves and GAMG on every
     rank): the 3D block over the push-hold-pull history and the 3D indentation (supports, a
     moving obstacle) give the serial run's contact force per step to 1e-8, without a GMRES
     failure (the block's first step, 50 ms into deep first contact, takes 13 Newton iterations
@@ -453,7 +454,7 @@ def test_gamg_orders_u_node_by_node():
     from ngcontact.model import forms
     from ngcontact.solve.linalg import petsc_blocks
     from ngcontact.petsc_solver import PetscMatrix, load
-    sim = reference.simulation(1, 0.01, 1, 3, keep_states=False, iterative="gamg")
+    sim = reference.simulation(1, 0.01, 1, 3, keep_states=False, solver="gamg")
     sim.run(2 ** -8, 2 ** -8)
     solver = sim.newton.solver
     rows = solver.fields[0]

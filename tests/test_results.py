@@ -21,7 +21,7 @@ from ngcontact.output import fingerprint, results
 from ngcontact.scenes import reference
 
 DT, T = 2.5e-3, 0.1          # 40 steps of the reference scene: first contact and spreading
-EXACT = dict(reuse_factorization=False)
+EXACT = dict(solver={"ksp_type": "preonly"})
 """A factorisation at every Newton iteration in some runs below: they check the stream and
 the resume alone; the kept factorisation resumes bitwise too (``test_an_interrupted_demo_
 resumes_bitwise``, ``test_the_demo_resumes``)."""
@@ -51,7 +51,7 @@ def interrupted(out, signum, after):
     ``after`` steps are on disk, wait for it to end."""
     code = (f"import signal; signal.signal(signal.SIGINT, signal.default_int_handler); "  # as at a terminal, also when
             f"from ngcontact.scenes import reference; "                                 # started where SIGINT is ignored
-            f"reference.simulation(1, reuse_factorization=False).run({DT}, {T}, out={str(out)!r})")
+            f"reference.simulation(1, solver={{'ksp_type': 'preonly'}}).run({DT}, {T}, out={str(out)!r})")
     process = subprocess.Popen([sys.executable, "-c", code], stderr=subprocess.DEVNULL)
     steps = pathlib.Path(out) / "steps"
     deadline = time.monotonic() + 300
@@ -502,9 +502,9 @@ SIMULATION_OPTIONS = {      # Simulation(**changed): the fingerprint's field, st
     "predictor": (dict(predictor=True), "options.predictor", "False", "True"),
     "limit_steps": (dict(limit_steps=False), "options.limit_steps", "True", "False"),
     "condense": (dict(condense=True), "options.condense", "False", "True"),
-    "inverse": (dict(inverse="umfpack"), "options.inverse", "'sparsecholesky'", "'umfpack'"),
-    "reuse_factorization": (dict(reuse_factorization=False), "options.reuse_factorization", "True", "False"),
-    "iterative": (dict(iterative=True), "options.iterative", "False", "'multigrid'"),
+    "inverse": (dict(solver="umfpack"), "options.inverse", "'sparsecholesky'", "'umfpack'"),
+    "reuse_factorization": (dict(solver={"ksp_type": "preonly"}), "options.reuse_factorization", "True", "False"),
+    "iterative": (dict(solver="iterative"), "options.iterative", "False", "'multigrid'"),
     "realcompile": (dict(realcompile=False), "options.realcompile", "none", "False"),
 }
 

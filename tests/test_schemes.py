@@ -70,7 +70,7 @@ def test_a_scheme_from_outside_the_package_runs_through_the_protocol(monkeypatch
     monkeypatch.setitem(schemes.SCHEMES, Logged.name, Logged)
     runs = {}
     for name in (Logged.name, "backward_euler"):
-        sim = reference.simulation(1, COARSE, scheme=name, reuse_factorization=False)
+        sim = reference.simulation(1, COARSE, scheme=name, solver={"ksp_type": "preonly"})
         sim.run(DT, 2 * DT, out=tmp_path / name)
         sim.step(DT / 2)
         runs[name] = sim
@@ -85,7 +85,7 @@ def test_a_scheme_from_outside_the_package_runs_through_the_protocol(monkeypatch
     with pytest.raises(ValueError, match=f"^out: .*holds a run of the time scheme 'backward_euler', this "
                                          f"simulation's scheme is '{Logged.name}'"):
         reference.simulation(1, COARSE, scheme=Logged.name).run(DT, 2 * DT, out=tmp_path / "backward_euler")
-    resumed = reference.simulation(1, COARSE, scheme=Logged.name, reuse_factorization=False)
+    resumed = reference.simulation(1, COARSE, scheme=Logged.name, solver={"ksp_type": "preonly"})
     resumed.resume(tmp_path / Logged.name)
     assert resumed.t == 2 * DT and len(resumed.history) == 3
 
@@ -102,11 +102,11 @@ def test_a_run_json_without_a_scheme_is_backward_euler(tmp_path):
 def test_save_and_load_put_the_scheme_back_bitwise():
     """The scheme's restart arrays, loaded into a fresh simulation, continue as the first one
     does, bitwise (state, β, predictor memory)."""
-    first = reference.simulation(1, COARSE, predictor=True, reuse_factorization=False)
+    first = reference.simulation(1, COARSE, predictor=True, solver={"ksp_type": "preonly"})
     first.run(DT, 3 * DT)
     saved = {k: np.copy(v) for k, v in first.scheme.save().items()}
     assert {"t", "state", "beta", "beta_unclipped", "last_state", "last_dt"} <= set(saved)
-    second = reference.simulation(1, COARSE, predictor=True, reuse_factorization=False)
+    second = reference.simulation(1, COARSE, predictor=True, solver={"ksp_type": "preonly"})
     second.scheme.load(saved)
     assert second.time.Get() == first.t == second.t
     for sim in (first, second):
@@ -170,9 +170,9 @@ def test_bdf2_differentiates_the_quadratic_through_the_last_three_states(monkeyp
 def test_a_bdf2_run_resumes_bitwise(tmp_path):
     """The scheme's memory (u_{n−2}, β_{n−2}, k_{n−1}) is in its restart state: a run resumed
     from disk continues as the run that went on, bitwise, with BDF2 steps at once."""
-    first = reference.simulation(1, COARSE, scheme="bdf2", reuse_factorization=False)
+    first = reference.simulation(1, COARSE, scheme="bdf2", solver={"ksp_type": "preonly"})
     first.run(DT, 3 * DT, out=tmp_path)
-    second = reference.simulation(1, COARSE, scheme="bdf2", reuse_factorization=False).resume(tmp_path)
+    second = reference.simulation(1, COARSE, scheme="bdf2", solver={"ksp_type": "preonly"}).resume(tmp_path)
     for sim in (first, second):
         sim.step(DT)
     assert second.scheme.orders == [2]
@@ -188,7 +188,7 @@ def test_a_failed_bdf2_step_leaves_the_memory_as_it_was():
     bad = ngs.IfPos(time - 2.5 * DT, ngs.CF(float("nan")), 1.0)
     loads = ngc.Loads(f2={"top": (0, -reference.PRESSURE * time / reference.PUSH_END * bad)})
     sim = ngc.Simulation(body, loads, contact=reference.contact(), time=time, scheme="bdf2",
-                         reuse_factorization=False)
+                         solver={"ksp_type": "preonly"})
     sim.run(DT, 2 * DT)
     saved = sim.scheme.save()
     with pytest.raises(ValueError, match="not finite"):

@@ -18,7 +18,8 @@ never continued with another scene. Its fields (one key each, e.g. ``contact.gam
   maxit, the electric choice (``Simulation.electric``), the predictor, Newton's step limit and globalisation,
   static condensation, the linear solver as used (its name, ``inverse``: the factorisation,
   ``reuse_factorization``: kept as GMRES's preconditioner, ``iterative``: "multigrid", "gamg"
-  or False, and ``petsc``: the options of ``Simulation(solver={...})``, only for such a solver) and
+  or False, and ``petsc``: the options of ``Simulation(solver={...})`` that tune the solver it
+  chose, only where there are any: ``solver_choice.describe``) and
   ``realcompile`` (True, False, or None: by the rule of ``machine_code``);
   ``scheme``: the time scheme's name (β's update of backward Euler is ``contact.beta_update``);
 * ``run.*`` (``run_options``, added by ``results`` to the fingerprint it stores): the options

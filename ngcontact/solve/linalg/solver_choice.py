@@ -89,6 +89,16 @@ def earlier(inverse, iterative, reuse_factorization):
     return inverse or "direct"
 
 
+def _earlier_text(inverse, iterative, reuse_factorization):
+    """``earlier``'s solver= in words, with where it differs: reuse_factorization=False alone did
+    nothing where the system chose an iterative solver (3D from ``ITERATIVE_FROM`` DOFs)."""
+    text = f"solver={earlier(inverse, iterative, reuse_factorization)!r}"
+    if reuse_factorization is False and inverse is None and iterative is None:
+        text += (" where the system factorises; reuse_factorization=False had no effect where it chose an "
+                 "iterative solver (3D from 10⁵ DOFs on nested meshes), solver=None there")
+    return text
+
+
 def as_options(spec, inverse, iterative, reuse_factorization):
     """The ``Choice`` of ``Simulation(solver=spec)``, checked before any work: for a name, the
     solver it names (one of ``names()``); for a dict of PETSc options (``petsc_options.check``:
@@ -103,7 +113,7 @@ def as_options(spec, inverse, iterative, reuse_factorization):
     if spec is None:
         if given:
             warnings.warn(f"Simulation: inverse=, iterative= and reuse_factorization= are replaced by solver= "
-                          f"(here solver={earlier(inverse, iterative, reuse_factorization)!r}); they will be "
+                          f"(here {_earlier_text(inverse, iterative, reuse_factorization)}); they will be "
                           "removed in the next release", DeprecationWarning, stacklevel=3)
         return Choice(inverse, iterative, bool(reuse_factorization))
     if given:
@@ -157,8 +167,9 @@ def describe(solver):
     """The ``options.*`` of a run's fingerprint for its solver as used: ``inverse`` (the
     factorisation's name, None for an iterative solver or one of the user's), ``reuse_factorization``
     (kept as GMRES's preconditioner) and ``iterative`` ("multigrid", "gamg" or False); for a solver
-    of ``Simulation(solver={...})`` also ``petsc``, the PETSc options as given (absent otherwise,
-    so that the records of other runs keep their fields)."""
+    of ``Simulation(solver={...})`` with options that tune it (not those of ``CHOOSING``) also
+    ``petsc``, those options (absent otherwise: the same solver by a name, a dict or the earlier
+    options has the same fields, so a run resumes with either)."""
     iterative = "multigrid" if isinstance(solver, MultigridSolver) else "gamg" if isinstance(solver, GamgSolver) \
         else False
     kept = isinstance(solver, (KeptFactorization, petsc_solver.KeptMumps))
@@ -168,9 +179,16 @@ def describe(solver):
     fields = {"options.inverse": inverse, "options.reuse_factorization": kept, "options.iterative": iterative}
     built = direct if isinstance(direct, DirectSolver) else solver if isinstance(
         solver, (GamgSolver, petsc_solver.KeptMumps)) else None
-    if built is not None and built.options is not None:
-        fields["options.petsc"] = dict(sorted(built.options.given.items()))
+    tuned = {} if built is None or built.options is None else {
+        k: v for k, v in built.options.given.items() if k not in CHOOSING}
+    if tuned:
+        fields["options.petsc"] = dict(sorted(tuned.items()))
     return fields
+
+
+CHOOSING = ("pc_type", "ksp_type", "pc_factor_mat_solver_type")
+"""The PETSc options that choose the solver (``describe``'s other fields hold what they chose);
+the rest tune it and are ``options.petsc``."""
 
 
 def choose(body, contact, system, space, *, inverse, reuse_factorization, iterative, electric, condense,
