@@ -57,6 +57,10 @@ def test_every_direct_solver_by_name_gives_the_same_steps(name, reference_forces
     assert np.abs(got - reference_forces).max() <= 1e-8 * np.abs(reference_forces).max()
 
 
+KIND_HERE = {"direct": None, "iterative": "multigrid"}
+"""What the kinds choose on the serial 3D block: the default factorisation, NGSolve's multigrid."""
+
+
 @pytest.fixture(scope="module")
 def block_forces():
     """The 3D block (P1, one refinement: its nested mesh has 2 levels) by the default solver, a
@@ -75,6 +79,10 @@ def test_every_solver_by_name_gives_the_same_steps_on_the_3d_block(name, block_f
         pytest.skip(f"{name} needs PETSc")
     if name not in solver_choice.ITERATIVE and not working(name):
         pytest.skip(f"{name} cannot factorise here")
+    if name in solver_choice.KINDS:              # the solver the kind chooses here, which its own name runs below
+        kind, chosen = (reference.simulation(1, 0.02, 1, dim=3, solver=s) for s in (name, KIND_HERE[name]))
+        assert repr(kind.newton.solver) == repr(chosen.newton.solver)
+        return
     sim = reference.simulation(1, 0.02, 1, dim=3, solver=name)
     records = [sim.step(dt) for dt in (DT, DT / 2)]
     got = np.array([r.contact.force for r in records])

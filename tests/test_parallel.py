@@ -128,8 +128,12 @@ def serial_scenes(tmp_path_factory):
 SCENES = ("reference-law", "reference-p3", "reference-p1start", "hertz-force", "indenter3d")
 
 
-@pytest.mark.parametrize("ranks", [2, 3])
-@pytest.mark.parametrize("scene", SCENES)
+LONG = {("reference-p3", 3), ("indenter3d", 3)}
+"""The cases on 3 ranks whose 2-rank runs check the same code (20–26 s each): ``-m slow``."""
+
+
+@pytest.mark.parametrize("scene, ranks", [pytest.param(scene, ranks, marks=pytest.mark.slow) if (scene, ranks) in LONG
+                                          else (scene, ranks) for scene in SCENES for ranks in (2, 3)])
 def test_distributed_scenes_equal_the_serial_run(serial_scenes, tmp_path, scene, ranks):
     """``mpiexec -n 2|3`` with the default distributed solver (MUMPS where PETSc is installed,
     else "masterinverse"): the 2D reference plate with a nonlinear elasticity (the projection
