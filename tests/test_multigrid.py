@@ -9,6 +9,7 @@ import pytest
 
 import ngcontact as ngc
 from ngcontact import meshes
+from ngcontact.solve.linalg.gmres import gmres
 from ngcontact.solve.linalg import multigrid, solver_choice
 from ngcontact.geometries import block
 from ngcontact.scenes import reference as scene
@@ -75,7 +76,7 @@ def test_preconditioner_carries_the_gamma3_terms(pairs):
             layer.Clear()
         pre = multigrid.Preconditioner(hierarchy, J, free, layer, electric=True)
         w = r.CreateVector()
-        converged, counts[name] = ngc.linear_solver.gmres(J, pre, r, w, weights, 1e-8, 400)
+        converged, counts[name] = gmres(J, pre, r, w, weights, 1e-8, 400)
         assert converged
         exact = r.CreateVector()
         exact.data = J.Inverse(free, inverse="umfpack") * r

@@ -86,16 +86,18 @@ def serial_runs(tmp_path_factory):
 def test_distributed_mumps_equals_the_serial_run(serial_runs, tmp_path, scene, ranks):
     """``mpiexec -n 2|3``: MUMPS is the default on a distributed mesh where PETSc is installed
     (not "masterinverse"), kept as the preconditioner of PETSc's GMRES in Newton's weighted
-    norm (``petsc_solver.KeptMumps``; with more ranks than cores a factorisation per
-    iteration); over the push-hold-pull history of the 2D reference plate (P2) and
-    of the 3D block (P1), the contact force and the charge flux per step equal the serial run
-    to 1e-8 of their largest values, Newton's iterations to ±1."""
+    norm (``linear_solver.KeptFactorization`` of a MUMPS factorisation, its GMRES PETSc's:
+    ``krylov``; with more ranks than cores a factorisation per iteration); over the
+    push-hold-pull history of the 2D reference plate (P2) and of the 3D block (P1), the contact
+    force and the charge flux per step equal the serial run to 1e-8 of their largest values,
+    Newton's iterations to ±1."""
     launch(ranks, str(HERE / "distributed_scenes.py"), scene, "default", str(tmp_path / "run.json"), timeout=900)
     distributed = json.loads((tmp_path / "run.json").read_text())
     serial = serial_runs[scene]
     kept = ranks <= os.cpu_count()          # more ranks than cores: a factorisation per iteration
     assert distributed["ranks"] == ranks
-    assert distributed["solver"].startswith("KeptMumps(" if kept else "DirectSolver('mumps'"), distributed["solver"]
+    assert distributed["solver"].startswith("KeptFactorization(DirectSolver('mumps'" if kept
+                                                 else "DirectSolver('mumps'"), distributed["solver"]
     for key in ("force", "charge"):
         a, b = np.array(serial[key]), np.array(distributed[key])
         assert a.shape == b.shape and np.abs(a).max() > 0, key
@@ -342,13 +344,13 @@ def test_gamg_preconditioner_is_the_surface_bulk_surface_product():
     add_surface(r, expected)
     J.mult(expected, d)
     d.aypx(-1.0, r)
-    solver._add_bulk(d, expected)
+    solver.add_bulk(d, expected)
     J.mult(expected, d)
     d.aypx(-1.0, r)
     add_surface(d, expected)
     bulk_only = r.duplicate()
     bulk_only.set(0.0)
-    solver._add_bulk(r, bulk_only)
+    solver.add_bulk(r, bulk_only)
     assert (y - expected).norm() <= 1e-12 * expected.norm()
     assert (bulk_only - expected).norm() > 1e-3 * expected.norm()
 

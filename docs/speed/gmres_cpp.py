@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""NGSolve's C++ GMRES against ngcontact's numpy GMRES (``linear_solver.gmres``) on a system
+"""NGSolve's C++ GMRES against ngcontact's numpy GMRES (``gmres.gmres``) on a system
 of the kind the kept factorisation solves (docs/speed.md): the Hertz half-disk's
 elasticity matrix (P2, two refinements) changed on Γ3 and made non-symmetric, preconditioned
 by the UMFPACK factorisation of the unchanged one. Prints, per repetition, both solvers'
@@ -11,7 +11,7 @@ do), and the difference of the solutions.
 import time, numpy as np, ngsolve as ngs
 from ngsolve import la
 from ngcontact.scenes import hertz
-from ngcontact.linear_solver import gmres
+from ngcontact.solve.linalg.gmres import gmres
 m = hertz.mesh(2, None, 2, curve=2)
 V = ngs.VectorH1(m, order=2, dirichlet="top")
 u, v = V.TnT()

@@ -1,7 +1,7 @@
 """GMRES in numpy for Newton's corrections: left-preconditioned, in the block-scaled inner product
 of Newton's norms (u in m and φ in V differ by orders of magnitude), not restarted (the kept
-factorisation and the multigrid preconditioner keep the iterations few). The fallback where
-PETSc's KSP is not installed; ``linear_solver`` and ``multigrid`` call it."""
+factorisation and the multigrid preconditioner keep the iterations few). The serial back-end
+of ``krylov.Gmres``."""
 import numpy as np
 
 

@@ -9,10 +9,11 @@ same sparsity pattern) calls NGSolve's ``Update()``, which reuses the symbolic a
 
 Between Newton iterations, and between the steps of one time step size, the Jacobian of
 the step changes only in its Γ3 terms (``system``): the factorisation of an earlier one is
-then a good preconditioner, and ``KeptFactorization`` solves with GMRES (``gmres`` below:
-NGSolve's ``GMResSolver`` reported breakdowns that were none with Newton's weighted inner
-product) instead of factorising again, until the Krylov iterations cost more than a
-factorisation would. Its Gram–Schmidt is numpy (BLAS) on a kept basis; NGSolve's C++
+then a good preconditioner, and ``KeptFactorization`` solves with GMRES (``krylov``: numpy
+serially, PETSc's KSP on a distributed mesh with MUMPS; NGSolve's ``GMResSolver`` reported
+breakdowns that were none with Newton's weighted inner product) instead of factorising
+again, until the Krylov iterations cost more than a factorisation would. Its serial
+Gram–Schmidt is numpy (BLAS) on a kept basis; NGSolve's C++
 ``la.GMRESSolver`` is no faster here (Hertz P2, 14 298 DOFs, 28 iterations: 0.30 s against
 0.28–0.39 s, of which 0.22–0.28 s are the products and preconditioner solves both make;
 docs/speed.md), and would need a Python callback for Newton's inner product.
@@ -30,8 +31,9 @@ from contextlib import contextmanager, nullcontext
 import ngsolve as ngs
 import numpy as np
 
+from ngcontact import parallel
 from ngcontact.solve.linalg import petsc_solver
-from ngcontact.solve.linalg.gmres import gmres
+from ngcontact.solve.linalg.krylov import Gmres, distributed
 
 
 NAMES = tuple(dict.fromkeys(("sparsecholesky", "umfpack") + tuple(sorted(ngs.la.GetAvailableSolvers()))
@@ -168,7 +170,11 @@ class KeptFactorization:
     symmetric part that is never 1 iteration), or when GMRES with the kept factorisation does
     not reach ``tol`` within that count plus the budget (``krylov_failures`` counts those
     solves). If GMRES does not converge even right after a factorisation, a factorisation of
-    A itself (UMFPACK) solves, and ``fallbacks`` counts it.
+    A itself (UMFPACK; MUMPS's LU on a distributed mesh) solves, and ``fallbacks`` counts it.
+
+    On a distributed mesh (``direct`` MUMPS) the same policy runs on every rank alike: GMRES is
+    PETSc's, the changed rows are summed over the ranks, and ``save`` keeps nothing (a resumed
+    run factorises at its first solve).
 
     Parameters
     ----------
@@ -197,6 +203,7 @@ class KeptFactorization:
         self._factored = self._rows = self._pattern = None     # the values factorised, per entry its row
         self._changing = None            # the positions that may change within the generation, at the factorisation
         self._restored = None            # a factorisation to make again at the first solve (``load``)
+        self._krylov = Gmres()
 
     @property
     def name(self):
@@ -215,20 +222,23 @@ class KeptFactorization:
         """The rows of ``matrix`` that changed (``CHANGE``) since its values were factorised;
         ``changing``: the positions among its values that may have changed (all if None)."""
         where = slice(None) if changing is None else changing
-        values = matrix.AsVector().FV().NumPy()[where]
+        local = parallel.local_matrix(matrix)
+        values = local.AsVector().FV().NumPy()[where]
         moved = np.abs(values - self._factored[where]) > self.CHANGE * self._scale[where]
-        changed = np.zeros(matrix.height, dtype=bool)
+        changed = np.zeros(local.height, dtype=bool)
         changed[self._rows[where][moved]] = True
-        return int(changed.sum())
+        count = int(changed.sum())
+        return matrix.row_pardofs.comm.mpi4py.allreduce(count) if distributed(matrix) else count
 
     def _keep_values(self, matrix):
         """The values of ``matrix`` as factorised, with each entry's row and row scale."""
+        local = parallel.local_matrix(matrix)
         if matrix is not self._pattern:
-            _, _, ptr = matrix.CSR()
+            _, _, ptr = local.CSR()
             self._pattern, self._ptr = matrix, np.asarray(ptr, dtype=np.int64)
-            self._rows = np.repeat(np.arange(matrix.height), np.diff(self._ptr))
-        self._factored = matrix.AsVector().FV().NumPy().copy()
-        largest, filled = np.zeros(matrix.height), np.diff(self._ptr) > 0
+            self._rows = np.repeat(np.arange(local.height), np.diff(self._ptr))
+        self._factored = local.AsVector().FV().NumPy().copy()
+        largest, filled = np.zeros(local.height), np.diff(self._ptr) > 0
         largest[filled] = np.maximum.reduceat(np.abs(self._factored), self._ptr[:-1][filled])
         self._scale = largest[self._rows]
 
@@ -247,9 +257,10 @@ class KeptFactorization:
                 self.direct.factor(matrix, freedofs)
         self._stale, self._baseline = False, None
 
-    def _gmres(self, matrix, r, w, maxiter, weights, tol, timer):
+    def _gmres(self, matrix, freedofs, r, w, maxiter, weights, tol, timer):
         with timer("solve"), reproducible():
-            converged, iterations = gmres(matrix, self.direct.inverse, r, w, weights, tol, maxiter)
+            converged, iterations, _ = self._krylov.solve(matrix, freedofs, self.direct.inverse, r, w, weights,
+                                                          tol, maxiter)
         self.krylov_iterations += iterations
         return converged, iterations
 
@@ -274,17 +285,18 @@ class KeptFactorization:
         budget = self.budget
         # a kept factorisation gets what a fresh one would need, plus what a factorisation costs
         cap = self.max_budget if fresh else min(self.max_budget, int(np.ceil(self._baseline * decades)) + budget)
-        converged, iterations = self._gmres(matrix, r, w, cap, weights, tol, timer)
+        converged, iterations = self._gmres(matrix, freedofs, r, w, cap, weights, tol, timer)
         if not converged and not fresh:                 # a factorisation pays: make it
             self.krylov_failures += 1
             self._factor(matrix, freedofs, timer, changing)
             fresh = True
-            converged, iterations = self._gmres(matrix, r, w, self.max_budget, weights, tol, timer)
+            converged, iterations = self._gmres(matrix, freedofs, r, w, self.max_budget, weights, tol, timer)
         if not converged:                               # the preconditioner does not fit A
             self.krylov_failures += 1
             self.fallbacks += 1
             with timer("factorization"), reproducible():
-                exact = matrix.Inverse(freedofs, inverse="umfpack")
+                exact = petsc_solver.MumpsFactorization(matrix, freedofs) if distributed(matrix) else \
+                    matrix.Inverse(freedofs, inverse="umfpack")
             with timer("solve"), reproducible():
                 w.data = exact * r
             self._stale = True
@@ -305,7 +317,7 @@ class KeptFactorization:
         (``changing`` of the solve that factorised: the Γ3 terms'), the rest being the system's
         bulk, which the resumed run assembles again bitwise; with ``whole`` (laws change the
         bulk's tangent too) or without such positions, every value."""
-        if self._stale or self._factored is None or generation != self._generation:
+        if self._stale or self._factored is None or generation != self._generation or distributed(self._pattern):
             return {}
         arrays = dict(kept_baseline=np.asarray(self._baseline))
         if whole or self._changing is None:

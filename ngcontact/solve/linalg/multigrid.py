@@ -6,13 +6,11 @@ in time; this solver needs O(n) of both. The step Jacobian (``system``)
   J = [[K_uu + J_Γ3,uu,  Eᵀ + J_Γ3,uφ], [E + J_Γ3,φu,  −C + J_Γ3,φφ]]
 
 is non-symmetric (glue, conduction) and indefinite (the negated electric equation). GMRES
-(``linear_solver.gmres``, in Newton's block-scaled inner product: u in m and φ in V differ by
-~10⁹ in the Jacobian's entries, and unscaled GMRES stagnates) is preconditioned by
+(``krylov``, in Newton's block-scaled inner product: u in m and φ in V differ by ~10⁹ in the
+Jacobian's entries, and unscaled GMRES stagnates) is preconditioned by
 
-  M = a multiplicative Schwarz method of two parts, Γ3 – bulk – Γ3:
-      S: an exact (UMFPACK) solve of J on the free DOFs of the Γ3 facets (a surface problem,
-         ~n^(2/3) DOFs; it carries the Γ3 terms, whose Nitsche stiffness γ ~ 10 p² E/h dwarfs
-         the bulk's and changes at every Newton iteration),
+  M = the Γ3 – bulk – Γ3 method of ``gamma3_bulk`` on NGSolve's parts:
+      S: an exact (UMFPACK) solve of J on the free DOFs of the Γ3 facets,
       B: block-diagonal diag(MG_u, −MG_φ): NGSolve's ``Preconditioner(form, "multigrid")``
          (V-cycles on the nested meshes, a direct solve on the coarsest mesh) for P1, its
          "bddc" for P2 and higher (``bulk_kind``), for the SPD forms
@@ -40,7 +38,9 @@ import ngsolve as ngs
 import numpy as np
 
 from ngcontact.model import forms
-from ngcontact.solve.linalg.linear_solver import gmres, untimed
+from ngcontact.solve.linalg import gamma3_bulk
+from ngcontact.solve.linalg.krylov import Gmres
+from ngcontact.solve.linalg.linear_solver import untimed
 from ngcontact.model.supports import dirichlet_flags
 from ngcontact.model.machine_code import compiled
 from ngcontact.meshes import COARSE, nested_mesh, refinements  # noqa: F401  (nested_mesh: the documented place of old)
@@ -120,14 +120,16 @@ class Hierarchy:
 
 
 class Preconditioner(ngs.BaseMatrix):
-    """M ≈ J⁻¹ on the free DOFs (module docstring): Γ3 solve, block multigrid, Γ3 solve."""
+    """M ≈ J⁻¹ on the free DOFs (module docstring): Γ3 solve, block multigrid, Γ3 solve; the
+    ``gamma3_bulk.Parts`` of NGSolve's vectors."""
 
     def __init__(self, hierarchy, matrix, freedofs, layer, electric, free=None):
         super().__init__()
         self.hierarchy, self.matrix, self.electric = hierarchy, matrix, electric
         self.n_u = hierarchy.V.ndof
         self.free = np.array(list(freedofs), dtype=bool) if free is None else free    # numpy mask of freedofs
-        self.surface = matrix.Inverse(layer, inverse="umfpack") if layer.NumSet() else None
+        self.solver = matrix.Inverse(layer, inverse="umfpack") if layer.NumSet() else None
+        self.surface = self.solver is not None
         self._u_in, self._u_out = (ngs.GridFunction(hierarchy.V).vec for _ in range(2))
         self._phi_in, self._phi_out = (ngs.GridFunction(hierarchy.W).vec for _ in range(2))
         self._defect = matrix.CreateColVector()
@@ -141,7 +143,22 @@ class Preconditioner(ngs.BaseMatrix):
     def Width(self):
         return self.matrix.width
 
-    def _bulk(self, x, y):
+    def clear(self, y):
+        y[:] = 0.0
+
+    def surface_solve(self, r, y):
+        y.data = self.solver * r
+
+    def defect(self, r, y):
+        self._defect.data = r - self.matrix * y
+        return self._defect
+
+    surface_defect = defect
+
+    def add_surface(self, s, y):
+        y.data += self.solver * s
+
+    def add_bulk(self, x, y):
         """y += diag(MG_u, −MG_φ) x on the free DOFs."""
         values, out, n_u, free = x.FV().NumPy(), y.FV().NumPy(), self.n_u, self.free
         if self.hierarchy.pre_u is not None:
@@ -154,16 +171,7 @@ class Preconditioner(ngs.BaseMatrix):
             out[n_u:] -= np.where(free[n_u:], self._phi_out.FV().NumPy(), 0.0)
 
     def Mult(self, x, y):
-        d = self._defect
-        if self.surface is None:
-            y[:] = 0.0
-            self._bulk(x, y)
-            return
-        y.data = self.surface * x
-        d.data = x - self.matrix * y
-        self._bulk(d, y)
-        d.data = x - self.matrix * y
-        y.data += self.surface * d
+        gamma3_bulk.apply(self, x, y)
 
 
 class MultigridSolver:
@@ -202,6 +210,7 @@ class MultigridSolver:
         self.tol, self.maxiter = tol, int(maxiter)
         self.factorizations = self.krylov_iterations = self.krylov_failures = 0
         self.hierarchy, self._generation = None, None
+        self._krylov = Gmres()
         self._masks = (None, None, None)       # (freedofs, its numpy mask, its Γ3 DOFs)
         self.setup_s = 0.0                     # wall time of building hierarchies, s
 
@@ -232,8 +241,8 @@ class MultigridSolver:
             pre = Preconditioner(self.hierarchy, matrix, freedofs, layer, self.electric, free)
             self.factorizations += 1
         with timer("solve"):
-            converged, iterations = gmres(matrix, pre, r, w, weights, self.tol if tol is None else tol,
-                                          self.maxiter)
+            converged, iterations, _ = self._krylov.solve(matrix, freedofs, pre, r, w, weights,
+                                                          self.tol if tol is None else tol, self.maxiter)
         self.krylov_iterations += iterations
         if not converged:
             self.krylov_failures += 1

@@ -2,8 +2,8 @@
 multigrid: the iterative solver of large steps on PETSc, serial or distributed.
 
 The step Jacobian J (``system``; non-symmetric, indefinite: ``multigrid`` has the blocks) is
-solved by GMRES in Newton's weighted norm (``petsc_solver.WeightedGmres``) with the
-preconditioner of ``multigrid`` built from PETSc's parts instead of nested meshes:
+solved by PETSc's GMRES in Newton's weighted norm (``krylov``) with the Γ3 – bulk – Γ3
+preconditioner (``gamma3_bulk``) on PETSc's parts instead of nested meshes:
 
   S: MUMPS's LU of J on the free DOFs of the Γ3 facets (a surface problem, ~n^(2/3) DOFs,
      factorised at every Newton iteration: it carries the stiff Γ3 terms that change there);
@@ -47,7 +47,9 @@ from ngcontact.checks import node_memory
 from ngcontact.model.machine_code import compile_bulk, compiled
 from ngcontact.solve.linalg.petsc_blocks import index_set, node_by_node, petsc_vector, rigid_motion_values
 from ngcontact.solve.linalg.petsc_options import given_options, reading_options
-from ngcontact.solve.linalg.petsc_solver import MumpsFactorization, PetscMatrix, WeightedGmres, load
+from ngcontact.solve.linalg import gamma3_bulk
+from ngcontact.solve.linalg.krylov import Gmres
+from ngcontact.solve.linalg.petsc_solver import MumpsFactorization, PetscMatrix, load
 
 
 GAMG_OPTIONS = {"pc_gamg_threshold": 0.01}
@@ -99,16 +101,15 @@ class GamgSolver:
         self.tol, self.maxiter, self.realcompile = tol, int(maxiter), realcompile
         self.factorizations = self.krylov_iterations = self.krylov_failures = self.oversized = 0
         self._integrand = None                        # the preconditioner forms', compiled once
-        self._key = self._generation = None
+        self._generation = self.J = None
         self._bulk = None
+        self._krylov = Gmres()
 
     name = "GMRES preconditioned by Γ3 MUMPS solves around block GAMG (PETSc)"
 
-    def _setup(self, matrix, freedofs):
-        """J as a PETSc matrix, the index sets of u, φ and the Γ3 DOFs in it, GMRES."""
+    def _setup(self, matrix):
+        """The index sets of u, φ and the Γ3 DOFs in J, a PETSc matrix new to the solver."""
         PETSc, _ = load()
-        self.J = PetscMatrix(matrix, freedofs)
-        self.gmres = WeightedGmres(self.J, self._apply)
         mapping, template = self.J.vectors, matrix.CreateColVector()
         n_u = self.body.V.ndof
         u_part = np.zeros(matrix.height)
@@ -124,7 +125,7 @@ class GamgSolver:
         self._near_null_space = None                  # GAMG's, for these rows: made once
         self._bulk = None                             # B for these rows (``_preconditioners``)
         self._d = self.J.mat.createVecRight()
-        self._key, self._generation = (matrix, freedofs), None
+        self._generation = None
 
     def _preconditioners(self, freedofs):
         """B: GAMG of the u and φ preconditioner forms at the current rate coefficient. The
@@ -227,7 +228,41 @@ class GamgSolver:
                                   f"{self._surface.getFailedReason()})")
         self.factorizations += 1
 
-    def _add_bulk(self, r, y):
+    @property
+    def surface(self):
+        """Whether J has free Γ3 DOFs (``gamma3_bulk.Parts``; the parts on J's PETSc vectors follow)."""
+        return self._surface is not None
+
+    def clear(self, y):
+        y.set(0.0)
+
+    def surface_solve(self, r, y):
+        """y = S r: Γ3's rows move by one scatter made with S (``_factor_surface``)."""
+        PETSc, _ = load()
+        y.set(0.0)
+        self._on_surface.scatter(r, self._sr, addv=PETSc.InsertMode.INSERT_VALUES, mode=PETSc.ScatterMode.FORWARD)
+        self._surface.apply(self._sr, self._sy)
+        self._on_surface.scatter(self._sy, y, addv=PETSc.InsertMode.INSERT_VALUES, mode=PETSc.ScatterMode.REVERSE)
+
+    def defect(self, r, y):
+        """r − J y for y = S r, zero off Γ3: J[:, Γ3] stands for J."""
+        self._strips[1].mult(self._sy, self._d)
+        self._d.aypx(-1.0, r)
+        return self._d
+
+    def surface_defect(self, r, y):
+        """Γ3's rows of r − J y: J[Γ3, :] stands for J (two products with all of J per
+        application otherwise: 11 of the 58 ms at 142 404 DOFs)."""
+        self._strips[2].mult(y, self._sd)
+        self._sd.aypx(-1.0, self._sr)
+        return self._sd
+
+    def add_surface(self, s, y):
+        PETSc, _ = load()
+        self._surface.apply(s, self._sz)
+        self._on_surface.scatter(self._sz, y, addv=PETSc.InsertMode.ADD_VALUES, mode=PETSc.ScatterMode.REVERSE)
+
+    def add_bulk(self, r, y):
         """y += diag(GAMG_u, −GAMG_φ) r (each block's rows gathered from r and added back into
         y by a scatter made with the block)."""
         PETSc, _ = load()
@@ -242,38 +277,17 @@ class GamgSolver:
             scatter.scatter(z, y, addv=PETSc.InsertMode.ADD_VALUES, mode=PETSc.ScatterMode.REVERSE)
 
     def _apply(self, r, y):
-        """y = M r (module docstring), on J's PETSc vectors. S's y is zero off Γ3, and S reads
-        Γ3's rows of r − J y only: J's strips J[:, Γ3] and J[Γ3, :] stand for J there (two
-        products with all of J per application otherwise: 11 of the 58 ms at 142 404 DOFs).
-        Γ3's rows move by one scatter made with S (``_factor_surface``)."""
-        y.set(0.0)
-        if self._surface is None:
-            self._add_bulk(r, y)
-            return
-        PETSc, _ = load()
-        forward, reverse = PETSc.ScatterMode.FORWARD, PETSc.ScatterMode.REVERSE
-        insert, add = PETSc.InsertMode.INSERT_VALUES, PETSc.InsertMode.ADD_VALUES
-        _, columns, strip = self._strips
-        self._on_surface.scatter(r, self._sr, addv=insert, mode=forward)      # r on Γ3
-        self._surface.apply(self._sr, self._sy)
-        columns.mult(self._sy, self._d)
-        self._d.aypx(-1.0, r)                                                 # d = r − J y, y = S r (zero off Γ3)
-        self._on_surface.scatter(self._sy, y, addv=insert, mode=reverse)
-        self._add_bulk(self._d, y)
-        strip.mult(y, self._sd)
-        self._sd.aypx(-1.0, self._sr)                                         # Γ3's rows of r − J y
-        self._surface.apply(self._sd, self._sz)
-        self._on_surface.scatter(self._sz, y, addv=add, mode=reverse)
+        """y = M r (``gamma3_bulk``) on J's PETSc vectors."""
+        gamma3_bulk.apply(self, r, y)
 
     def solve(self, matrix, freedofs, r, w, generation=None, timer=None, weights=None, tol=None, changing=None):
         """w = J⁻¹ r to the relative accuracy ``tol`` (default the solver's) in the ``weights``
         norm of the preconditioned residual (``changing`` is not used)."""
         timer = timer or (lambda phase: nullcontext())
         with timer("factorization"):
-            if self._key is None or self._key[0] is not matrix or self._key[1] is not freedofs:
-                self._setup(matrix, freedofs)
-            else:
-                self.J.refill()
+            previous, self.J = self.J, self._krylov.operator(matrix, freedofs)   # new, or refilled
+            if self.J is not previous:
+                self._setup(matrix)
             if generation != self._generation or self._bulk is None:
                 self._preconditioners(freedofs)
                 self._generation = generation
@@ -282,7 +296,8 @@ class GamgSolver:
         if self.options is not None and self.options.rtol is not None:
             tol = min(tol, self.options.rtol)
         with timer("solve"):
-            converged, iterations, reason = self.gmres.solve(r, w, weights, tol, self.maxiter)
+            converged, iterations, reason = self._krylov.solve(matrix, freedofs, self._apply, r, w, weights, tol,
+                                                               self.maxiter, current=True)
         self.krylov_iterations += iterations
         if not converged:                      # a fresh factorisation of J solves instead, where it fits
             self.krylov_failures += 1

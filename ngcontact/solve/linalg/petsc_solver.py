@@ -5,7 +5,8 @@ non-symmetric Jacobian, LDLᵀ for a symmetric one), serially or on a mesh distr
 ranks, where it replaces NGSolve's "masterinverse" (which gathers the whole matrix on rank 0).
 The factorisation is an NGSolve ``BaseMatrix`` (``MumpsFactorization``), so the kept
 factorisation of ``linear_solver.KeptFactorization`` reuses it as GMRES's preconditioner
-across Newton iterations serially, as it does NGSolve's own factorisations.
+across Newton iterations as it does NGSolve's own factorisations, serially and (through
+PETSc's GMRES, ``krylov``) on a distributed mesh.
 
 Why ngsPETSc: it maps NGSolve's (parallel) sparse matrices and vectors to PETSc's, DOFs shared
 by ranks included (``ngsPETSc.Matrix``, ``VectorMapping``); the factorisation itself is
@@ -18,8 +19,6 @@ petsc4py against the site's PETSc (docs/cluster.md). Without PETSc, ``solver="mu
 error that says how to install it, before any work (``PetscMissing``). PETSc's options
 (``PETSC_OPTIONS``) reach the factorisation; what they cannot do is named (``petsc_options``).
 """
-from contextlib import nullcontext
-
 import ngsolve as ngs
 import numpy as np
 
@@ -224,161 +223,6 @@ class MumpsFactorization(ngs.BaseMatrix):
         self.pc.apply(self._x, self._y)
         self.petsc.vectors.ngsVec(self._y, y)
 
-
-class WeightedGmres:
-    """PETSc's GMRES (left-preconditioned, no restart within ``maxiter``) for A w = r in
-    Newton's weighted norm, as ``linear_solver.gmres``: it runs on S A S⁻¹ (a shell operator
-    over the PetscMatrix ``matrix``, whose values the caller keeps current) with the
-    preconditioner S M S⁻¹, S = diag(weights)^½, M given by ``precondition(x, y)`` (y = M x on
-    PETSc vectors of A's layout), so that the preconditioned residual is measured in the weights'
-    norm (in the Euclidean norm the potential's entries, in V, swamped the displacement's, in m,
-    and Newton diverged)."""
-
-    def __init__(self, matrix, precondition):
-        PETSc, _ = load()
-        self.matrix, self.precondition = matrix, precondition
-        A = matrix.mat
-        comm = A.getComm()
-        self._x, self._b = A.createVecs()
-        self._scale, self._inverse_scale, self._t, self._s = (self._x.duplicate() for _ in range(4))
-        self._weighted = False
-        self._scale.set(1.0)
-        self._inverse_scale.set(1.0)
-        operator = PETSc.Mat().createPython(A.getSizes(), context=_ScaledOperator(self), comm=comm)
-        operator.setUp()
-        self.ksp = PETSc.KSP().create(comm=comm)
-        self.ksp.setType("gmres")
-        self.ksp.setOperators(operator)
-        pc = self.ksp.getPC()
-        pc.setType("python")
-        pc.setPythonContext(_ScaledPreconditioner(self))
-
-    def _weights(self, template, weights):
-        """S and S⁻¹ as PETSc vectors (ones without weights); made again only for new weights
-        (Newton's norm keeps its array within a step)."""
-        if weights is self._weighted:
-            return
-        self._weighted = weights
-        if weights is None:
-            self._scale.set(1.0)
-        else:
-            cumulated = template.CreateVector()
-            cumulated.FV().NumPy()[:] = np.sqrt(weights)
-            if hasattr(cumulated, "SetParallelStatus"):
-                cumulated.SetParallelStatus(ngs.la.PARALLEL_STATUS.CUMULATED)
-            self.matrix.vectors.petscVec(cumulated, self._scale)
-        self._inverse_scale.set(1.0)
-        self._inverse_scale.pointwiseDivide(self._inverse_scale, self._scale)
-
-    def solve(self, r, w, weights, tol, maxiter):
-        """w ≈ A⁻¹ r (NGSolve vectors) to ``tol`` in ``maxiter`` iterations at most: returns
-        (converged, iterations, PETSc's converged reason)."""
-        self._weights(r, weights)
-        self.matrix.vectors.petscVec(r, self._b)
-        self._b.pointwiseMult(self._b, self._scale)                         # S r
-        self.ksp.setGMRESRestart(max(1, int(maxiter)))
-        self.ksp.setTolerances(rtol=tol, atol=0.0, max_it=max(1, int(maxiter)))
-        self.ksp.solve(self._b, self._x)
-        self._x.pointwiseMult(self._x, self._inverse_scale)                 # w = S⁻¹ y
-        self.matrix.vectors.ngsVec(self._x, w)
-        reason = self.ksp.getConvergedReason()
-        return reason > 0, self.ksp.getIterationNumber(), reason
-
-    def apply(self, r, w):
-        """w = M r (NGSolve vectors): the preconditioner alone."""
-        self.matrix.vectors.petscVec(r, self._b)
-        self.precondition(self._b, self._x)
-        self.matrix.vectors.ngsVec(self._x, w)
-
-
-class _ScaledOperator:
-    """The PETSc python matrix S A S⁻¹ of ``WeightedGmres``."""
-
-    def __init__(self, gmres):
-        self.gmres = gmres
-
-    def mult(self, mat, x, y):
-        g = self.gmres
-        g._t.pointwiseMult(x, g._inverse_scale)
-        g.matrix.mat.mult(g._t, y)
-        y.pointwiseMult(y, g._scale)
-
-
-class _ScaledPreconditioner:
-    """The PETSc python PC S M S⁻¹ of ``WeightedGmres``."""
-
-    def __init__(self, gmres):
-        self.gmres = gmres
-
-    def apply(self, pc, x, y):
-        g = self.gmres
-        g._s.pointwiseMult(x, g._inverse_scale)
-        g.precondition(g._s, y)
-        y.pointwiseMult(y, g._scale)
-
-
-class KeptMumps:
-    """w = A⁻¹ r by PETSc's GMRES preconditioned by the MUMPS factorisation of an earlier
-    Jacobian, on a distributed mesh (``linear_solver.KeptFactorization``'s GMRES works on one
-    rank's numpy arrays). A new factorisation (of A itself: its solve is exact) is made when
-    there is none, when ``generation`` or the free DOFs changed, or when GMRES does not reach
-    ``tol`` within ``budget`` iterations. GMRES measures the preconditioned residual in
-    Newton's weighted norm (``WeightedGmres``). Same ``solve`` protocol and counters as
-    ``linear_solver.KeptFactorization``. ``options``: the ``petsc_options.SolverOptions`` of
-    ``Simulation(solver={...})`` (their ``database`` reaches the factorisation), or None."""
-
-    def __init__(self, symmetric=False, *, tol=1e-8, budget=20, options=None):
-        self.symmetric, self.tol, self.budget, self.options = symmetric, tol, int(max(1, budget)), options
-        self.krylov_iterations = self.krylov_failures = self.factorizations = 0
-        self._factorization = self._current = self._gmres = self._generation = None
-
-    name = "GMRES preconditioned by a kept MUMPS factorisation of an earlier Jacobian (PETSc)"
-
-    def _setup(self, matrix, freedofs):
-        self._factorization = MumpsFactorization(matrix, freedofs, self.symmetric,
-                                                 self.options.database if self.options else None)
-        self._current = PetscMatrix(matrix, freedofs)
-        self._gmres = WeightedGmres(self._current, lambda x, y: self._factorization.pc.apply(x, y))
-        self.factorizations += 1
-
-    def solve(self, matrix, freedofs, r, w, generation=None, timer=None, weights=None, tol=None, changing=None):
-        """w = A⁻¹ r (``changing`` is not used)."""
-        timer = timer or (lambda phase: nullcontext())
-        tol = self.tol if tol is None else tol
-        if self._factorization is None or self._factorization.matrix is not matrix \
-                or self._factorization.freedofs is not freedofs:
-            with timer("factorization"):
-                self._setup(matrix, freedofs)
-            fresh = True
-        elif generation != self._generation:
-            self._refactor(timer)
-            fresh = True
-        else:
-            self._current.refill()
-            fresh = False
-        self._generation = generation
-        if not fresh:                                    # GMRES with the kept factorisation
-            with timer("solve"):
-                converged, iterations, _ = self._gmres.solve(r, w, weights, tol, self.budget)
-            self.krylov_iterations += iterations
-            if not converged:                            # a factorisation pays: make it
-                self.krylov_failures += 1
-                self._refactor(timer)
-                fresh = True
-        if fresh:                                        # the factorisation of A itself: exact
-            with timer("solve"):
-                self._gmres.apply(r, w)
-
-    def _refactor(self, timer):
-        """Factorise the current Jacobian (``_current`` is refilled before its next use)."""
-        with timer("factorization"):
-            self._factorization.Update()
-        self.factorizations += 1
-
-    @property
-    def relaxation(self):
-        """MUMPS's workspace relaxation ICNTL(14) (%) of the kept factorisation (None before one)."""
-        return None if self._factorization is None else self._factorization.relaxation
-
-    def __repr__(self):
-        return f"KeptMumps(symmetric={self.symmetric})"
+    def petsc_apply(self, x, y):
+        """y = A⁻¹ x on PETSc vectors of the free DOFs' layout (``krylov.Gmres``'s preconditioner)."""
+        self.pc.apply(x, y)

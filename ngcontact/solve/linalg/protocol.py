@@ -4,7 +4,7 @@ as an object (``LinearSolver``).
 Newton hands the solver the Jacobian (an NGSolve matrix, the same object while its sparsity
 stays), the free DOFs, the residual r and a vector w for the correction w = J⁻¹ r. The built-in
 solvers (``linear_solver.DirectSolver``, ``KeptFactorization``, ``multigrid.MultigridSolver``,
-``petsc_iterative.GamgSolver``, ``petsc_solver.KeptMumps``) follow it; ``solver_choice.resolve``
+``petsc_iterative.GamgSolver``) follow it; ``solver_choice.resolve``
 makes them from a name.
 """
 from typing import Protocol, runtime_checkable

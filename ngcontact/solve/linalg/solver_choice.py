@@ -7,8 +7,10 @@ dimension.
   condensation, for P1 on nested meshes (``Body.hierarchy``); direct factorisations fill in
   like n^(4/3) there.
 * on a mesh distributed over MPI ranks: MUMPS (through PETSc: the factorisation spread over the
-  ranks) where PETSc is installed, else NGSolve's "masterinverse" (the Jacobian gathered and
-  factorised on rank 0), at every Newton iteration;
+  ranks) where PETSc is installed, kept as the preconditioner of PETSc's GMRES (``krylov``) by
+  the same policy as serially (factorised at every Newton iteration with more ranks than
+  cores), else NGSolve's "masterinverse" (the Jacobian gathered and factorised on rank 0) at
+  every Newton iteration;
 * "mumps" serially: MUMPS's LDLᵀ (symmetric Jacobian) or LU, kept as GMRES's preconditioner
   like the other factorisations;
 * else a direct factorisation: kept between Newton iterations as GMRES's preconditioner
@@ -172,13 +174,11 @@ def describe(solver):
     options has the same fields, so a run resumes with either)."""
     iterative = "multigrid" if isinstance(solver, MultigridSolver) else "gamg" if isinstance(solver, GamgSolver) \
         else False
-    kept = isinstance(solver, (KeptFactorization, petsc_solver.KeptMumps))
+    kept = isinstance(solver, KeptFactorization)
     direct = getattr(solver, "direct", solver)
-    inverse = None if iterative else "mumps" if isinstance(solver, petsc_solver.KeptMumps) else \
-        direct.name if isinstance(direct, DirectSolver) else None
+    inverse = None if iterative else direct.name if isinstance(direct, DirectSolver) else None
     fields = {"options.inverse": inverse, "options.reuse_factorization": kept, "options.iterative": iterative}
-    built = direct if isinstance(direct, DirectSolver) else solver if isinstance(
-        solver, (GamgSolver, petsc_solver.KeptMumps)) else None
+    built = direct if isinstance(direct, DirectSolver) else solver if isinstance(solver, GamgSolver) else None
     tuned = {} if built is None or built.options is None else {
         k: v for k, v in built.options.given.items() if k not in CHOOSING}
     if tuned:
@@ -231,7 +231,8 @@ def choose(body, contact, system, space, *, inverse, reuse_factorization, iterat
         name = inverse or ("mumps" if petsc_solver.available() else PARALLEL_NAMES[0])
         sym = symmetric and name == "mumps"
         if name == "mumps" and reuse_factorization and not parallel.oversubscribed():   # PETSc's GMRES, kept MUMPS
-            return (petsc_solver.KeptMumps(sym, budget=factorization_worth(body.ndof, body.dim), options=petsc),
+            return (KeptFactorization(DirectSolver(name, symmetric=sym, options=petsc),
+                                      budget=factorization_worth(body.ndof, body.dim)),
                     DirectSolver(name, symmetric=sym, options=petsc))
         return DirectSolver(name, symmetric=sym, options=petsc), DirectSolver(name, symmetric=sym, options=petsc)
     if iterative:                                # "multigrid": NGSolve's, on nested meshes
