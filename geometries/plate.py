@@ -80,8 +80,8 @@ def plate(L1=0.1, L2=0.02, maxh=None, refine=0, maxh_contact=None, comm=None):
     ``maxh_contact`` grades the mesh towards the contact side "bottom"; ``comm`` as in
     the module's note (distributed under mpiexec)."""
     lengths = _lengths(L1=L1, L2=L2)
-    maxh = L2 / 2 if maxh is None else maxh
-    sizes = dict(maxh=maxh) if maxh_contact is None else dict(maxh=maxh, maxh_contact=maxh_contact)
+    name, maxh = ("maxh (by default L2/2)", L2 / 2) if maxh is None else ("maxh", maxh)
+    sizes = {name: maxh} if maxh_contact is None else {name: maxh, "maxh_contact": maxh_contact}
     refine = _check("plate", lengths, sizes, refine, graded=0.0 if maxh_contact is None else L1)
     face = Rectangle(L1, L2).Face()
     face.edges.Min(X).name = "left"
@@ -97,8 +97,8 @@ def block(L1=0.1, L2=0.04, L3=0.02, maxh=None, refine=0, comm=None):
     """Mesh of the block [0, L1] × [0, L2] × [0, L3]; maxh defaults to L3/2; ``comm`` as in
     the module's note (distributed under mpiexec)."""
     lengths = _lengths(L1=L1, L2=L2, L3=L3)
-    maxh = L3 / 2 if maxh is None else maxh
-    refine = _check("block", lengths, dict(maxh=maxh), refine)
+    name, maxh = ("maxh (by default L3/2)", L3 / 2) if maxh is None else ("maxh", maxh)
+    refine = _check("block", lengths, {name: maxh}, refine)
     box = Box(Pnt(0, 0, 0), Pnt(L1, L2, L3))
     for axis, low, high in ((X, "left", "right"), (Y, "front", "back"), (Z, "bottom", "top")):
         box.faces.Min(axis).name = low
