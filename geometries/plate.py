@@ -57,7 +57,7 @@ def _check(what, lengths, sizes, refine, graded=0.0):
     maxh, fine = list(sizes.values())[0], list(sizes.values())[-1]
     vertices = checks.estimated_vertices(list(lengths.values()), maxh) + \
         (checks.estimated_vertices([graded, fine], fine) if graded else 0.0)
-    settings = ", ".join([described] + [f"{name} = {value:g} m" for name, value in sizes.items()])
+    settings = ", ".join([described] + [f"{name.split(' (')[0]} = {value:g} m" for name, value in sizes.items()])
     checks.fits_in_memory(f"{what}: {settings}, refine = {refine} (u and φ at P1)",
                           checks.estimated_ndof(vertices, len(lengths), refine))
     return refine
