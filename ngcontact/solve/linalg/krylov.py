@@ -45,24 +45,17 @@ class Gmres:
 
     def solve(self, matrix, freedofs, preconditioner, r, w, weights, tol, maxiter, current=False):
         """w ≈ J⁻¹ r to the relative accuracy ``tol`` in at most ``maxiter`` iterations, from w = 0;
-        ``preconditioner``: an NGSolve BaseMatrix, one with ``petsc_apply(x, y)`` on PETSc vectors,
-        or such a function; ``current``: ``operator`` was just called for this solve (its values
-        are J's). Returns (converged, iterations, PETSc's converged reason or None)."""
+        ``preconditioner``: an NGSolve BaseMatrix (on a distributed mesh one with ``petsc_apply(x,
+        y)`` on PETSc vectors, as MUMPS's), or a function y = M x on PETSc vectors; ``current``:
+        ``operator`` was just called for this solve (its values are J's). Returns (converged, iterations, PETSc's converged reason or None)."""
         native = not isinstance(preconditioner, ngs.BaseMatrix)
         if not native and not distributed(matrix):
             converged, iterations = gmres(matrix, preconditioner, r, w, weights, tol, maxiter)
             return converged, iterations, None
-        apply = preconditioner if native else getattr(preconditioner, "petsc_apply", None)
         if not current:
             self.operator(matrix, freedofs)
-        petsc = self._petsc
-        petsc.precondition = apply or petsc.through_ngsolve(preconditioner)
-        return petsc.solve(r, w, weights, tol, maxiter)
-
-    def apply(self, preconditioner, r, w):
-        """w = M r (NGSolve vectors) through the PETSc operator's vectors (``operator`` made)."""
-        self._petsc.precondition = getattr(preconditioner, "petsc_apply", preconditioner)
-        self._petsc.apply(r, w)
+        self._petsc.precondition = preconditioner if native else preconditioner.petsc_apply
+        return self._petsc.solve(r, w, weights, tol, maxiter)
 
 
 class PetscGmres:
@@ -91,16 +84,6 @@ class PetscGmres:
         pc = self.ksp.getPC()
         pc.setType("python")
         pc.setPythonContext(_ScaledPreconditioner(self))
-
-    def through_ngsolve(self, preconditioner):
-        """M of an NGSolve BaseMatrix as ``precondition``: PETSc → NGSolve → PETSc vectors."""
-        x, y = preconditioner.CreateColVector(), preconditioner.CreateColVector()
-
-        def precondition(px, py):
-            self.matrix.vectors.ngsVec(px, x)
-            y.data = preconditioner * x
-            self.matrix.vectors.petscVec(y, py)
-        return precondition
 
     def _weights(self, template, weights):
         """S and S⁻¹ as PETSc vectors (ones without weights); made again only for new weights
@@ -132,12 +115,6 @@ class PetscGmres:
         self.matrix.vectors.ngsVec(self._x, w)
         reason = self.ksp.getConvergedReason()
         return reason > 0, self.ksp.getIterationNumber(), reason
-
-    def apply(self, r, w):
-        """w = M r (NGSolve vectors): the preconditioner alone."""
-        self.matrix.vectors.petscVec(r, self._b)
-        self.precondition(self._b, self._x)
-        self.matrix.vectors.ngsVec(self._x, w)
 
 
 class _ScaledOperator:
