@@ -30,7 +30,6 @@ is a column of an assembled matrix. No Python loop runs over patches or elements
 """
 import ngsolve as ngs
 import numpy as np
-import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla_sparse
 
@@ -75,10 +74,36 @@ def _element_blocks(form, mesh, trial, test):
     return np.array(blocks)
 
 
+def _element_dofs(space):
+    """The DOFs of every volume element of ``space`` in its local order (elements × DOFs)."""
+    return np.array([el.dofs for el in space.Elements(ngs.VOL)], dtype=np.int64)
+
+
+def _facet_dofs(S, mesh, patches):
+    """The DOFs of every facet of the RT space ``S`` (facets × w; -1 for the facets of a
+    refined mesh's coarser levels, which have none), read from the element DOF table: an
+    element lists its facets' DOFs at the same local positions whatever the element (read off
+    element 0); checked on every element (two elements sharing a facet must agree), else asked
+    facet by facet."""
+    el_dofs = _element_dofs(S)
+    first = list(el_dofs[0])
+    local = [[first.index(d) for d in S.GetDofNrs(f)] for f in _facets_of(mesh, mesh[ngs.ElementId(ngs.VOL, 0)])]
+    table = np.full((len(patches.facet_vertices), len(local[0])), -1, dtype=np.int64)
+    for k, positions in enumerate(local):
+        table[patches.element_facets[:, k]] = el_dofs[:, positions]
+    if all(np.array_equal(table[patches.element_facets[:, k]], el_dofs[:, positions])
+           for k, positions in enumerate(local)):
+        return table
+    lists = [list(S.GetDofNrs(ngs.NodeId(patches.facet_kind, f))) for f in range(len(table))]
+    width = max(len(dofs) for dofs in lists)
+    return np.array([dofs if len(dofs) == width else [-1] * width for dofs in lists], dtype=np.int64)
+
+
 class Patches:
     """The vertex patches of a mesh as arrays: the vertices and facets of every volume element
     (in NGSolve's local order), the vertices of every facet, and the boundary name of every
-    boundary facet (``boundary_name``, facet number -> name)."""
+    boundary facet (``boundary_name``, facet number -> name). It keeps the element data of
+    RT_p × P_p per order (``elements``), so that the equilibrations of one mesh share them."""
 
     def __init__(self, mesh):
         self.mesh = mesh
@@ -91,6 +116,59 @@ class Patches:
         self.element_facets = np.array([[f.nr for f in _facets_of(mesh, el)] for el in elements], dtype=np.int64)
         facets = mesh.edges if mesh.dim == 2 else mesh.faces
         self.facet_vertices = np.array([[v.nr for v in f.vertices] for f in facets], dtype=np.int64)
+        self._elements = {}
+
+    def elements(self, order):
+        """The ``ElementData`` of RT_order × P_order on this mesh (built once per order)."""
+        if order not in self._elements:
+            self._elements[order] = ElementData(self, order)
+        return self._elements[order]
+
+
+class ElementData:
+    """What the local problems of one mesh and order share whatever their weight and rows: the
+    spaces, the DOF tables, the element matrices M_kl = (σ_k, τ_l)_K of the RT components
+    (k, l < dim; every constant weight is a combination of them) and B_K = (div σ, q)_K, each in
+    the element's own DOF order, and the positions of the facet and interior DOFs in it."""
+
+    def __init__(self, patches, order):
+        mesh, d = patches.mesh, patches.mesh.dim
+        self.S = ngs.HDiv(mesh, order=order, RT=True)
+        self.Q = ngs.L2(mesh, order=order)
+        self.P1 = ngs.H1(mesh, order=1)
+        Sd = ngs.Discontinuous(self.S)
+        sigma, tau = Sd.TnT()
+        self.mass = [[None] * d for _ in range(d)]                       # [l][k]: test component l, trial k
+        for l in range(d):
+            for k in range(l + 1):
+                form = ngs.BilinearForm(Sd)
+                form += sigma[k] * tau[l] * ngs.dx
+                self.mass[l][k] = _element_blocks(form.Assemble(), mesh, Sd, Sd)
+                self.mass[k][l] = np.transpose(self.mass[l][k], (0, 2, 1))
+        div = ngs.BilinearForm(trialspace=Sd, testspace=self.Q)
+        div += ngs.div(sigma) * self.Q.TestFunction() * ngs.dx
+        self.div = _element_blocks(div.Assemble(), mesh, Sd, self.Q)      # (ne, nQ_loc, nS_loc)
+        self.el_sdofs = _element_dofs(self.S)
+        self.el_qdofs = _element_dofs(self.Q)
+        self.facet_dofs = _facet_dofs(self.S, mesh, patches)             # (facets, w), -1: no DOFs
+        self.hats = np.zeros(mesh.nv, dtype=np.int64)                    # the P1 DOF of every vertex
+        self.hats[patches.element_vertices.ravel()] = _element_dofs(self.P1).ravel()
+        ne = mesh.ne
+        on_element = self.facet_dofs[patches.element_facets].reshape(ne, -1)   # (ne, facets·w) global DOFs
+        match = on_element[:, :, None] == self.el_sdofs[:, None, :]         # (ne, facets·w, nS_loc)
+        self.facet_order = match.argmax(axis=2)                            # local positions, facet by facet
+        self.interior = np.nonzero(~match.any(axis=1))[1].reshape(ne, -1)
+        # NGSolve orders every element's DOFs alike (facet by facet, then the interior): then the
+        # blocks are split into facet (F) and interior (I) parts once, by slices
+        self.uniform = bool((self.facet_order == self.facet_order[0]).all() and (self.interior == self.interior[0]).all())
+        if self.uniform:
+            F, I = self.facet_order[0], self.interior[0]
+            part = lambda M, A, B: M[:, A][:, :, B]
+            self.mass_FF = [[part(M, F, F) for M in row] for row in self.mass]
+            self.mass_FI = [[part(M, F, I) for M in row] for row in self.mass]
+            self.mass_II = [[part(M, I, I) for M in row] for row in self.mass]
+            self.div_F, self.div_I = self.div[:, :, F], self.div[:, :, I]
+        self.mean_mass = ngs.Integrate(ngs.CF(1.0), mesh, ngs.VOL, element_wise=True).NumPy()
 
 
 class Equilibration:
@@ -101,8 +179,9 @@ class Equilibration:
     mesh : ngsolve.Mesh (2D or 3D), one polynomial order throughout.
     rows : the number of rows (dim for a stress, 1 for a flux vector).
     order : p of RT_p (div in P_p); p = the order of the primal unknown suits.
-    weight : a function (sigma, tau) -> the integrand of the weight W of the local problems, for
-        two ``rows`` × dim matrices (trial and test of the product space row by row).
+    weight : the constant weight W of the local problems, a symmetric positive definite
+        (rows·dim × rows·dim) array: W(σ, τ) = Σ W[j·dim + l, i·dim + k] σ_ik τ_jl for two
+        ``rows`` × dim matrices (trial σ, test τ). ``set_weight`` changes it.
     neumann : function (boundary name, row) -> True where the row's flux is prescribed
         (traction or charge data), False where the row's primal unknown is (Dirichlet).
     patches : ``Patches`` of the mesh (shared between equilibrations of one mesh).
@@ -111,102 +190,118 @@ class Equilibration:
     def __init__(self, mesh, rows, order, weight, neumann, patches=None):
         self.mesh, self.rows, self.order = mesh, int(rows), int(order)
         self.patches = patches or Patches(mesh)
-        self.S = ngs.HDiv(mesh, order=order, RT=True)
-        self.Q = ngs.L2(mesh, order=order)
-        self.P1 = ngs.H1(mesh, order=1)
+        self.data = self.patches.elements(self.order)
+        self.S, self.Q, self.P1 = self.data.S, self.data.Q, self.data.P1
         self.nS, self.nQ = self.S.ndof, self.Q.ndof
-        self._weight, self.neumann = weight, neumann
-        self._element_matrices()
-        self._condense()
-        self._patch_system()
+        self.neumann = neumann
+        self._structure()
+        self._patch_structure()
+        self.set_weight(weight)
 
     # ------------------------------------------------------------------ element level
-    def _element_matrices(self):
-        """W_K and B_K of every element in its local order: rows × (facet DOFs, interior DOFs)
-        of RT_p, rows × (mean, rest) of P_p."""
-        mesh, rows, d = self.mesh, self.rows, self.mesh.dim
-        S, Q = self.S, self.Q
-        Sd = ngs.Discontinuous(S)
-        sigma, tau = Sd.TnT()
-        zero = ngs.CF((0,) * d)
-        W = [[None] * rows for _ in range(rows)]
-        for i in range(rows):
-            for j in range(rows):
-                trial = ngs.CF(tuple(sigma if k == i else zero for k in range(rows)), dims=(rows, d))
-                test = ngs.CF(tuple(tau if k == j else zero for k in range(rows)), dims=(rows, d))
-                form = ngs.BilinearForm(Sd)
-                form += self._weight(trial, test) * ngs.dx
-                W[j][i] = _element_blocks(form.Assemble(), mesh, Sd, Sd)
-        div = ngs.BilinearForm(trialspace=Sd, testspace=Q)
-        div += ngs.div(sigma) * Q.TestFunction() * ngs.dx
-        Bd = _element_blocks(div.Assemble(), mesh, Sd, Q)                  # (ne, nQ_loc, nS_loc)
-        # local DOF structure of each element: its facets' DOFs, its interior DOFs
-        P = self.patches
-        facet_count = len(P.facet_vertices)
-        lists = [list(S.GetDofNrs(ngs.NodeId(P.facet_kind, f))) for f in range(facet_count)]
-        width = max(len(dofs) for dofs in lists)
-        # a refined mesh keeps the facets of its coarser levels, without DOFs: padded with -1
-        self.facet_dofs = np.array([dofs if len(dofs) == width else [-1] * width for dofs in lists],
-                                   dtype=np.int64)                           # (facets, w)
-        self.el_sdofs = np.array([list(S.GetDofNrs(el)) for el in mesh.Elements(ngs.VOL)], dtype=np.int64)
-        self.el_qdofs = np.array([list(Q.GetDofNrs(el)) for el in mesh.Elements(ngs.VOL)], dtype=np.int64)
-        ne = mesh.ne
-        nS_loc, nQ_loc = self.el_sdofs.shape[1], self.el_qdofs.shape[1]
-        on_element = self.facet_dofs[P.element_facets]                     # (ne, facets, w) global DOFs
-        on_element = on_element.reshape(ne, -1)
-        match = on_element[:, :, None] == self.el_sdofs[:, None, :]         # (ne, facets·w, nS_loc)
-        facet_order = match.argmax(axis=2)                                  # local positions, facet by facet
-        interior_mask = ~match.any(axis=1)
-        interior = np.nonzero(interior_mask)[1].reshape(ne, -1)
+    def _structure(self):
+        """The order of every element's local unknowns: rows × (facet DOFs, interior DOFs) of
+        RT_p, rows × (mean, rest) of P_p, split into Y (facet DOFs, means: shared by the
+        elements of a patch) and X (the rest: eliminated element by element)."""
+        rows, data = self.rows, self.data
+        ne = self.mesh.ne
+        nS_loc, nQ_loc = data.el_sdofs.shape[1], data.el_qdofs.shape[1]
+        facet_order, interior = data.facet_order, data.interior
         nF, nI = facet_order.shape[1], interior.shape[1]
-        self.w = self.facet_dofs.shape[1]
-        self.nF_loc, self.nI_loc, self.nQ_loc = nF, nI, nQ_loc
-        nY, nX = rows * (nF + 1), rows * (nI + nQ_loc - 1)
-        K = np.zeros((ne, rows * (nS_loc + nQ_loc), rows * (nS_loc + nQ_loc)))
-        for i in range(rows):
-            for j in range(rows):
-                K[:, j * nS_loc:(j + 1) * nS_loc, i * nS_loc:(i + 1) * nS_loc] = W[j][i]
-            q0 = rows * nS_loc + i * nQ_loc
-            K[:, q0:q0 + nQ_loc, i * nS_loc:(i + 1) * nS_loc] = Bd
-            K[:, i * nS_loc:(i + 1) * nS_loc, q0:q0 + nQ_loc] = np.transpose(Bd, (0, 2, 1))
-        # the permutation of the local unknowns into (Y, X), per element
-        Ypos, Xpos = [], []
-        for i in range(rows):
-            Ypos.append(i * nS_loc + facet_order)
-        for i in range(rows):
-            Ypos.append(np.full((ne, 1), rows * nS_loc + i * nQ_loc))
-        for i in range(rows):
-            Xpos.append(i * nS_loc + interior)
-        for i in range(rows):
-            Xpos.append(rows * nS_loc + i * nQ_loc + 1 + np.tile(np.arange(nQ_loc - 1), (ne, 1)))
-        Ypos, Xpos = np.concatenate(Ypos, axis=1), np.concatenate(Xpos, axis=1)
-        take = lambda P, Q_: K[np.arange(ne)[:, None, None], P[:, :, None], Q_[:, None, :]]
-        self.K_YY, self.K_YX, self.K_XY, self.K_XX = take(Ypos, Ypos), take(Ypos, Xpos), take(Xpos, Ypos), take(Xpos, Xpos)
-        self.nY, self.nX = nY, nX
-        self.facet_order = facet_order                     # local S positions of the facet DOFs
-        self.interior = interior
+        self.w = data.facet_dofs.shape[1]
+        self.nF_loc, self.nI_loc, self.nQ_loc, self.nS_loc = nF, nI, nQ_loc, nS_loc
+        self.nY, self.nX = rows * (nF + 1), rows * (nI + nQ_loc - 1)
+        Ypos = [i * nS_loc + facet_order for i in range(rows)]
+        Ypos += [np.full((ne, 1), rows * nS_loc + i * nQ_loc) for i in range(rows)]
+        Xpos = [i * nS_loc + interior for i in range(rows)]
+        Xpos += [rows * nS_loc + i * nQ_loc + 1 + np.tile(np.arange(nQ_loc - 1), (ne, 1)) for i in range(rows)]
+        self._Ypos, self._Xpos = np.concatenate(Ypos, axis=1), np.concatenate(Xpos, axis=1)
 
-    def _condense(self):
-        """Per element: M⁻¹ = K_XX⁻¹, the condensed S_K = K_YY − K_YX M⁻¹ K_XY and the
-        right-hand side map G_K = K_YX M⁻¹ (batched over the elements)."""
-        Minv = np.linalg.inv(self.K_XX)
-        self.Minv = Minv
-        self.G = self.K_YX @ Minv
-        self.S_cond = self.K_YY - self.G @ self.K_XY
+    def set_weight(self, weight):
+        """Use the weight ``weight`` (the class docstring): recombine the kept element matrices,
+        condense them and fill the patch system (its factorisation is made at the next call)."""
+        rows, d, data = self.rows, self.mesh.dim, self.data
+        if callable(weight) or np.asarray(weight).dtype.kind not in "iuf":
+            raise TypeError(f"Equilibration: weight must be a ({rows * d}, {rows * d}) array of numbers, got "
+                            f"{type(weight).__name__}")
+        weight = np.asarray(weight, dtype=float)
+        if weight.shape != (rows * d, rows * d):
+            raise ValueError(f"Equilibration: weight must be a ({rows * d}, {rows * d}) array (rows · dim), got shape "
+                             f"{weight.shape}")
+        weight = weight.reshape(rows, d, rows, d)                          # [j, l, i, k]
+        nS_loc, nQ_loc, ne = self.nS_loc, self.nQ_loc, self.mesh.ne
+        self.weight = weight.reshape(rows * d, rows * d)
+        n = rows * (nS_loc + nQ_loc)
+        K = np.zeros((ne, n, n) if not data.uniform else (0, 0, 0))
+        for j in range(rows if not data.uniform else 0):
+            for i in range(rows):
+                block = K[:, j * nS_loc:(j + 1) * nS_loc, i * nS_loc:(i + 1) * nS_loc]
+                for l in range(d):
+                    for k in range(d):
+                        if weight[j, l, i, k] != 0.0:
+                            block += weight[j, l, i, k] * data.mass[l][k]
+        for i in range(rows if not data.uniform else 0):
+            q0 = rows * nS_loc + i * nQ_loc
+            K[:, q0:q0 + nQ_loc, i * nS_loc:(i + 1) * nS_loc] = data.div
+            K[:, i * nS_loc:(i + 1) * nS_loc, q0:q0 + nQ_loc] = np.transpose(data.div, (0, 2, 1))
+        if data.uniform:
+            K_YY, K_YX, K_XX = self._blocks(weight)
+            self.K_XY = np.ascontiguousarray(np.transpose(K_YX, (0, 2, 1)))
+        else:
+            Ypos, Xpos = self._Ypos, self._Xpos
+            take = lambda P, Q_: K[np.arange(ne)[:, None, None], P[:, :, None], Q_[:, None, :]]
+            K_YY, K_YX, self.K_XY, K_XX = take(Ypos, Ypos), take(Ypos, Xpos), take(Xpos, Ypos), take(Xpos, Xpos)
+        # per element: M⁻¹ = K_XX⁻¹, the condensed S_K = K_YY − K_YX M⁻¹ K_XY, and G_K = K_YX M⁻¹
+        self.Minv = np.linalg.inv(K_XX)
+        self.G = K_YX @ self.Minv
+        self.S_cond = K_YY - self.G @ self.K_XY
+        r, c, keep, border_rows, border_cols, border_values = self._pattern
+        values = self.S_cond.reshape(-1)[keep]
+        self.system = sp.csc_matrix((np.concatenate([values, border_values]),
+                                     (np.concatenate([r, border_rows]), np.concatenate([c, border_cols]))),
+                                    shape=(self.size, self.size))
+        self._lu = None
+
+    def _blocks(self, weight):
+        """K_YY, K_YX, K_XX of every element by slices of the split element blocks (``ElementData``
+        with one local order): Y = rows × facet DOFs, then the rows' means; X = rows × interior
+        DOFs, then the rows' P_p rests."""
+        rows, d, data = self.rows, self.mesh.dim, self.data
+        nF, nI, nR, ne = self.nF_loc, self.nI_loc, self.nQ_loc - 1, self.mesh.ne
+        K_YY, K_YX, K_XX = np.zeros((ne, self.nY, self.nY)), np.zeros((ne, self.nY, self.nX)), np.zeros((ne, self.nX, self.nX))
+        F = lambda i: slice(i * nF, (i + 1) * nF)
+        I = lambda i: slice(i * nI, (i + 1) * nI)
+        R = lambda i: slice(rows * nI + i * nR, rows * nI + (i + 1) * nR)
+        for j in range(rows):
+            for i in range(rows):
+                for l in range(d):
+                    for k in range(d):
+                        c = weight[j, l, i, k]
+                        if c != 0.0:
+                            K_YY[:, F(j), F(i)] += c * data.mass_FF[l][k]
+                            K_YX[:, F(j), I(i)] += c * data.mass_FI[l][k]
+                            K_XX[:, I(j), I(i)] += c * data.mass_II[l][k]
+        for i in range(rows):
+            m = rows * nF + i
+            K_YY[:, F(i), m] = K_YY[:, m, F(i)] = data.div_F[:, 0, :]
+            K_YX[:, m, I(i)] = data.div_I[:, 0, :]
+            K_YX[:, F(i), R(i)] = np.transpose(data.div_F[:, 1:, :], (0, 2, 1))
+            K_XX[:, I(i), R(i)] = np.transpose(data.div_I[:, 1:, :], (0, 2, 1))
+            K_XX[:, R(i), I(i)] = data.div_I[:, 1:, :]
+        return K_YY, K_YX, K_XX
 
     # ------------------------------------------------------------------ patch level
-    def _patch_system(self):
+    def _patch_structure(self):
         """The block-diagonal system of all condensed patch problems, and the maps from
         (element, patch) pairs to its unknowns, built with arrays: the unknowns of a patch are its
         facet DOFs around its vertex (row by row, not prescribed), its elements' means (row by
         row) and the multipliers of ∫ r_i = 0 (rows without a Dirichlet side), numbered patch by
         patch."""
-        mesh, P, rows, nS = self.mesh, self.patches, self.rows, self.nS
+        mesh, P, rows, nS, data = self.mesh, self.patches, self.rows, self.nS, self.data
         nF, nY, w = self.nF_loc, self.nY, self.w
         ne, nv_el = P.element_vertices.shape
         n_facets_el = P.element_facets.shape[1]
-        self.hats = np.array([self.P1.GetDofNrs(ngs.NodeId(ngs.VERTEX, a))[0] for a in range(mesh.nv)],
-                             dtype=np.int64)
+        self.hats = data.hats
         facet_count = len(P.facet_vertices)
         on_boundary = np.zeros(facet_count, dtype=bool)
         neumann = np.zeros((facet_count, rows), dtype=bool)
@@ -228,7 +323,7 @@ class Equilibration:
         # element·rows + row), 2 border (id row); sorted they number the unknowns patch by patch
         big = max(rows * nS, ne * rows, rows) + 1
         key = lambda a, kind, ident: (a * 3 + kind) * big + ident
-        dofs = self.facet_dofs[facets]                                      # (pairs, facets, w)
+        dofs = data.facet_dofs[facets]                                      # (pairs, facets, w)
         row = np.arange(rows)[None, :, None, None]
         facet_keys = key(pair_patch[:, None, None, None], 0, row * nS + dofs[:, None, :, :])
         facet_keys = np.broadcast_to(facet_keys, (pairs, rows, n_facets_el, w))
@@ -242,25 +337,27 @@ class Equilibration:
         index[:, :rows * nF] = np.where(facet_free, np.searchsorted(keys, facet_keys), -1).reshape(pairs, rows * nF)
         index[:, rows * nF:] = np.searchsorted(keys, mean_keys)
         self.pair_el, self.pair_patch, self.pair_index = pair_el, pair_patch, index
+        self.pairs_per_element = nv_el                                     # pairs are element-major
         facet_pos = np.searchsorted(keys, facet_keys[facet_free])
         self.free_system, first = np.unique(facet_pos, return_index=True)
         self.free_global = (np.broadcast_to(row * nS + dofs[:, None, :, :], facet_free.shape)[facet_free])[first]
-        # the condensed element matrices of every pair into the system, and the borders
-        S_pairs = self.S_cond[pair_el]
-        keep = (index[:, :, None] >= 0) & (index[:, None, :] >= 0)
+        valid = index >= 0
+        self.patch_of_unknown = np.zeros(self.size, dtype=np.int64)
+        self.patch_of_unknown[index[valid]] = np.repeat(pair_patch, valid.sum(1))
+        # where the condensed element matrices of every pair go in the system, and the borders
+        keep = valid[:, :, None] & valid[:, None, :]
         r = np.broadcast_to(index[:, :, None], keep.shape)[keep]
         c = np.broadcast_to(index[:, None, :], keep.shape)[keep]
-        v = S_pairs[keep]
-        mean_mass = ngs.Integrate(ngs.CF(1.0), mesh, ngs.VOL, element_wise=True).NumPy()
+        # (as positions in the elements' condensed matrices, ne × nY × nY)
+        keep = ((pair_el[:, None, None] * nY + np.arange(nY)[None, :, None]) * nY
+                + np.arange(nY)[None, None, :])[keep]
         bordered = ~dirichlet[pair_patch]                                  # (pairs, rows)
         mean_pos = index[:, rows * nF:][bordered]
         border_pos = np.searchsorted(keys, key(np.broadcast_to(pair_patch[:, None], bordered.shape)[bordered], 2,
                                                np.broadcast_to(np.arange(rows)[None, :], bordered.shape)[bordered]))
-        mass = np.broadcast_to(mean_mass[pair_el][:, None], bordered.shape)[bordered]
-        self.system = sp.csc_matrix((np.concatenate([v, mass, mass]),
-                                     (np.concatenate([r, mean_pos, border_pos]), np.concatenate([c, border_pos, mean_pos]))),
-                                    shape=(self.size, self.size))
-        self._lu = None
+        mass = np.broadcast_to(data.mean_mass[pair_el][:, None], bordered.shape)[bordered]
+        self._pattern = (r, c, keep, np.concatenate([mean_pos, border_pos]), np.concatenate([border_pos, mean_pos]),
+                         np.concatenate([mass, mass]))
         # prescribed normal fluxes, in groups of w entries (one pair, row, facet) in the facet's DOF order
         fixed_full = np.broadcast_to(fixed[:, :, :, None], (pairs, rows, n_facets_el, w))
         p_idx, i_idx, f_idx, k_idx = np.nonzero(fixed_full)
@@ -268,24 +365,28 @@ class Equilibration:
         self.fixed_local = i_idx * nF + f_idx * w + k_idx
         self.fixed_global = i_idx * nS + dofs[p_idx, f_idx, k_idx]
         self.fixed_facet = facets[p_idx, f_idx]
-        self._facet_blocks = {}
+        self._facet_inverse = None
         if len(self.fixed_facet):
             n = ngs.specialcf.normal(mesh.dim)
             sigma, tau = self.S.TnT()
             boundary = ngs.BilinearForm(self.S)
             boundary += (sigma.Trace() * n) * (tau.Trace() * n) * ngs.ds
             Mb = csr(boundary.Assemble().mat, copy=True)
-            for f in np.unique(self.fixed_facet):
-                fd = list(self.facet_dofs[f])
-                self._facet_blocks[int(f)] = (w, sla.cho_factor(Mb[fd][:, fd].toarray()))
+            # the normal-trace mass matrix of every prescribed facet (w × w), inverted once; the
+            # prescribed values come in groups of w (one pair, row and facet)
+            groups = self.fixed_facet[::w]
+            facets, self._facet_group = np.unique(groups, return_inverse=True)
+            fd = data.facet_dofs[facets]
+            blocks = _entries(Mb, np.repeat(fd, w, axis=1).ravel(), np.tile(fd, (1, w)).ravel())
+            self._facet_inverse = np.linalg.inv(blocks.reshape(len(facets), w, w))
         # the global DOFs of the X unknowns of every element (interior RT DOFs, P_p rest), per row
-        interior_global = np.take_along_axis(self.el_sdofs, self.interior, axis=1)
-        X_global = [interior_global + i * nS for i in range(rows)] + [self.el_qdofs[:, 1:] + i * self.nQ
+        interior_global = np.take_along_axis(data.el_sdofs, data.interior, axis=1)
+        X_global = [interior_global + i * nS for i in range(rows)] + [data.el_qdofs[:, 1:] + i * self.nQ
                                                                       for i in range(rows)]
         self.X_global = np.concatenate(X_global, axis=1)        # (ne, nX)
         nI = self.nI_loc
         self.X_is_sigma = np.concatenate([np.ones(rows * nI, dtype=bool), np.zeros(self.nX - rows * nI, dtype=bool)])
-        self.Y_mean_global = np.stack([self.el_qdofs[:, 0] + i * self.nQ for i in range(rows)], axis=1)
+        self.Y_mean_global = np.stack([data.el_qdofs[:, 0] + i * self.nQ for i in range(rows)], axis=1)
 
     # ------------------------------------------------------------------ one right-hand side
     def __call__(self, flux, source, traction):
@@ -302,18 +403,17 @@ class Equilibration:
         traction = ngs.CF(traction) if rows > 1 else ngs.CF((traction,))
         rhs_w, rhs_div, rhs_t = [], [], []               # each: (DOFs of the row) × (hat functions)
         n = ngs.specialcf.normal(d)
-        zero = ngs.CF((0,) * d)
-        # W σ_h row by row, once as a plain CF (the weight is bilinear: its value on the unit
-        # matrices), so that the forms below are linear in their proxies (3D: 8x faster)
-        unit = lambda j, l: ngs.CF(tuple(1.0 if (k, m) == (j, l) else 0.0 for k in range(rows) for m in range(d)),
-                                   dims=(rows, d))
-        weighted = [ngs.CF(tuple(self._weight(flux, unit(j, l)) for l in range(d))).Compile() for j in range(rows)]
+        # W σ_h row by row as a plain CF, so that the forms below are linear in their proxies
+        W = self.weight
+        weighted = [ngs.CF(tuple(sum(W[j * d + l, m] * flux[m // d, m % d] for m in range(rows * d) if W[j * d + l, m])
+                                 for l in range(d))).Compile() for j in range(rows)]
+        compiled = ngs.CF(flux.Compile(), dims=(rows, d))    # (uncompiled: 6x the assembly below in 3D)
         for i in range(rows):
             form = ngs.BilinearForm(trialspace=self.P1, testspace=self.S)
             form += psi * ngs.InnerProduct(weighted[i], tau) * ngs.dx
             rhs_w.append(csr(form.Assemble().mat, copy=True))
             form = ngs.BilinearForm(trialspace=self.P1, testspace=self.Q)
-            form += (ngs.InnerProduct(flux[i, :], ngs.grad(psi)) - psi * source[i]) * q * ngs.dx(bonus_intorder=BONUS)
+            form += (ngs.InnerProduct(compiled[i, :], ngs.grad(psi)) - psi * source[i]) * q * ngs.dx(bonus_intorder=BONUS)
             rhs_div.append(csr(form.Assemble().mat, copy=True))
             if len(self.fixed_facet):
                 form = ngs.BilinearForm(trialspace=self.P1, testspace=self.S)
@@ -326,10 +426,8 @@ class Equilibration:
         if len(self.fixed_facet):
             rhs_t = sp.vstack(rhs_t, format="csr")
             x_fixed = _entries(rhs_t, self.fixed_global, hat_of_pair[self.fixed_pairs])
-            for f, (size, chol) in self._facet_blocks.items():
-                at = np.flatnonzero(self.fixed_facet == f)
-                if len(at):
-                    x_fixed[at] = sla.cho_solve(chol, x_fixed[at].reshape(-1, size).T).T.ravel()
+            w = self.w
+            x_fixed = np.einsum("gkl,gl->gk", self._facet_inverse[self._facet_group], x_fixed.reshape(-1, w)).ravel()
         # X data of every pair (element-local), and Y data of the system's unknowns
         pairs = len(self.pair_el)
         X_glob = self.X_global[self.pair_el]                               # (pairs, nX)
@@ -341,19 +439,19 @@ class Equilibration:
                                   np.repeat(hat_of_pair, (~sig_x).sum())).reshape(pairs, -1)
         rhs = np.zeros(self.size)
         # facet unknowns: the global data of the row's DOF at the patch's hat (once per unknown)
-        patch_of_unknown = np.zeros(self.size, dtype=np.int64)
-        patch_of_unknown[self.pair_index[self.pair_index >= 0]] = np.repeat(self.pair_patch, (self.pair_index >= 0).sum(1))
-        rhs[self.free_system] = _entries(rhs_w, self.free_global, self.hats[patch_of_unknown[self.free_system]])
+        rhs[self.free_system] = _entries(rhs_w, self.free_global, self.hats[self.patch_of_unknown[self.free_system]])
         # means: the element's data (row i) at the patch's hat
         means = self.pair_index[:, rows * self.nF_loc:]                  # (pairs, rows)
         rhs[means.ravel()] = _entries(rhs_div, self.Y_mean_global[self.pair_el].ravel(), np.repeat(hat_of_pair, rows))
-        # known Y values of every pair: the prescribed fluxes (others 0 or unknown)
+        # condensation: Y data − G r_X − S_K y_known, y_known the prescribed fluxes (others 0);
+        # the pairs are element-major, so the element matrices apply without copies
+        ne, k = self.mesh.ne, self.pairs_per_element
+        cond = np.einsum("eyx,ekx->eky", self.G, r_X.reshape(ne, k, -1)).reshape(pairs, -1)
         y_known = np.zeros((pairs, self.nY))
         if len(x_fixed):
             y_known[self.fixed_pairs, self.fixed_local] = x_fixed
-        # condensation: Y data − G r_X − K_YY-part of the known values (condensed S)
-        S_pairs = self.S_cond[self.pair_el]
-        cond = np.einsum("pyx,px->py", self.G[self.pair_el], r_X) + np.einsum("pyz,pz->py", S_pairs, y_known)
+            at = np.unique(self.fixed_pairs)
+            cond[at] += np.einsum("pyz,pz->py", self.S_cond[self.pair_el[at]], y_known[at])
         valid = self.pair_index >= 0
         np.add.at(rhs, self.pair_index[valid], -cond[valid])
         if self._lu is None:
@@ -361,8 +459,8 @@ class Equilibration:
         z = self._lu.solve(rhs)
         # every pair's Y, then its X by recovery: x = M⁻¹(r_X − K_XY y)
         y = np.where(valid, z[np.where(valid, self.pair_index, 0)], y_known)
-        x = np.einsum("pxw,pw->px", self.Minv[self.pair_el],
-                      r_X - np.einsum("pxy,py->px", self.K_XY[self.pair_el], y))
+        rest = r_X - np.einsum("exy,eky->ekx", self.K_XY, y.reshape(ne, k, -1)).reshape(pairs, -1)
+        x = np.einsum("exw,ekw->ekx", self.Minv, rest.reshape(ne, k, -1)).reshape(pairs, -1)
         result = np.zeros(rows * self.nS)
         np.add.at(result, self.free_global, z[self.free_system])
         if len(x_fixed):
