@@ -10,7 +10,10 @@ but the Newton start of a step (the last level's displacement, interpolated).
   the estimate².
 * ``step``: solve one step, estimate, mark, refine (``meshes.refined``: bisection, curved
   boundaries kept), again, until the relative estimate is at most ``tol`` or a limit of DOFs or
-  levels is reached.
+  levels is reached; marking by the equilibrated estimate or by the cheap averaging indicator
+  with the bound only where it decides (``MARKINGS``).
+* ``solve``: one step to a tolerance, certified: ``step`` marking by the averaging indicator,
+  Newton stopped at a fraction of the estimate.
 * ``history``: run the whole load history on each mesh, mark by each element's largest
   indicator over the estimated steps, refine, and run it again. Why not refine and coarsen as the
   contact zone moves: Netgen bisects but cannot coarsen, so a mesh that followed the contact
@@ -38,6 +41,7 @@ import numpy as np
 
 from ngcontact import arguments, checks, parallel
 from ngcontact.model import forms
+from ngcontact.estimators.averaging import AveragingIndicator
 from ngcontact.estimators.equilibrated import EquilibratedEstimator, check as estimable
 from ngcontact.meshes import refined
 
@@ -105,7 +109,10 @@ class Level:
     (building, solving and estimating every level so far, refining the meshes; not the time of
     ``on_level``); ``estimate_stops``: the Newton solves that adaptive stopping ended
     (``stop_newton``; the others met the fixed tolerance); ``build_s``: the wall time of
-    building the level's simulation (``scene(mesh)``)."""
+    building the level's simulation (``scene(mesh)``). Marked by the averaging indicator
+    (``marking="averaging"``): ``indicators`` are its η_K, ``indicator`` its total, and
+    ``certified`` says whether the equilibrated bound was computed on the level (``estimate``
+    and ``relative`` are NaN and ``parts`` {} where it was not)."""
     mesh: object
     ndof: int
     estimate: float
@@ -121,6 +128,8 @@ class Level:
     elapsed_s: float = 0.0
     estimate_stops: int = 0
     build_s: float = 0.0
+    certified: bool = True
+    indicator: float = float("nan")
 
 
 @dataclass
@@ -223,8 +232,26 @@ def _timed(on_level, level):
     return wallclock.perf_counter() - t0
 
 
+MARKINGS = ("equilibrated", "averaging")
+"""What ``step`` marks by: the equilibrated estimate on every level (a bound on each), or the
+averaging indicator (``estimators.averaging``, about a tenth of a solve) with the equilibrated
+bound computed only where it decides: on the first level (to scale the indicator), where the
+scaled indicator says the target is met, and on the last level (the certificate)."""
+
+
+def _certify(sim, level, began):
+    """Compute the equilibrated bound of ``level`` (its solved ``sim``) and put it in the level."""
+    t0 = wallclock.perf_counter()
+    estimate = EquilibratedEstimator(sim)()
+    level.estimate, level.parts, level.certified = estimate.total, estimate.parts, True
+    level.relative = _relative(estimate.total, energy(sim))
+    level.estimate_s += wallclock.perf_counter() - t0
+    level.elapsed_s = wallclock.perf_counter() - began
+    return estimate
+
+
 def step(scene, mesh, dt, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5, guess=None, on_level=None,
-         stop_newton=None, polygonal=False):
+         stop_newton=None, polygonal=False, marking="equilibrated"):
     """Adapt the mesh to one step of length dt (s) from the initial state (``Simulation.step``):
     solve, estimate, mark (``mark``), refine (``meshes.refined``), until the relative estimate is
     at most ``tol`` (None: until a limit) or ``max_levels`` meshes or ``max_ndof`` DOFs;
@@ -233,35 +260,77 @@ def step(scene, mesh, dt, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5
     (a fraction, e.g. 0.1; None: Newton's fixed tolerances): from the second level on, Newton
     stops once its last correction's energy is below that fraction of the estimate expected
     on the new mesh (the last one scaled by the DOFs, η (N_ℓ−1/N_ℓ)^(p/d)). ``polygonal``:
-    the mesh has no geometry and its boundary is polygonal (``meshes.refined``)."""
+    the mesh has no geometry and its boundary is polygonal (``meshes.refined``). ``marking``:
+    "equilibrated" (the bound on every level) or "averaging" (``MARKINGS``: the cheap
+    indicator marks, the bound certifies the first level, the levels the scaled indicator
+    says meet ``tol``, and the last)."""
     tol, fraction, max_levels, max_ndof = _limits(tol, fraction, max_levels, max_ndof)
     stop_newton = _inputs("adapt.step", scene, mesh, max_levels, polygonal, on_level, stop_newton)
+    marking = _marking("adapt.step", marking)
     arguments.time_step(dt, 0.0)                     # dt > 0, finite, before any work
     levels, start, began = [], guess, wallclock.perf_counter()
+    ratio = None                                     # bound / indicator at the last certified level
     sim, build_s = _first(scene, mesh, max_ndof)
     while True:
         mesh = sim.body.mesh
         if stop_newton is not None and levels:
             last = levels[-1]
-            expected = last.estimate * (last.ndof / sim.X.ndof) ** (sim.body.order / sim.body.dim)
+            previous = last.estimate if last.certified else ratio * last.indicator
+            expected = previous * (last.ndof / sim.X.ndof) ** (sim.body.order / sim.body.dim)
             sim.newton.energy_target = stop_newton * expected
         t0 = wallclock.perf_counter()
         record = sim.step(dt, guess=start)
         solved = wallclock.perf_counter()
-        estimate = EquilibratedEstimator(sim)()
         norm = energy(sim)
-        level = Level(mesh, sim.X.ndof, estimate.total, _relative(estimate.total, norm),
-                      estimate.parts, estimate.indicators, solved - t0, wallclock.perf_counter() - solved,
+        if marking == "equilibrated":
+            estimate = EquilibratedEstimator(sim)()
+            indicators, indicator = estimate.indicators, float("nan")
+        else:
+            cheap = AveragingIndicator(sim)()
+            indicators, indicator = cheap.indicators, cheap.total
+            predicted = _relative(ratio * cheap.total, norm) if ratio is not None else 0.0
+            certify = ratio is None or (tol is not None and predicted <= tol)
+            estimate = EquilibratedEstimator(sim)() if certify else None
+            if estimate is not None and cheap.total > 0:
+                ratio = estimate.total / cheap.total
+        nan = float("nan")
+        level = Level(mesh, sim.X.ndof, estimate.total if estimate else nan,
+                      _relative(estimate.total, norm) if estimate else nan, estimate.parts if estimate else {},
+                      indicators, solved - t0, wallclock.perf_counter() - solved,
                       record.newton_iterations, sim, krylov=record.krylov_iterations,
                       elapsed_s=wallclock.perf_counter() - began, estimate_stops=sim.newton.estimate_stops,
-                      build_s=build_s)
+                      build_s=build_s, certified=estimate is not None, indicator=indicator)
         levels.append(level)
         reason, following, build_s = _next(scene, level, tol, len(levels), max_levels, max_ndof, fraction,
                                            polygonal)
+        if reason is not None and not level.certified:
+            _certify(sim, level, began)              # the last level's certificate
+            if tol is not None and level.relative <= tol:
+                reason = "target reached"
         began += _timed(on_level, level)
         if reason is not None:
             return Adaptation(levels, reason, reason == "target reached")
         start, sim = sim.u, following                # the start interpolated onto the next mesh (``starts``)
+
+
+def solve(scene, mesh, tol, *, dt=1.0, fraction=0.5, max_levels=30, max_ndof=2e5, guess=None, on_level=None,
+          stop_newton=0.1, polygonal=False, marking="averaging"):
+    """Solve one step of length dt (s) to a tolerance: refine until the equilibrated bound of
+    the energy error, relative to the energy of the discrete state, is at most ``tol``
+    (certified: the last level's ``estimate`` is that bound), marking by the cheap averaging
+    indicator (``MARKINGS``) and stopping Newton and GMRES at ``stop_newton`` times the
+    estimate expected on each level (None: the fixed tolerances). ``step`` with these defaults;
+    returns its ``Adaptation`` (``reached`` False and the reason if a limit came first)."""
+    if tol is None:
+        raise ValueError("adapt.solve: tol must be a finite number > 0 (the relative estimate to certify), got None")
+    return step(scene, mesh, dt, tol=tol, fraction=fraction, max_levels=max_levels, max_ndof=max_ndof, guess=guess,
+                on_level=on_level, stop_newton=stop_newton, polygonal=polygonal, marking=marking)
+
+
+def _marking(where, marking):
+    if not isinstance(marking, str) or marking not in MARKINGS:
+        raise ValueError(f"{where}: marking must be one of {', '.join(map(repr, MARKINGS))}, got {marking!r}")
+    return marking
 
 
 def history(scene, mesh, dt, T, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5, every=1, on_level=None,

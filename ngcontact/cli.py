@@ -169,6 +169,16 @@ def parser():
     adapt.add_argument("--stop-newton", metavar="F", type=float, default=None,
                        help="adaptive stopping: Newton stops once its correction is below F times the "
                             "estimate (0 < F <= 1; default: the fixed tolerances)")
+    adapt.add_argument("--marking", choices=("equilibrated", "averaging"), default="equilibrated",
+                       help="what the adaptive runs mark by: the equilibrated estimate on every level (default), "
+                            "or the cheap averaging indicator with the equilibrated bound on the first and last "
+                            "levels (the study adds it on the others, outside the loop's time)")
+    adapt.add_argument("--fraction", metavar="F", type=float, default=None,
+                       help="the adaptive runs' Dörfler fraction (0 < F <= 1; default 0.5)")
+    adapt.add_argument("--tol", metavar="TOL", type=float, default=None,
+                       help="instead of the study: solve each scene's step to the relative estimate TOL "
+                            "(adapt.solve: averaging marking, the bound certifies the last level) and print "
+                            "its levels and certificate")
     return main_parser
 
 
@@ -309,7 +319,12 @@ def _dispatch(args):
         time_steps.main(args.out, maxh=args.maxh, T=args.T, which=args.scene)
     elif args.command == "adapt":
         from ngcontact.studies import adaptivity
-        adaptivity.main(args.out, scenes=tuple(args.scene), orders=tuple(args.orders), stop_newton=args.stop_newton)
+        if args.tol is not None:
+            adaptivity.to_tolerance(args.tol, scenes=tuple(args.scene), orders=tuple(args.orders),
+                                    fraction=args.fraction)
+        else:
+            adaptivity.main(args.out, scenes=tuple(args.scene), orders=tuple(args.orders),
+                            stop_newton=args.stop_newton, marking=args.marking, fraction=args.fraction)
     elif args.command == "cluster":
         from ngcontact.studies import cluster
         rounds = dict(repeat=args.repeat) if args.repeat is not None else {}     # the defaults: 3 and 1

@@ -31,9 +31,9 @@ is a column of an assembled matrix. No Python loop runs over patches or elements
 import ngsolve as ngs
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as sla_sparse
 
 from ngcontact.solve.linalg.matrices import csr
+from .block_diagonal import BlockDiagonal
 
 BONUS = 4
 """Extra quadrature order for the data (a source or traction that is not a polynomial)."""
@@ -255,12 +255,8 @@ class Equilibration:
         self.Minv = np.linalg.inv(K_XX)
         self.G = K_YX @ self.Minv
         self.S_cond = K_YY - self.G @ self.K_XY
-        r, c, keep, border_rows, border_cols, border_values = self._pattern
-        values = self.S_cond.reshape(-1)[keep]
-        self.system = sp.csc_matrix((np.concatenate([values, border_values]),
-                                     (np.concatenate([r, border_rows]), np.concatenate([c, border_cols]))),
-                                    shape=(self.size, self.size))
-        self._lu = None
+        keep, border_values = self._pattern
+        self.system.fill(np.concatenate([self.S_cond.reshape(-1)[keep], border_values]))
 
     def _blocks(self, weight):
         """K_YY, K_YX, K_XX of every element by slices of the split element blocks (``ElementData``
@@ -356,8 +352,9 @@ class Equilibration:
         border_pos = np.searchsorted(keys, key(np.broadcast_to(pair_patch[:, None], bordered.shape)[bordered], 2,
                                                np.broadcast_to(np.arange(rows)[None, :], bordered.shape)[bordered]))
         mass = np.broadcast_to(data.mean_mass[pair_el][:, None], bordered.shape)[bordered]
-        self._pattern = (r, c, keep, np.concatenate([mean_pos, border_pos]), np.concatenate([border_pos, mean_pos]),
-                         np.concatenate([mass, mass]))
+        self.system = BlockDiagonal(keys // (3 * big), np.concatenate([r, mean_pos, border_pos]),
+                                    np.concatenate([c, border_pos, mean_pos]))       # one block per patch
+        self._pattern = (keep, np.concatenate([mass, mass]))
         # prescribed normal fluxes, in groups of w entries (one pair, row, facet) in the facet's DOF order
         fixed_full = np.broadcast_to(fixed[:, :, :, None], (pairs, rows, n_facets_el, w))
         p_idx, i_idx, f_idx, k_idx = np.nonzero(fixed_full)
@@ -454,9 +451,7 @@ class Equilibration:
             cond[at] += np.einsum("pyz,pz->py", self.S_cond[self.pair_el[at]], y_known[at])
         valid = self.pair_index >= 0
         np.add.at(rhs, self.pair_index[valid], -cond[valid])
-        if self._lu is None:
-            self._lu = sla_sparse.splu(self.system)
-        z = self._lu.solve(rhs)
+        z = self.system.solve(rhs)
         # every pair's Y, then its X by recovery: x = M⁻¹(r_X − K_XY y)
         y = np.where(valid, z[np.where(valid, self.pair_index, 0)], y_known)
         rest = r_X - np.einsum("exy,eky->ekx", self.K_XY, y.reshape(ne, k, -1)).reshape(pairs, -1)

@@ -47,7 +47,7 @@ from ngcontact.scenes.manufactured import ContactManufactured, t as t_symbol
 
 from .common import table, write_csv
 
-COLUMNS = ("scene", "order", "method", "level", "ndof", "estimate", "relative", "error", "effectivity",
+COLUMNS = ("scene", "order", "method", "level", "ndof", "estimate", "certified", "relative", "error", "effectivity",
            "pressure_error", "newton", "krylov", "estimate_stops", "build_s", "solve_s", "estimate_s", "elapsed_s")
 METHODS = {"uniform": 1.0, "adaptive": 0.5}
 """The Dörfler fraction of each method (1: every element)."""
@@ -137,20 +137,27 @@ SCENES = {"manufactured": _manufactured, "hertz": lambda: _hertz(2), "hertz3d": 
           "reference": _reference}
 
 
-def run(scene, order, method, stop_newton=None, on_level=None):
+def run(scene, order, method, stop_newton=None, on_level=None, marking="equilibrated", fraction=None):
     """The ``adapt.Adaptation`` of ``scene`` (a ``Scene``) at ``order`` by ``method`` ("uniform"
-    or "adaptive")."""
-    options = dict(fraction=METHODS[method], max_levels=scene.max_levels, max_ndof=scene.max_ndof,
-                   stop_newton=stop_newton, on_level=on_level)
+    or "adaptive"; the adaptive one marks by ``marking`` with the Dörfler ``fraction``, None:
+    METHODS')."""
+    adaptive = method == "adaptive"
+    options = dict(fraction=fraction if adaptive and fraction is not None else METHODS[method],
+                   max_levels=scene.max_levels, max_ndof=scene.max_ndof, stop_newton=stop_newton, on_level=on_level)
     if scene.history is None:
-        return adapt.step(scene.scene(order), scene.mesh(order), scene.dt, **options)
+        return adapt.step(scene.scene(order), scene.mesh(order), scene.dt,
+                          marking=marking if adaptive else "equilibrated", **options)
+    if adaptive and marking != "equilibrated":
+        raise ValueError(f"--marking {marking}: the history scenes (reference) mark by the equilibrated estimate only")
     dt, T, every = scene.history
     return adapt.history(scene.scene(order), scene.mesh(order), dt, T, every=every, **options)
 
 
-def study(names=("manufactured", "hertz"), orders=(1, 2), stop_newton=None, progress=True):
+def study(names=("manufactured", "hertz"), orders=(1, 2), stop_newton=None, progress=True, marking="equilibrated",
+          fraction=None):
     """Rows (``COLUMNS``) of every level of every (scene, order, method), and the references
-    ({scene: its reference Level})."""
+    ({scene: its reference Level}). A level the loop did not certify (``marking="averaging"``)
+    gets its equilibrated bound here, outside the loop's time (``certified`` False)."""
     rows, references = [], {}
     cases = [(name, order, method) for name in names for order in orders for method in METHODS
              if not (name == "hertz3d" and order > 1)]
@@ -163,16 +170,20 @@ def study(names=("manufactured", "hertz"), orders=(1, 2), stop_newton=None, prog
             def record(level, scene=scene, order=order, method=method, mine=mine):
                 error = scene.error(level.sim) if scene.error else float("nan")
                 # the estimate of the state the error is measured at: a history's last step
-                final = level.estimate if scene.history is None else estimators.EquilibratedEstimator(level.sim)().total
+                certified = level.certified
+                estimate = level.estimate if certified else estimators.EquilibratedEstimator(level.sim)().total
+                final = estimate if scene.history is None else estimators.EquilibratedEstimator(level.sim)().total
                 mine.append(dict(scene=scene.name, order=order, method=method, level=len(mine), ndof=level.ndof,
-                                 estimate=level.estimate, relative=level.relative, error=error,
+                                 estimate=estimate, certified=certified,
+                                 relative=level.relative if certified else estimate / adapt.energy(level.sim),
+                                 error=error,
                                  effectivity=final / error if error == error and error > 0 else float("nan"),
                                  pressure_error=scene.pressure(level.sim) if scene.pressure else float("nan"),
                                  newton=level.newton, krylov=level.krylov, estimate_stops=level.estimate_stops,
                                  build_s=level.build_s, solve_s=level.solve_s, estimate_s=level.estimate_s,
                                  elapsed_s=level.elapsed_s,
                                  mesh=level.mesh))
-            result = run(scene, order, method, stop_newton, on_level=record)
+            result = run(scene, order, method, stop_newton, on_level=record, marking=marking, fraction=fraction)
             rows += mine
             shown.write(f"{name} P{order} {method}: {len(result.levels)} levels, {result.last.ndof} DOFs, "
                         f"η {result.last.estimate:.3g} ({result.reason})")
@@ -284,7 +295,8 @@ def charts(rows, out):
         fig.savefig(out / f"meshes_{scene}.png", dpi=110)
 
 
-def main(out, scenes=("manufactured", "hertz"), orders=(1, 2), stop_newton=None):
+def main(out, scenes=("manufactured", "hertz"), orders=(1, 2), stop_newton=None, marking="equilibrated",
+         fraction=None):
     """Run the study into the directory ``out``: errors.csv (every level), summary.csv,
     references.csv (the reference solutions: DOFs, their own estimate), the charts; the summary
     printed. Returns (rows, summary)."""
@@ -304,8 +316,15 @@ def main(out, scenes=("manufactured", "hertz"), orders=(1, 2), stop_newton=None)
                          "(hertz3d runs P1 only); add --orders 1 or another --scene")
     if "hertz3d" in scenes and any(order > 1 for order in orders):
         print(f"note: hertz3d runs P1 only; its P{', P'.join(str(p) for p in orders if p > 1)} skipped")
+    if marking not in adapt.MARKINGS:
+        raise ValueError(f"--marking must be one of {', '.join(adapt.MARKINGS)}, got {marking!r}")
+    if marking != "equilibrated" and "reference" in scenes:
+        raise ValueError(f"--marking {marking}: the reference plate (a history) marks by the equilibrated estimate "
+                         "only; run it without --marking")
+    if fraction is not None:
+        fraction = checks.number("--fraction", fraction, 0, 1, low_open=True)
     out = checks.writable_directory(out)
-    rows, references = study(scenes, orders, stop_newton)
+    rows, references = study(scenes, orders, stop_newton, marking=marking, fraction=fraction)
     write_csv(rows, out / "errors.csv", COLUMNS)
     result = summary(rows)
     write_csv(result, out / "summary.csv")
@@ -319,3 +338,44 @@ def main(out, scenes=("manufactured", "hertz"), orders=(1, 2), stop_newton=None)
     for name, level in references.items():
         print(f"{name}: reference P{level.sim.body.order}, {level.ndof} DOFs, its estimate {level.estimate:.3g}")
     return rows, result
+
+
+def to_tolerance(tol, scenes=("hertz",), orders=(2,), fraction=None, progress=True):
+    """``adapt.solve`` on each step scene's initial mesh to the relative estimate ``tol``: print
+    every level (DOFs, averaging indicator, the bound where certified, times) and the certificate
+    reached; returns {(scene, order): Adaptation}."""
+    from ngcontact import checks, parallel
+    from .common import orders as checked_orders
+    parallel.refuse_under_mpiexec("adapt")
+    tol = checks.number("--tol", tol, 0, low_open=True)
+    scenes = [scenes] if isinstance(scenes, str) else list(dict.fromkeys(scenes))
+    for name in scenes:
+        if name not in SCENES:
+            raise ValueError(f"--scene must be among {', '.join(SCENES)}, got {name!r}")
+        if name == "reference":
+            raise ValueError("--tol solves one step to a tolerance; the reference plate is a load history: "
+                             "run it without --tol")
+    orders = checked_orders("--orders", list(orders))
+    options = {} if fraction is None else dict(fraction=checks.number("--fraction", fraction, 0, 1, low_open=True))
+    results = {}
+    for name in scenes:
+        scene = SCENES[name]()
+        for order in orders:
+            if name == "hertz3d" and order > 1:
+                print(f"note: hertz3d runs P1 only; P{order} skipped")
+                continue
+            result = adapt.solve(scene.scene(order), scene.mesh(order), tol, dt=scene.dt,
+                                 max_ndof=scene.max_ndof, **options)
+            rows = [dict(level=k, ndof=level.ndof, indicator=level.indicator,
+                         estimate=level.estimate if level.certified else "", relative=level.relative
+                         if level.certified else "", build_s=level.build_s, solve_s=level.solve_s,
+                         estimate_s=level.estimate_s, elapsed_s=level.elapsed_s)
+                    for k, level in enumerate(result.levels)]
+            print(f"{name} P{order}, tol {tol:g}:")
+            print(table(rows, list(rows[0])))
+            last = result.last
+            pressure = f", Hertz pressure error {scene.pressure(last.sim):.3%}" if scene.pressure else ""
+            print(f"{'certified' if result.reached else 'NOT reached (' + result.reason + ')'}: relative estimate "
+                  f"{last.relative:.3g} <= {tol:g} at {last.ndof} DOFs in {last.elapsed_s:.2f} s{pressure}")
+            results[(name, order)] = result
+    return results

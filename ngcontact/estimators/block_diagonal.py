@@ -1,0 +1,81 @@
+"""A block-diagonal sparse system: the patch problems of an equilibration, all at once.
+
+The unknowns are numbered block by block (``block``: the block of every unknown, non-decreasing)
+and the entries come as COO positions, fixed, with values that change (``fill``). Small blocks
+(at most ``DENSE`` unknowns: 2D patches, about 50 unknowns at P2) are gathered into dense arrays,
+one per block size, and solved by LAPACK in a batch (``numpy.linalg.solve``; from the second
+right-hand side on with the kept inverses); larger ones (3D patches, 200-400 unknowns, sparse
+inside) by one SuperLU factorisation of the whole matrix, which uses their sparsity.
+"""
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as sla_sparse
+
+DENSE = 120
+"""The largest block solved dense (unknowns)."""
+
+
+class BlockDiagonal:
+    """The block-diagonal matrix of size len(block) with entries at (rows, cols)."""
+
+    def __init__(self, block, rows, cols):
+        block = np.asarray(block)
+        self.size = len(block)
+        self.rows, self.cols = rows, cols
+        starts = np.flatnonzero(np.r_[True, np.diff(block) != 0]) if self.size else np.zeros(0, dtype=np.int64)
+        sizes = np.diff(np.r_[starts, self.size])
+        self.dense = self.size > 0 and sizes.max() <= DENSE
+        if not self.dense:
+            return
+        number = np.zeros(self.size, dtype=np.int64)                # the block of every unknown, 0, 1, ...
+        number[starts[1:]] = 1
+        number = np.cumsum(number)
+        of_entry = number[rows]
+        if np.any(number[cols] != of_entry):
+            raise ValueError("BlockDiagonal: an entry couples two blocks")
+        # blocks grouped by their size: group g holds count_g blocks of n_g unknowns, stored as
+        # one (count_g, n_g, n_g) array at offset_g of the flat data
+        self.groups = []
+        rank, offset_of = np.zeros(len(starts), dtype=np.int64), np.zeros(len(starts), dtype=np.int64)
+        offset = 0
+        for n in np.unique(sizes):
+            ids = np.flatnonzero(sizes == n)
+            rank[ids] = np.arange(len(ids))
+            offset_of[ids] = offset
+            self.groups.append((int(n), offset, starts[ids][:, None] + np.arange(n)[None, :]))
+            offset += len(ids) * int(n) ** 2
+        self.total = offset
+        n_of = sizes[of_entry]
+        first = starts[of_entry]
+        self.flat = offset_of[of_entry] + rank[of_entry] * n_of * n_of + (rows - first) * n_of + (cols - first)
+
+    def fill(self, values):
+        """Set the entries' values (duplicates add up)."""
+        self._inverses, self._solves = None, 0
+        if self.dense:
+            self._data = np.bincount(self.flat, weights=values, minlength=self.total)
+            return
+        self._matrix = sp.csc_matrix((values, (self.rows, self.cols)), shape=(self.size, self.size))
+        self._lu = None
+
+    def solve(self, rhs):
+        """The solution for the right-hand side ``rhs``."""
+        self._solves += 1
+        if not self.dense:
+            if self._lu is None:
+                self._lu = sla_sparse.splu(self._matrix)
+            return self._lu.solve(rhs)
+        if self._inverses is None and self._solves > 1:           # a second right-hand side: keep inverses
+            self._inverses = [np.linalg.inv(self._blocks(g)) for g in range(len(self.groups))]
+        out = np.empty(self.size)
+        for g, (n, offset, unknowns) in enumerate(self.groups):
+            b = rhs[unknowns]
+            if self._inverses is not None:
+                out[unknowns] = np.einsum("bij,bj->bi", self._inverses[g], b)
+            else:
+                out[unknowns] = np.linalg.solve(self._blocks(g), b[:, :, None])[:, :, 0]
+        return out
+
+    def _blocks(self, g):
+        n, offset, unknowns = self.groups[g]
+        return self._data[offset:offset + len(unknowns) * n * n].reshape(len(unknowns), n, n)
