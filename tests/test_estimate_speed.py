@@ -112,3 +112,16 @@ def test_marking_by_averaging_stops_at_a_certified_target():
 def test_an_unknown_marking_is_refused(marking):
     with pytest.raises(ValueError, match="marking must be one of 'equilibrated', 'averaging'"):
         adapt.step(_hertz, hertz.mesh(2, h_contact=0.1, curve=2), 1.0, marking=marking)
+
+
+def test_solve_to_a_tolerance_returns_a_certificate():
+    """adapt.solve: the last level's equilibrated bound meets tol (recomputed here), Newton was
+    stopped at the estimate on some level, and a missing tol is refused."""
+    mesh = hertz.mesh(2, h_contact=0.1, curve=2)
+    result = adapt.solve(_hertz, mesh, 0.02)
+    last = result.last
+    assert result.reached and last.certified and last.relative <= 0.02
+    assert EquilibratedEstimator(last.sim)().total / adapt.energy(last.sim) == pytest.approx(last.relative, rel=1e-12)
+    assert len(result.levels) >= 2 and not all(level.certified for level in result.levels)
+    with pytest.raises(ValueError, match="tol must be a finite number > 0"):
+        adapt.solve(_hertz, mesh, None)

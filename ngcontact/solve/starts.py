@@ -160,8 +160,10 @@ class Starts:
                 raise ValueError(f"guess: a GridFunction of u must have {body.dim} components, got {guess.dim}")
             same = guess.space.mesh is body.mesh and guess.space.ndof == body.V.ndof
             values = guess.vec.FV().NumPy().copy() if same else None
-            if values is None:
-                return self._field(guess)
+            if values is None:                  # another mesh's: finite values from finite coefficients
+                if parallel.any_rank(body.mesh, not np.all(np.isfinite(guess.vec.FV().NumPy()))):
+                    raise ValueError("guess is not finite (NaN or inf) in the body")
+                return Field(guess)
         elif isinstance(guess, (ngs.CoefficientFunction, tuple, list)):
             return self._field(as_cf(guess, body.dim, "guess"))
         else:
