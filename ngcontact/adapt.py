@@ -313,7 +313,7 @@ def step(scene, mesh, dt, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5
         start, sim = sim.u, following                # the start interpolated onto the next mesh (``starts``)
 
 
-def solve(scene, mesh, tol, *, dt=1.0, fraction=0.7, max_levels=30, max_ndof=2e5, guess=None, on_level=None,
+def solve(scene, mesh, tol, *, dt=1.0, fraction=0.5, max_levels=30, max_ndof=2e5, guess=None, on_level=None,
           stop_newton=0.1, polygonal=False, marking="averaging"):
     """Solve one step of length dt (s) to a tolerance: refine until the equilibrated bound of
     the energy error, relative to the energy of the discrete state, is at most ``tol``

@@ -8,7 +8,12 @@ DOFs) are smoother, and the distance between the two, in the energy of the step,
   η_K² = ‖C_c^{−½}(σ_a − σ_h)‖²_K + ‖C^{−½}(D_a − D_h)‖²_K,
 
 is large where the discrete flux jumps: near the contact zone's ends, clamped corners, load
-edges. It is **not a bound** (no constant is known for it, and on a boundary it sees no data),
+edges. On the elements at Γ3 it adds the residual of the contact traction,
+
+  η_Γ3,K² = λ_max(C_c^{−1}) (h_K / p) ‖σ_h ν − T_h‖²_{∂K∩Γ3},
+
+T_h the traction the Γ3 terms exert at each point (``equilibrated.pointwise_data``), since the
+averages see no boundary data and the contact zone's ends are where a step's error sits. It is **not a bound** (no constant is known for it, and on a boundary it sees no data),
 but it costs one projection and one integral per step, about a hundredth of the equilibrated
 estimate (``equilibrated``), and it marks the same places: ``adapt`` marks by it and asks the
 equilibrated estimate for the certificate (``marking="averaging"``).
@@ -17,13 +22,14 @@ import ngsolve as ngs
 import numpy as np
 
 from ngcontact.model import forms
-from .equilibrated import Estimate, check
+from .equilibrated import Estimate, _stress_matrix, check, pointwise_data
 
 
 class AveragingIndicator:
     """The indicator of the module docstring for the simulation ``sim`` (or its ``steps``); the
     averaging spaces are made once, ``__call__`` indicates the current step: an ``Estimate``
-    (total = (Σ η_K²)^½, parts "stress" and "flux", indicators η_K) that is not a bound."""
+    (total = (Σ η_K²)^½, parts "stress", "flux" and "contact", indicators η_K) that is not a
+    bound."""
 
     def __init__(self, sim):
         steps = check(sim)
@@ -34,6 +40,13 @@ class AveragingIndicator:
         self._sigma = ngs.GridFunction(ngs.H1(mesh, order=max(body.order, 1)) ** voigt)
         self._D = ngs.GridFunction(ngs.H1(mesh, order=max(body.order_phi, 1)) ** body.dim) if steps.electric else None
         self._order = 2 * max(body.order, body.order_phi)
+        self._gamma3 = None
+        if steps.contact is not None:
+            traction, _ = pointwise_data(steps)
+            side = steps.gamma3.side
+            h = ngs.specialcf.mesh_size
+            tests = ngs.L2(mesh, order=0)
+            self._gamma3 = (traction, side, h / body.order, tests)
 
     def __call__(self):
         steps, body = self.steps, self.body
@@ -53,6 +66,15 @@ class AveragingIndicator:
             parts["flux"] = ngs.InnerProduct(forms.matrix_cf(np.linalg.inv(T.C)) * dD, dD)
         squares = {name: np.maximum(ngs.Integrate(cf.Compile(), mesh, ngs.VOL, order=self._order,
                                                   element_wise=True).NumPy(), 0.0) for name, cf in parts.items()}
+        if self._gamma3 is not None:
+            traction, side, scale, tests = self._gamma3
+            compliance_max = float(np.linalg.eigvalsh(np.linalg.inv(T.F + rate * T.A if T.viscous else T.F)).max())
+            sigma_n = _stress_matrix(sigma_h, body.dim) * ngs.specialcf.normal(body.dim)
+            r = sigma_n - traction
+            form = ngs.LinearForm(tests)
+            form += (side.indicator * compliance_max * scale * ngs.InnerProduct(r, r)).Compile() * tests.TestFunction() \
+                * side.dx_at
+            squares["contact"] = np.maximum(form.Assemble().vec.FV().NumPy().copy(), 0.0)
         indicators = np.sqrt(sum(squares.values()))
         values = {name: float(np.sqrt(v.sum())) for name, v in squares.items()}
         values.setdefault("flux", 0.0)
