@@ -18,13 +18,16 @@ energy norm). The local problems are compatible where no Dirichlet boundary touc
 to ψ_a e_i. Summing, div σ* = Π_p(σ_h ∇(Σψ_a) − f) = −Π_p f and σ* n = Π t: the Prager–Synge
 argument then bounds the energy error by ‖σ* − σ_h‖ (``estimators.equilibrated``).
 
-How it is computed. The element matrices of W and of (div σ, q) come from NGSolve on the
-discontinuous copies of the spaces (blocks in each element's own DOF order; the conforming
-matrices are their sums, exactly). In each element the RT DOFs inside it and the L2 DOFs of
-zero mean are eliminated once (static condensation: they belong to that element alone in every
-patch problem), leaving its facet DOFs and its mean; every patch problem is then a small
-system in the facet DOFs around its vertex and the means of its elements, and all of them form
-one block-diagonal sparse system, factorised once (SuperLU) and solved for every right-hand
+How it is computed. The element matrices of the RT components, (σ_k, τ_l)_K, and of
+(div σ, q)_K come from NGSolve on the discontinuous copies of the spaces (blocks in each
+element's own DOF order; the conforming matrices are their sums, exactly), once per mesh and
+order (``ElementData``, shared by the equilibrations of a mesh); a constant weight W is a
+combination of them (``set_weight``: a new weight costs no assembly). In each element the RT
+DOFs inside it and the L2 DOFs of zero mean are eliminated once (static condensation: they
+belong to that element alone in every patch problem), leaving its facet DOFs and its mean;
+every patch problem is then a small system in the facet DOFs around its vertex and the means
+of its elements, and all of them form one block-diagonal system (``block_diagonal``: batched
+dense solves of the 2D blocks, SuperLU for the larger 3D ones), solved for every right-hand
 side. The hat functions enter as the trial functions of a P1 space, so that every patch's data
 is a column of an assembled matrix. No Python loop runs over patches or elements at solve time.
 """
@@ -160,7 +163,8 @@ class ElementData:
         self.interior = np.nonzero(~match.any(axis=1))[1].reshape(ne, -1)
         # NGSolve orders every element's DOFs alike (facet by facet, then the interior): then the
         # blocks are split into facet (F) and interior (I) parts once, by slices
-        self.uniform = bool((self.facet_order == self.facet_order[0]).all() and (self.interior == self.interior[0]).all())
+        self.uniform = bool((self.facet_order == self.facet_order[0]).all()
+                            and (self.interior == self.interior[0]).all())
         if self.uniform:
             F, I = self.facet_order[0], self.interior[0]
             part = lambda M, A, B: M[:, A][:, :, B]
@@ -264,7 +268,8 @@ class Equilibration:
         DOFs, then the rows' P_p rests."""
         rows, d, data = self.rows, self.mesh.dim, self.data
         nF, nI, nR, ne = self.nF_loc, self.nI_loc, self.nQ_loc - 1, self.mesh.ne
-        K_YY, K_YX, K_XX = np.zeros((ne, self.nY, self.nY)), np.zeros((ne, self.nY, self.nX)), np.zeros((ne, self.nX, self.nX))
+        K_YY, K_YX = np.zeros((ne, self.nY, self.nY)), np.zeros((ne, self.nY, self.nX))
+        K_XX = np.zeros((ne, self.nX, self.nX))
         F = lambda i: slice(i * nF, (i + 1) * nF)
         I = lambda i: slice(i * nI, (i + 1) * nI)
         R = lambda i: slice(rows * nI + i * nR, rows * nI + (i + 1) * nR)
@@ -410,7 +415,8 @@ class Equilibration:
             form += psi * ngs.InnerProduct(weighted[i], tau) * ngs.dx
             rhs_w.append(csr(form.Assemble().mat, copy=True))
             form = ngs.BilinearForm(trialspace=self.P1, testspace=self.Q)
-            form += (ngs.InnerProduct(compiled[i, :], ngs.grad(psi)) - psi * source[i]) * q * ngs.dx(bonus_intorder=BONUS)
+            form += (ngs.InnerProduct(compiled[i, :], ngs.grad(psi)) - psi * source[i]) * q \
+                * ngs.dx(bonus_intorder=BONUS)
             rhs_div.append(csr(form.Assemble().mat, copy=True))
             if len(self.fixed_facet):
                 form = ngs.BilinearForm(trialspace=self.P1, testspace=self.S)

@@ -1,22 +1,13 @@
 """Voigt notation as CoefficientFunctions: strains as vectors with engineering shear
 (ε11, ε22, 2ε12) or (ε11, ε22, ε33, 2ε23, 2ε13, 2ε12), stresses as vectors without the factor 2,
 so that σ : ε is the dot product of the two vectors; and the symmetric matrices they stand for."""
-import functools
-
 import ngsolve as ngs
-import numpy as np
 
 
 def matrix_cf(M):
-    """A numpy matrix as a constant matrix-valued CoefficientFunction (one object per matrix
-    value: making one costs ~1 ms, and every level of an adaptive loop asks for the same few)."""
-    M = np.asarray(M, dtype=float)
-    return _constant(M.shape, tuple(M.flat))
-
-
-@functools.lru_cache(maxsize=512)
-def _constant(shape, values):
-    return ngs.CF(values, dims=shape)
+    """A numpy matrix as a constant matrix-valued CoefficientFunction (a new one at each call:
+    NGSolve's ``.trans`` of such a CF changes its dims in place, so one may not be shared)."""
+    return ngs.CF(tuple(float(v) for v in M.flat), dims=M.shape)
 
 
 def strain_vector(e, dim):
