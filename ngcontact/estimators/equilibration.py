@@ -141,16 +141,15 @@ class ElementData:
         self.P1 = ngs.H1(mesh, order=1)
         Sd = ngs.Discontinuous(self.S)
         sigma, tau = Sd.TnT()
-        self.mass = [[None] * d for _ in range(d)]                       # [l][k]: test component l, trial k
+        mass = [[None] * d for _ in range(d)]                            # [l][k]: test component l, trial k
         for l in range(d):
             for k in range(l + 1):
                 form = ngs.BilinearForm(Sd)
                 form += sigma[k] * tau[l] * ngs.dx
-                self.mass[l][k] = _element_blocks(form.Assemble(), mesh, Sd, Sd)
-                self.mass[k][l] = np.transpose(self.mass[l][k], (0, 2, 1))
+                mass[l][k] = _element_blocks(form.Assemble(), mesh, Sd, Sd)
+                mass[k][l] = np.transpose(mass[l][k], (0, 2, 1))
         div = ngs.BilinearForm(trialspace=Sd, testspace=self.Q)
         div += ngs.div(sigma) * self.Q.TestFunction() * ngs.dx
-        self.div = _element_blocks(div.Assemble(), mesh, Sd, self.Q)      # (ne, nQ_loc, nS_loc)
         self.el_sdofs = _element_dofs(self.S)
         self.el_qdofs = _element_dofs(self.Q)
         self.facet_dofs = _facet_dofs(self.S, mesh, patches)             # (facets, w), -1: no DOFs
@@ -161,17 +160,18 @@ class ElementData:
         match = on_element[:, :, None] == self.el_sdofs[:, None, :]         # (ne, facets·w, nS_loc)
         self.facet_order = match.argmax(axis=2)                            # local positions, facet by facet
         self.interior = np.nonzero(~match.any(axis=1))[1].reshape(ne, -1)
-        # NGSolve orders every element's DOFs alike (facet by facet, then the interior): then the
+        # NGSolve orders every element's DOFs alike (facet by facet, then the interior), so the
         # blocks are split into facet (F) and interior (I) parts once, by slices
-        self.uniform = bool((self.facet_order == self.facet_order[0]).all()
-                            and (self.interior == self.interior[0]).all())
-        if self.uniform:
-            F, I = self.facet_order[0], self.interior[0]
-            part = lambda M, A, B: M[:, A][:, :, B]
-            self.mass_FF = [[part(M, F, F) for M in row] for row in self.mass]
-            self.mass_FI = [[part(M, F, I) for M in row] for row in self.mass]
-            self.mass_II = [[part(M, I, I) for M in row] for row in self.mass]
-            self.div_F, self.div_I = self.div[:, :, F], self.div[:, :, I]
+        if not ((self.facet_order == self.facet_order[0]).all() and (self.interior == self.interior[0]).all()):
+            raise ValueError("the equilibrated estimator needs one element type throughout the mesh (its elements "
+                             "order their RT DOFs differently)")
+        F, I = self.facet_order[0], self.interior[0]
+        part = lambda M, A, B: M[:, A][:, :, B]
+        self.mass_FF = [[part(M, F, F) for M in row] for row in mass]
+        self.mass_FI = [[part(M, F, I) for M in row] for row in mass]
+        self.mass_II = [[part(M, I, I) for M in row] for row in mass]
+        div = _element_blocks(div.Assemble(), mesh, Sd, self.Q)           # (ne, nQ_loc, nS_loc)
+        self.div_F, self.div_I = div[:, :, F], div[:, :, I]
         self.mean_mass = ngs.Integrate(ngs.CF(1.0), mesh, ngs.VOL, element_wise=True).NumPy()
 
 
@@ -208,23 +208,17 @@ class Equilibration:
         RT_p, rows × (mean, rest) of P_p, split into Y (facet DOFs, means: shared by the
         elements of a patch) and X (the rest: eliminated element by element)."""
         rows, data = self.rows, self.data
-        ne = self.mesh.ne
         nS_loc, nQ_loc = data.el_sdofs.shape[1], data.el_qdofs.shape[1]
         facet_order, interior = data.facet_order, data.interior
         nF, nI = facet_order.shape[1], interior.shape[1]
         self.w = data.facet_dofs.shape[1]
         self.nF_loc, self.nI_loc, self.nQ_loc, self.nS_loc = nF, nI, nQ_loc, nS_loc
         self.nY, self.nX = rows * (nF + 1), rows * (nI + nQ_loc - 1)
-        Ypos = [i * nS_loc + facet_order for i in range(rows)]
-        Ypos += [np.full((ne, 1), rows * nS_loc + i * nQ_loc) for i in range(rows)]
-        Xpos = [i * nS_loc + interior for i in range(rows)]
-        Xpos += [rows * nS_loc + i * nQ_loc + 1 + np.tile(np.arange(nQ_loc - 1), (ne, 1)) for i in range(rows)]
-        self._Ypos, self._Xpos = np.concatenate(Ypos, axis=1), np.concatenate(Xpos, axis=1)
 
     def set_weight(self, weight):
         """Use the weight ``weight`` (the class docstring): recombine the kept element matrices,
         condense them and fill the patch system (its factorisation is made at the next call)."""
-        rows, d, data = self.rows, self.mesh.dim, self.data
+        rows, d = self.rows, self.mesh.dim
         if callable(weight) or np.asarray(weight).dtype.kind not in "iuf":
             raise TypeError(f"Equilibration: weight must be a ({rows * d}, {rows * d}) array of numbers, got "
                             f"{type(weight).__name__}")
@@ -232,29 +226,9 @@ class Equilibration:
         if weight.shape != (rows * d, rows * d):
             raise ValueError(f"Equilibration: weight must be a ({rows * d}, {rows * d}) array (rows · dim), got shape "
                              f"{weight.shape}")
-        weight = weight.reshape(rows, d, rows, d)                          # [j, l, i, k]
-        nS_loc, nQ_loc, ne = self.nS_loc, self.nQ_loc, self.mesh.ne
-        self.weight = weight.reshape(rows * d, rows * d)
-        n = rows * (nS_loc + nQ_loc)
-        K = np.zeros((ne, n, n) if not data.uniform else (0, 0, 0))
-        for j in range(rows if not data.uniform else 0):
-            for i in range(rows):
-                block = K[:, j * nS_loc:(j + 1) * nS_loc, i * nS_loc:(i + 1) * nS_loc]
-                for l in range(d):
-                    for k in range(d):
-                        if weight[j, l, i, k] != 0.0:
-                            block += weight[j, l, i, k] * data.mass[l][k]
-        for i in range(rows if not data.uniform else 0):
-            q0 = rows * nS_loc + i * nQ_loc
-            K[:, q0:q0 + nQ_loc, i * nS_loc:(i + 1) * nS_loc] = data.div
-            K[:, i * nS_loc:(i + 1) * nS_loc, q0:q0 + nQ_loc] = np.transpose(data.div, (0, 2, 1))
-        if data.uniform:
-            K_YY, K_YX, K_XX = self._blocks(weight)
-            self.K_XY = np.ascontiguousarray(np.transpose(K_YX, (0, 2, 1)))
-        else:
-            Ypos, Xpos = self._Ypos, self._Xpos
-            take = lambda P, Q_: K[np.arange(ne)[:, None, None], P[:, :, None], Q_[:, None, :]]
-            K_YY, K_YX, self.K_XY, K_XX = take(Ypos, Ypos), take(Ypos, Xpos), take(Xpos, Ypos), take(Xpos, Xpos)
+        self.weight = weight
+        K_YY, K_YX, K_XX = self._blocks(weight.reshape(rows, d, rows, d))    # [j, l, i, k]
+        self.K_XY = np.ascontiguousarray(np.transpose(K_YX, (0, 2, 1)))     # K is symmetric
         # per element: M⁻¹ = K_XX⁻¹, the condensed S_K = K_YY − K_YX M⁻¹ K_XY, and G_K = K_YX M⁻¹
         self.Minv = np.linalg.inv(K_XX)
         self.G = K_YX @ self.Minv
@@ -263,8 +237,8 @@ class Equilibration:
         self.system.fill(np.concatenate([self.S_cond.reshape(-1)[keep], border_values]))
 
     def _blocks(self, weight):
-        """K_YY, K_YX, K_XX of every element by slices of the split element blocks (``ElementData``
-        with one local order): Y = rows × facet DOFs, then the rows' means; X = rows × interior
+        """K_YY, K_YX, K_XX of every element by slices of the split element blocks
+        (``ElementData``): Y = rows × facet DOFs, then the rows' means; X = rows × interior
         DOFs, then the rows' P_p rests."""
         rows, d, data = self.rows, self.mesh.dim, self.data
         nF, nI, nR, ne = self.nF_loc, self.nI_loc, self.nQ_loc - 1, self.mesh.ne
