@@ -140,16 +140,18 @@ def test_newton_names_the_laws_that_flip_when_it_cycles():
 def test_the_load_cannot_hide_under_the_charges_scale():
     """A permittivity of 1e-30 F/m with e33 = 10 C/m² (what the material check now refuses,
     forced in here): before, every step after the first converged in 0 iterations while the
-    load grew, the tip frozen. Each field balanced on its own, the second step iterates
-    (and here fails: Newton cannot balance such a material) instead of passing unchanged."""
+    load grew, the tip frozen. Each field balanced on its own, a step either ends with both
+    fields balanced (the second after iterating) or fails by name after iterating: Newton
+    cannot balance such a material, and where it gives up (the first or the second step)
+    depends on the machine's round-off."""
     material = ngc.Material.isotropic(60e9, 0.3, permittivity=1e-8, e33=10.0)
     object.__setattr__(material, "eps", 1e-30 * np.eye(3))
     sim = scene.simulation(1, 0.01, material=material)
-    sim.step(0.025)
-    try:
-        sim.step(0.025)
-    except ngc.NewtonError as error:
-        assert error.iteration > 0
-    else:
+    for n in (1, 2):
+        try:
+            sim.step(0.025)
+        except ngc.NewtonError as error:
+            assert error.iteration > 0 and len(sim.history) == n      # the steps before are kept
+            return
         assert sim.history[-1].newton_iterations > 0
         assert max(_field_residuals(sim)) <= 1e-6
