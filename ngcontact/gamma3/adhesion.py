@@ -69,7 +69,7 @@ class BondingField:
         c, beta = self.contact, self.values
         rate, decay = self._integrals(u_normal)
         if c.beta_update == "explicit":
-            self.unclipped = beta - dt * rate() / self.side.measure
+            self.unclipped = beta - dt * rate() / self.side.weighted_measure
             beta[:] = np.clip(self.unclipped, 0, 1)
         else:
             self.solve(u_normal, dt, beta.copy())
@@ -79,7 +79,7 @@ class BondingField:
         CoefficientFunction ``u_normal``, b = ε_a, κ (s) and β̂ = ``beta_hat`` (facet values):
         β_n = (β̂ + κ b)/(1 + κ a) where β̂ a > b, else β̂; then clipped to [0, 1] (a
         combination β̂ of earlier values may leave it; ``unclipped`` keeps the values before)."""
-        a, b = self._integrals(u_normal)[1]() / self.side.measure, self.contact.eps_a
+        a, b = self._integrals(u_normal)[1]() / self.side.weighted_measure, self.contact.eps_a
         decays = beta_hat * a > b
         self.unclipped = np.where(decays, (beta_hat + kappa * b) / (1 + kappa * a), beta_hat)
         self.values[:] = np.clip(self.unclipped, 0, 1)

@@ -82,6 +82,7 @@ def build(body, contact, system, realcompile=False):
                                                    normal=normal)
 
     def terms(state, test):
-        return forms.contact_terms(contact, enforcement, beta.gf, gap, foundation_potential, state, test, normal)
+        return body.weighted(forms.contact_terms(contact, enforcement, beta.gf, gap, foundation_potential, state,
+                                                 test, normal))
     system.add_boundary_terms(terms, side, realcompile=realcompile)
     return Gamma3(side, contact, enforcement, beta, gap, foundation_potential, normal, sampled_normal), gap_check

@@ -42,6 +42,8 @@ class ContactSide:
         if not names:
             raise ValueError("the body has no contact side Γ3: pass contact_side='...' to Body")
         self.mesh, self.dim = mesh, body.dim
+        self._weighted = body.weighted           # 2π r for a body of revolution
+        self.axisymmetric = body.axisymmetric
         self.ds = ngs.ds(skeleton=True, definedon=body.region("contact_side"))
         # the same integrals over the volume elements at Γ3 only: ∫ indicator · f on their
         # element boundaries (ds(skeleton=True) visits every facet of the mesh, 2 µs each)
@@ -66,7 +68,10 @@ class ContactSide:
             active.Set(self._facet_dof[el.nr])
         self.B = ngs.Compress(facets, active_dofs=active)
         self._mu = self.B.TestFunction()
-        self.measure = self._integrate(ngs.CF(1.0))        # |facet| per dof of B^h
+        # |facet| per dof of B^h (m; m² in 3D), and its measure in the body's integrals (for a
+        # body of revolution the area 2π ∫ r ds the facet sweeps)
+        self.measure = self.facet_integrals(ngs.CF(1.0), weighted=False)()
+        self.weighted_measure = self._integrate(ngs.CF(1.0)) if body.axisymmetric else self.measure
         # per dof of B^h: vertex numbers and coordinates of its facet
         order = {d: i for i, d in enumerate(np.flatnonzero(np.array(list(active))))}
         points = np.array([v.point for v in mesh.vertices]) if mesh.nv else np.zeros((0, self.dim))
@@ -80,6 +85,8 @@ class ContactSide:
         self._gauss, self.gauss_points = self._mapped(rule, elements, facets, order)
         weights = np.array(rule.weights)
         self.gauss_weights = np.outer(self.measure, weights / weights.sum())   # m (m² in 3D) per point
+        if body.axisymmetric:                    # m² per point: the ring 2π r ds it stands for
+            self.gauss_weights = self.gauss_weights * 2 * np.pi * self.gauss_points[..., 0]
         n = ngs.specialcf.normal(self.dim)
         self.normals = np.array([self.project(n[i]) for i in range(self.dim)]).T
         # sample points: 2p + 1 equidistant points per edge in 2D; vertices, centroid and
@@ -109,14 +116,16 @@ class ContactSide:
         coordinates = np.stack([c(points).ravel() for c in (ngs.x, ngs.y, ngs.z)[:self.dim]], axis=-1)
         return points, coordinates.reshape(self.B.ndof, count, self.dim)
 
-    def facet_integrals(self, cf, quadrature="exact"):
+    def facet_integrals(self, cf, quadrature="exact", weighted=True):
         """A function returning (∫_facet cf da for each facet of Γ3) when called: the
         LinearForm is built once and reassembled at each call (cf may hold GridFunctions).
         ``quadrature``: "exact" (degree 2p + 2 per facet) or "residual" (the rule of the
         residual's Γ3 terms: a kinked integrand such as a penalty force is integrated as the
-        residual integrates it)."""
+        residual integrates it). For a body of revolution da = 2π r ds (the body's integral),
+        unless not ``weighted``."""
         lf = ngs.LinearForm(self.B)
-        lf += cf.Compile() * self._mu * (self._ds_exact if quadrature == "exact" else self._ds_residual)
+        integrand = self._weighted(cf) if weighted else cf
+        lf += integrand.Compile() * self._mu * (self._ds_exact if quadrature == "exact" else self._ds_residual)
 
         def assemble():
             lf.Assemble()
@@ -127,8 +136,9 @@ class ContactSide:
         return self.facet_integrals(cf)()
 
     def project(self, cf):
-        """P_B cf: the facet averages of cf on Γ3 (numpy array, one value per facet)."""
-        return self._integrate(cf) / self.measure
+        """P_B cf: the facet averages of cf on Γ3 (numpy array, one value per facet; for a body
+        of revolution over the ring the facet sweeps)."""
+        return self._integrate(cf) / self.weighted_measure
 
     def integrate(self, cf):
         """∫_Γ3 cf da, with volume gradients allowed in cf. (Summed from the facet

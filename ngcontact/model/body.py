@@ -17,6 +17,7 @@ import ngsolve as ngs
 import numpy as np
 
 from ngcontact import checks, meshes, parallel
+from ngcontact.model import axisymmetric as axisymmetric_model
 from ngcontact.model.materials import Material
 from ngcontact.model.supports import dirichlet_flags
 from ngcontact.model.supports import parse as parse_supports
@@ -53,6 +54,11 @@ class Body:
     hierarchy : the nested meshes whose finest level is ``mesh`` (``meshes.Hierarchy``: the coarse
         mesh and its refinements, for multigrid and nested iteration); default: the one
         ``meshes.nested_mesh`` made the mesh with (``ngcontact.geometries`` do), else None.
+    axisymmetric : a body of revolution (``model.axisymmetric``): the 2D mesh is its meridian
+        section, x = r >= 0 and y the axis; ε_θθ = u_r/r joins the strains, every integral
+        is taken with 2π r (forces in N, charges in C, areas in m², as in 3D), and the
+        boundaries on the axis r = 0 hold u_r = 0 without being named (``axis``). The
+        material is read in the frame (e_r, e_z, e_θ), poled along the axis.
 
     ``X = V × W`` is the body's space; each simulation works on its own copy (``space()``),
     so that what one simulation sets on it (static condensation) does not reach another.
@@ -61,7 +67,7 @@ class Body:
     def __init__(self, mesh: ngs.Mesh, material: Material, *, clamped: str | tuple | None = None,
                  grounded: str | tuple | None = None, contact_side: str | tuple | None = None,
                  supports: tuple | list | None = None, order: int = 1, order_phi: int | None = None,
-                 hierarchy: meshes.Hierarchy | None = None, **renamed) -> None:
+                 hierarchy: meshes.Hierarchy | None = None, axisymmetric: bool = False, **renamed) -> None:
         if "contact" in renamed:
             raise TypeError("Body(contact=...) is now Body(contact_side=...): the boundary names of Γ3 "
                             "(contact= is the contact law, given to Simulation)")
@@ -87,7 +93,11 @@ class Body:
                              f"({mesh.nv} vertices), got {hierarchy!r}")
         self.dim = mesh.dim
         self.material = material
-        self.tensors = material.tensors(self.dim)
+        self.axisymmetric = checks.flag("axisymmetric", axisymmetric)
+        if self.axisymmetric and self.dim != 2:
+            raise ValueError(f"axisymmetric: the mesh must be 2D, the (r, z) half-plane of the body's meridian "
+                             f"section, got a {self.dim}D mesh")
+        self.tensors = material.tensors(self.dim, self.axisymmetric)
         self.order, self.order_phi = int(order), int(order_phi)
         existing = set(mesh.GetBoundaries())
         self.boundaries = {}
@@ -100,6 +110,9 @@ class Body:
                 raise ValueError(f"{part}: boundary {missing} not in the mesh; its boundaries are "
                                  f"{sorted(existing)}")
             self.boundaries[part] = listed
+        self.axis = axisymmetric_model.axis_names(mesh, self.size) if self.axisymmetric else []
+        """The boundaries on the axis r = 0 of a body of revolution (u_r = 0 there)."""
+        supports = self._axis_supports(supports)
         self.supports = parse_supports(supports, mesh, split_names)
         self.boundaries["supports"] = [n for s in self.supports for n in s.names]
         if not self.boundaries["clamped"] and not self.supports:
@@ -116,6 +129,21 @@ class Body:
         if both:
             raise ValueError(f"supports must not overlap clamped Γ1 (u = 0 there already): {sorted(both)}")
         self.V, self.W, self.X = self._spaces()
+
+    def _axis_supports(self, supports):
+        """``supports`` with u_r = 0 (component x) on the axis boundaries that no part holds yet."""
+        held = set(self.boundaries["clamped"]) | set(self.boundaries["contact_side"])
+        if isinstance(supports, dict):
+            held |= {n for key in supports if isinstance(key, str) for n in split_names(key)}
+        free = [name for name in self.axis if name not in held]
+        if not free:
+            return supports
+        return {**(supports or {}), "|".join(free): "x"}
+
+    def weighted(self, integrand):
+        """``integrand`` times the measure's weight: 2π r for a body of revolution, else as it is
+        (its integral over the mesh is then the integral over the body)."""
+        return integrand * axisymmetric_model.weight() if self.axisymmetric else integrand
 
     def _spaces(self):
         V = ngs.VectorH1(self.mesh, order=self.order,
@@ -173,5 +201,5 @@ class Body:
         return self.X.ndofglobal if parallel.is_distributed(self.mesh) else self.X.ndof
 
     def __repr__(self):
-        return (f"Body({self.material.name or 'material'}, dim={self.dim}, order=({self.order}, "
+        return (f"Body({self.material.name or 'material'}, dim={self.dim}{', axisymmetric' if self.axisymmetric else ''}, order=({self.order}, "
                 f"{self.order_phi}), ndof={self.ndof}, {self.boundaries})")

@@ -33,8 +33,12 @@ from ngcontact.model.loads import as_cf
 from ngcontact.model.voigt import matrix_cf, strain_vector, stress_matrix
 
 
-def strain(u):
-    """ε(u) as a Voigt vector: (ε11, ε22, 2ε12) in 2D, (ε11, ε22, ε33, 2ε23, 2ε13, 2ε12) in 3D."""
+def strain(u, T=None):
+    """ε(u) as a Voigt vector: (ε11, ε22, 2ε12) in 2D, (ε11, ε22, ε33, 2ε23, 2ε13, 2ε12) in 3D;
+    with the MaterialTensors ``T``, the vector they act on (``MaterialTensors.strain``: for a
+    body of revolution (ε_rr, ε_zz, 2ε_rz, ε_θθ))."""
+    if T is not None:
+        return T.strain(u)
     return strain_vector(ngs.Sym(ngs.Grad(u)), u.dim)
 
 
@@ -43,7 +47,7 @@ def stress(T, u, phi, strain_rate=None):
     ``strain_rate`` is ε(u̇) (Voigt), None for the elastic part only. Without piezoelectric
     coupling (E = 0) the term Eᵀ∇φ is left out of the expression (the Γ3 terms' Jacobian is
     then differentiated in u's components only)."""
-    s = T.elastic_stress(strain(u))
+    s = T.elastic_stress(strain(u, T))
     if T.E.any():
         s = s + matrix_cf(T.E).trans * ngs.grad(phi)
     if T.viscous and strain_rate is not None:
@@ -53,7 +57,7 @@ def stress(T, u, phi, strain_rate=None):
 
 def electric_displacement(T, u, phi):
     """D = E ε(u) − C ∇φ (2.4)."""
-    return matrix_cf(T.E) * strain(u) - matrix_cf(T.C) * ngs.grad(phi)
+    return matrix_cf(T.E) * strain(u, T) - matrix_cf(T.C) * ngs.grad(phi)
 
 
 def normal_stress(sigma, n, direction=None):
@@ -67,7 +71,7 @@ def step_normal_stress(T, u, phi, rate, anchor=None, direction=None):
     coefficient c = ``rate`` (1/s) and anchor û = ``anchor`` (``schemes.StepCoefficients``;
     backward Euler: 1/dt and u_{n−1}). ``anchor=None``: the variation σ_ν(v, ξ) in the test
     functions, c A ε(v) included. ``direction``: the traction's component along it (n_o)."""
-    rate = rate * (strain(u) - strain(anchor)) if anchor is not None else rate * strain(u)
+    rate = rate * (strain(u, T) - strain(anchor, T)) if anchor is not None else rate * strain(u, T)
     return normal_stress(stress(T, u, phi, rate), ngs.specialcf.normal(u.dim), direction)
 
 
@@ -95,13 +99,13 @@ def boundary_stiffness(body, rate):
 def a(T, u, v):
     """a(u, v) = (A ε(u), ε(v)): the Kelvin-Voigt viscosity (2.30), integrand on Ω (the
     linear tensor A: for a law, its tangent at 0)."""
-    return ngs.InnerProduct(matrix_cf(T.A) * strain(u), strain(v))
+    return ngs.InnerProduct(matrix_cf(T.A) * strain(u, T), strain(v, T))
 
 
 def b(T, u, v):
     """b(u, v) = (F ε(u), ε(v)): elasticity (2.30), integrand on Ω (the linear tensor F: for a
     law, its tangent at 0)."""
-    return ngs.InnerProduct(matrix_cf(T.F) * strain(u), strain(v))
+    return ngs.InnerProduct(matrix_cf(T.F) * strain(u, T), strain(v, T))
 
 
 def nonlinear_bulk(T, u, v, rate, anchor):
@@ -110,9 +114,9 @@ def nonlinear_bulk(T, u, v, rate, anchor):
     ``T.A_law``; c = ``rate``, û = ``anchor``, the time scheme's); None without laws."""
     terms = None
     if T.F_law is not None:
-        terms = ngs.InnerProduct(T.elastic_stress(strain(u)), strain(v))
+        terms = ngs.InnerProduct(T.elastic_stress(strain(u, T)), strain(v, T))
     if T.A_law is not None:
-        viscous = ngs.InnerProduct(T.viscous_stress(rate * (strain(u) - strain(anchor))), strain(v))
+        viscous = ngs.InnerProduct(T.viscous_stress(rate * (strain(u, T) - strain(anchor, T))), strain(v, T))
         terms = viscous if terms is None else terms + viscous
     return terms
 
@@ -129,13 +133,14 @@ def preconditioner_forms(body, u, v, phi, xi, rate):
     """The SPD forms that block preconditioners of the step Jacobian approximate (``multigrid``,
     ``petsc_iterative``), integrands on Ω: for u, (F̃ ε(u), ε(v)) + c (A ε(u), ε(v)) with the
     piezo-stiffened F̃ = F + Eᵀ C⁻¹ E (c = ``rate``, 1/s; the linear tensors, a law's tangent at
-    0); for φ, (C ∇φ, ∇ξ). Returns (u integrand, φ integrand)."""
+    0); for φ, (C ∇φ, ∇ξ). Returns (u integrand, φ integrand), with the body's measure weight
+    (``Body.weighted``)."""
     T = body.tensors
     stiffened = T.F + T.E.T @ np.linalg.solve(T.C, T.E) if body.coupled else T.F
-    integrand = ngs.InnerProduct(matrix_cf(stiffened) * strain(u), strain(v))
+    integrand = ngs.InnerProduct(matrix_cf(stiffened) * strain(u, T), strain(v, T))
     if T.viscous:
         integrand = integrand + rate * a(T, u, v)
-    return integrand, c(T, phi, xi)
+    return body.weighted(integrand), body.weighted(c(T, phi, xi))
 
 
 def c(T, phi, xi):
@@ -145,7 +150,7 @@ def c(T, phi, xi):
 
 def e(T, v, xi):
     """e(v, ξ) = (E ε(v), ∇ξ): piezoelectric coupling (2.30)-(2.31), integrand on Ω."""
-    return ngs.InnerProduct(matrix_cf(T.E) * strain(v), ngs.grad(xi))
+    return ngs.InnerProduct(matrix_cf(T.E) * strain(v, T), ngs.grad(xi))
 
 
 def bulk(T, trial, test):
@@ -158,16 +163,16 @@ def bulk(T, trial, test):
 def f(body, loads, test):
     """f(v, ξ) = (f0, v) + (f2, v)_Γ2 + (q0, ξ) + (qb, ξ)_Γb (2.26)-(2.27), as a list of
     integrals (integrand times dx or ds) for a LinearForm."""
-    (v, xi), mesh, dim = test, body.mesh, body.dim
+    (v, xi), mesh, dim, weighted = test, body.mesh, body.dim, body.weighted
     integrals = []
     if loads.f0 is not None:
-        integrals.append(as_cf(loads.f0, dim, "f0") * v * ngs.dx)
+        integrals.append(weighted(as_cf(loads.f0, dim, "f0") * v) * ngs.dx)
     if loads.q0 is not None:
-        integrals.append(as_cf(loads.q0, 1, "q0") * xi * ngs.dx)
+        integrals.append(weighted(as_cf(loads.q0, 1, "q0") * xi) * ngs.dx)
     for names, f2 in loads.f2.items():
-        integrals.append(as_cf(f2, dim, f"f2[{names!r}]") * v * ngs.ds(mesh.Boundaries(names)))
+        integrals.append(weighted(as_cf(f2, dim, f"f2[{names!r}]") * v) * ngs.ds(mesh.Boundaries(names)))
     for names, qb in loads.qb.items():
-        integrals.append(as_cf(qb, 1, f"qb[{names!r}]") * xi * ngs.ds(mesh.Boundaries(names)))
+        integrals.append(weighted(as_cf(qb, 1, f"qb[{names!r}]") * xi) * ngs.ds(mesh.Boundaries(names)))
     return integrals
 
 
@@ -239,7 +244,7 @@ def weak_normal_support(T, order, trial, test, gamma0):
                + gamma_el * (u * n) * (v * n))
     if not T.viscous or T.A_law is not None:
         return elastic, None
-    return elastic, -normal_stress(matrix_cf(T.A) * strain(u), n) * (v * n) + _viscous_support(T, order, gamma0, u, v)
+    return elastic, -normal_stress(matrix_cf(T.A) * strain(u, T), n) * (v * n) + _viscous_support(T, order, gamma0, u, v)
 
 
 def _viscous_support(T, order, gamma0, w, v):
@@ -247,7 +252,7 @@ def _viscous_support(T, order, gamma0, w, v):
     per unit rate coefficient, A the linear tensor (a law's tangent at 0)."""
     n = ngs.specialcf.normal(v.dim)
     _, gamma_A = _support_gammas(T, order, gamma0)
-    return -normal_stress(matrix_cf(T.A) * strain(v), n) * (w * n) + gamma_A * (w * n) * (v * n)
+    return -normal_stress(matrix_cf(T.A) * strain(v, T), n) * (w * n) + gamma_A * (w * n) * (v * n)
 
 
 def weak_normal_support_laws(T, order, u, v, rate, anchor, gamma0):
@@ -259,9 +264,9 @@ def weak_normal_support_laws(T, order, u, v, rate, anchor, gamma0):
     n = ngs.specialcf.normal(u.dim)
     terms = None
     if T.F_law is not None:
-        terms = -normal_stress(T.elastic_stress(strain(u)), n) * (v * n)
+        terms = -normal_stress(T.elastic_stress(strain(u, T)), n) * (v * n)
     if T.A_law is not None:
-        viscous = -normal_stress(T.viscous_stress(rate * (strain(u) - strain(anchor))), n) * (v * n) \
+        viscous = -normal_stress(T.viscous_stress(rate * (strain(u, T) - strain(anchor, T))), n) * (v * n) \
             + rate * _viscous_support(T, order, gamma0, u - anchor, v)
         terms = viscous if terms is None else terms + viscous
     return terms

@@ -23,8 +23,11 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ngcontact.checks import number
+from ngcontact.model import axisymmetric as axisymmetric_model
 from ngcontact.model.laws import StrainLaw
-from ngcontact.model.voigt import matrix_cf
+import ngsolve as ngs
+
+from ngcontact.model.voigt import matrix_cf, strain_vector
 
 EPS0 = 8.8541878128e-12
 """Vacuum permittivity ε0 in F/m."""
@@ -110,6 +113,15 @@ class MaterialTensors:
     """A nonlinear elasticity (``laws.BoundLaw``) or None; F is then its tangent at ε = 0."""
     A_law: object = None
     """A nonlinear viscosity (``laws.BoundLaw``) or None; A is then its tangent at ε̇ = 0."""
+    axisymmetric: bool = False
+    """Tensors of a body of revolution (``model.axisymmetric``): strains (rr, zz, rz, θθ)."""
+
+    def strain(self, u):
+        """ε(u) as the Voigt vector these tensors act on: (ε11, ε22, 2ε12) in 2D, six
+        components in 3D, (ε_rr, ε_zz, 2ε_rz, ε_θθ) for a body of revolution."""
+        if self.axisymmetric:
+            return axisymmetric_model.strain(u)
+        return strain_vector(ngs.Sym(ngs.Grad(u)), u.dim)
 
     @property
     def viscous(self):
@@ -248,25 +260,45 @@ class Material:
         laws add to this material's c. ``None``: back to the linear c."""
         return replace(self, elasticity_law=None if law is None else _law(law))
 
-    def tensors(self, dim):
-        """F, A, E, C for a ``dim``-dimensional model (plane strain for dim 2)."""
+    def tensors(self, dim, axisymmetric=False):
+        """F, A, E, C for a ``dim``-dimensional model (plane strain for dim 2); with
+        ``axisymmetric`` (dim 2) for a body of revolution about the mesh's y axis
+        (``model.axisymmetric``: components (rr, zz, rz, θθ), the poling along the axis)."""
         if dim not in (2, 3):
             raise ValueError(f"dim must be 2 or 3, got {dim}")
+        if axisymmetric and dim != 2:
+            raise ValueError(f"axisymmetric: the mesh must be 2D (the (r, z) half-plane), got dim {dim}")
         poling = self.poling or ("y" if dim == 2 else "z")
         if dim == 2 and poling == "z":
             raise ValueError("Material: poling must be 'x' or 'y' in 2D (plane strain in the x-y plane)")
+        if axisymmetric and poling != "y":
+            raise ValueError(f"Material: poling must be along the axis of revolution ('y', the mesh's axis) for an "
+                             f"axisymmetric body, got {poling!r}")
         Q = _rotation(poling)
-        idx = [I for I, (i, j) in enumerate(VOIGT) if i < dim and j < dim]
 
-        def four(c):
+        def turned(Q, c, e, eps):
             t = np.einsum("ga,hb,kc,ld,abcd->ghkl", Q, Q, Q, Q, _full4(c))
-            return np.array([[t[i, j, k, l] for (k, l) in VOIGT] for (i, j) in VOIGT])[np.ix_(idx, idx)]
-
-        e = np.einsum("ga,hb,kc,abc->ghk", Q, Q, Q, _full3(self.e))
-        e = np.array([[e[i, k, l] for (k, l) in VOIGT] for i in range(3)])
-        eps = Q @ self.eps @ Q.T
+            e3 = np.einsum("ga,hb,kc,abc->ghk", Q, Q, Q, _full3(e))
+            return (np.array([[t[i, j, k, l] for (k, l) in VOIGT] for (i, j) in VOIGT]),
+                    np.array([[e3[i, k, l] for (k, l) in VOIGT] for i in range(3)]), Q @ eps @ Q.T)
+        c3, e, eps = turned(Q, self.c, self.e, self.eps)
+        eta3 = turned(Q, self.eta, self.e, self.eps)[0]
+        if axisymmetric:
+            if self.elasticity_law is not None or self.viscosity_law is not None:
+                raise ValueError("axisymmetric bodies take linear materials only (no elasticity_law or "
+                                 "viscosity_law yet)")
+            twist = axisymmetric_model.twist_coupling(c3, eta3, e, eps)
+            if twist:
+                raise ValueError(f"Material {self.name or ''}: its data couple the axisymmetric fields to twist "
+                                 f"({twist}) with the poling along the axis of revolution: torsion-free "
+                                 "axisymmetric fields would not be in balance; an axisymmetric body needs a "
+                                 "material transversely isotropic about its poling axis (isotropic, or a poled "
+                                 "ceramic, class 6mm), read in the frame (e_r, e_z, e_θ) at each point")
+            F, A, E, C = axisymmetric_model.restricted(c3, eta3, e, eps)
+            return MaterialTensors(F=F, A=A, E=E, C=C, axisymmetric=True)
+        idx = [I for I, (i, j) in enumerate(VOIGT) if i < dim and j < dim]
         # 2D Voigt order is (11, 22, 12): the kept indices come as (11, 22, 12) already
-        F, A = four(self.c), four(self.eta)
+        F, A = c3[np.ix_(idx, idx)], eta3[np.ix_(idx, idx)]
         F_law = A_law = None
         if self.elasticity_law is not None:
             F_law = self.elasticity_law.bind(F, dim, "elasticity")

@@ -74,7 +74,7 @@ class Recorder:
                     coefficients = self.system.coefficients           # the time scheme's c and û
                     lam = forms.support_multiplier(body.tensors, body.order, u, phi, coefficients.anchor,
                                                    coefficients.rate, SLIP_GAMMA0)
-                    weak[name] = [(indicator * lam * n[i]).Compile() * dx for i in range(body.dim)]
+                    weak[name] = [body.weighted(indicator * lam * n[i]).Compile() * dx for i in range(body.dim)]
         return weak
 
     def boundary_reaction(self, residual):
@@ -87,10 +87,14 @@ class Recorder:
         return reactions
 
     def _build_rigid_modes(self):
+        """The test vectors of Γ3's force (e_i) and charge flux (1); for a body of revolution
+        the radial one is 0 (its resultant vanishes by symmetry; ∫ σν·e_r da is no force)."""
         modes = []
         for i in range(self.body.dim + 1):
             w = ngs.GridFunction(self.state.space)
-            if i < self.body.dim:
+            if i == 0 and self.body.axisymmetric:
+                pass
+            elif i < self.body.dim:
                 w.components[0].Set(ngs.CF(tuple(float(i == j) for j in range(self.body.dim))))
             else:
                 w.components[1].Set(1.0)
@@ -143,7 +147,7 @@ class Recorder:
         mesh = self.body.mesh
         flux = [-float(f) for f in parallel.sum(mesh, np.array([np.dot(residual, w.FV().NumPy())
                                                                 for w in self._rigid_modes]))]
-        facets = {name: integrals[name] / side.measure for name in
+        facets = {name: integrals[name] / side.weighted_measure for name in
                   ("pressure", "multiplier", "potential", "charge_flux_density", "contact_area")}
         facets.update(beta=g.beta.values.copy(), beta_unclipped=g.beta.unclipped.copy(),
                       multiplier_points=side.at_gauss_points(self._multiplier))

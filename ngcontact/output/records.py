@@ -1,8 +1,11 @@
 """Per-step records of a simulation: ``StepRecord``, ``ContactRecord`` and the ``History``.
 
 Units are SI. In 2D (plane strain) every surface quantity is per metre of depth: an area on
-a boundary is a length (m), a force N/m, a charge C/m. Signs follow docs/model.md: ν is the
-outward normal of the body.
+a boundary is a length (m), a force N/m, a charge C/m. A body of revolution
+(``Body(axisymmetric=True)``) is recorded in whole-body units, as in 3D: areas in m² (the rings
+its facets sweep), forces in N, charges in C; of a force only the axial component (y) is a
+resultant, the radial one is recorded as 0 (by symmetry), and facet averages are taken over
+the rings. Signs follow docs/model.md: ν is the outward normal of the body.
 """
 from dataclasses import dataclass, field
 
@@ -58,7 +61,8 @@ class ContactRecord:
 
 @dataclass
 class StepRecord:
-    """The state at one time t_n (step 0 is the initial state).
+    """The state at one time t_n (step 0 is the initial state). Units as the module says:
+    per metre of depth in 2D; for a body of revolution whole-body (N, C, m²), as in 3D.
 
     step : n.  time : t_n (s).
     newton_iterations : linear solves of the step's Newton solve; residuals : its scaled

@@ -24,7 +24,7 @@ import math
 import ngsolve as ngs
 import numpy as np
 from netgen.meshing import MeshingParameters
-from netgen.occ import Box, Circle, OCCGeometry, Pnt, Rectangle, Sphere, Y, Z
+from netgen.occ import Box, Circle, OCCGeometry, Pnt, Rectangle, Sphere, X, Y, Z
 
 import ngcontact as ngc
 from ngcontact import parallel
@@ -41,31 +41,45 @@ def material():
     return ngc.Material.isotropic(E, NU, permittivity=1.0, name="hertz")
 
 
-def mesh(dim=2, h_contact=None, refine=0, curve=1, radius=None):
+def mesh(dim=2, h_contact=None, refine=0, curve=1, radius=None, axisymmetric=False, quarter=False):
     """The half-disk (half-ball) of radius ``radius`` (m, default R) with mesh size h_contact
     (m) near the contact point over |x| < 0.25 R (default 0.02 R in 2D, 0.04 R in 3D), coarser
     away, ``refine`` uniform refinements (``meshes.nested_mesh``: boundary points on the circle
-    or sphere, the coarse mesh kept for multigrid and nested iteration) and ``mesh.Curve(curve)``."""
+    or sphere, the coarse mesh kept for multigrid and nested iteration) and ``mesh.Curve(curve)``.
+    ``axisymmetric`` (dim 2): the half-ball's meridian section, the quarter-disk x = r >= 0,
+    with its boundary "axis" on r = 0 (``Body(axisymmetric=True)``); default h_contact 0.02 R.
+    ``quarter`` (dim 3): the quarter-ball x, y >= 0, its symmetry planes named "symx" (x = 0)
+    and "symy" (y = 0)."""
     size = R if radius is None else radius
     h_contact = (0.02 if dim == 2 else 0.04) * size if h_contact is None else h_contact
+    if axisymmetric and dim != 2:
+        raise ValueError(f"axisymmetric: the mesh is the 2D meridian section (dim=2), got dim={dim}")
+    if quarter and dim != 3:
+        raise ValueError(f"quarter: the quarter-ball is 3D (dim=3), got dim={dim}")
     if dim == 2:
-        shape = Circle(Pnt(0, size), size).Face() * Rectangle(2 * size, size).Face().Move((-size, 0, 0))
+        width, left = (size, 0) if axisymmetric else (2 * size, -size)
+        shape = Circle(Pnt(0, size), size).Face() * Rectangle(width, size).Face().Move((left, 0, 0))
         shape.edges.Max(Y).name = "top"
+        if axisymmetric:
+            shape.edges.Min(X).name = "axis"
         for edge in shape.edges:
-            if edge.name != "top":
+            if edge.name not in ("top", "axis"):
                 edge.name = "contact"
     else:
-        shape = Sphere(Pnt(0, 0, size), size) * Box(Pnt(-size, -size, 0), Pnt(size, size, size))
+        low = 0 if quarter else -size
+        shape = Sphere(Pnt(0, 0, size), size) * Box(Pnt(low, low, 0), Pnt(size, size, size))
         shape.faces.Max(Z).name = "top"
+        if quarter:
+            shape.faces.Min(X).name, shape.faces.Min(Y).name = "symx", "symy"
         for face in shape.faces:
-            if face.name != "top":
+            if face.name not in ("top", "symx", "symy"):
                 face.name = "contact"
     parameters = MeshingParameters(maxh=10 * h_contact if dim == 2 else 0.4 * size)
-    for x in np.linspace(-0.25 * size, 0.25 * size, 26):
+    for x in np.linspace(0 if axisymmetric or quarter else -0.25 * size, 0.25 * size, 14 if quarter else 26):
         if dim == 2:
             parameters.RestrictH(x, size - math.sqrt(size * size - x * x), 0, h_contact)
         else:
-            for y in np.linspace(-0.25 * size, 0.25 * size, 26):
+            for y in np.linspace(0 if quarter else -0.25 * size, 0.25 * size, 14 if quarter else 26):
                 if x * x + y * y <= (0.25 * size) ** 2:
                     parameters.RestrictH(x, y, size - math.sqrt(size * size - x * x - y * y), h_contact)
     m = nested_mesh(OCCGeometry(shape, dim=dim).GenerateMesh(mp=parameters), refine)
@@ -75,7 +89,7 @@ def mesh(dim=2, h_contact=None, refine=0, curve=1, radius=None):
 
 
 def simulation(order=1, h_contact=None, refine=0, dim=2, depth=None, normal="obstacle", gamma0=10.0,
-               control="displacement", force=None, mesh=None, **options):
+               control="displacement", force=None, mesh=None, axisymmetric=False, quarter=False, **options):
     """The Hertz scene as a Simulation of one step t: 0 -> 1 (mesh size ``h_contact`` as in
     ``mesh``). ``control="displacement"``: the top moved down by ``depth`` (m, default 0.02 R
     in 2D, 0.01 R in 3D); ``control="force"``: a traction on the top of resultant ``force``
@@ -83,24 +97,33 @@ def simulation(order=1, h_contact=None, refine=0, dim=2, depth=None, normal="obs
     tangentially only. ``normal``: "obstacle" (n_o of the plane) or "body" (the paper's form:
     ν and the gap y/(−ν_y) along it). ``mesh``: a mesh of the half-disk (half-ball) with its
     boundaries "top" and "contact" to use instead (an adapted one, ``ngcontact.adapt``), curved to
-    ``order``."""
+    ``order``. ``axisymmetric``: the half-ball as a body of revolution on its meridian section
+    (dim 2, ``mesh(axisymmetric=True)``; the 3D defaults of depth and force, records in N and m²).
+    ``quarter`` (dim 3): the quarter-ball with its symmetry planes held normally (records of a
+    quarter: its force, area and charges are a quarter of the ball's)."""
     if control not in ("displacement", "force"):
         raise ValueError(f"control must be 'displacement' or 'force', got {control!r}")
     if control == "force" and depth is not None or control == "displacement" and force is not None:
         raise ValueError(f"control={control!r} takes {'force' if control == 'force' else 'depth'}, not "
                          f"{'depth' if control == 'force' else 'force'}")
-    m = globals()["mesh"](dim, h_contact, refine, curve=order) if mesh is None else mesh
+    m = globals()["mesh"](dim, h_contact, refine, curve=order, axisymmetric=axisymmetric,
+                          quarter=quarter) if mesh is None else mesh
     t = ngs.Parameter(0.0)
+    solid = 3 if axisymmetric else dim                 # the body's true dimension
+    symmetry = {"symx": "x", "symy": "y"} if quarter else {}
     if control == "displacement":
-        depth = (0.02 if dim == 2 else 0.01) * R if depth is None else depth
-        supports = {"top": "all"}
+        depth = (0.02 if solid == 2 else 0.01) * R if depth is None else depth
+        supports = {"top": "all", **symmetry}
         loads = ngc.Loads(displacement={"top": tuple([0.0] * (dim - 1) + [-depth * t])})
     else:
-        force = (0.01 if dim == 2 else 0.003) if force is None else ngc.checks.number("force", force, low=0.0, low_open=True, unit=" N (N/m in 2D)")
-        supports = {"top": "xy"[:dim - 1]}
-        area = parallel.sum(m, ngs.Integrate(ngs.CF(1.0) * ngs.ds(m.Boundaries("top")), m))   # the resultant is F
+        force = (0.01 if solid == 2 else 0.003) if force is None else ngc.checks.number("force", force, low=0.0, low_open=True, unit=" N (N/m in 2D)")
+        supports = {"top": "xy"[:dim - 1], **symmetry}
+        weight = 2 * math.pi * ngs.x if axisymmetric else ngs.CF(1.0)
+        area = parallel.sum(m, ngs.Integrate(weight * ngs.ds(m.Boundaries("top")), m))   # the resultant is F
+        area *= 4 if quarter else 1                                  # (the ball's: a quarter on the quarter)
         loads = ngc.Loads(f2={"top": tuple([0.0] * (dim - 1) + [-force / area * t])})
-    body = ngc.Body(m, material(), grounded="top", supports=supports, contact_side="contact", order=order)
+    body = ngc.Body(m, material(), grounded="top", supports=supports, contact_side="contact", order=order,
+                    axisymmetric=axisymmetric)
     up = tuple([0.0] * (dim - 1) + [1.0])
     if normal == "obstacle":
         contact = ngc.Contact(obstacle=Plane(tuple([0.0] * dim), up), gamma0=gamma0)
@@ -136,23 +159,25 @@ def closed_form(force, dim=2):
 
 
 def errors(sim):
-    """Accuracy of a solved Hertz simulation against the closed form for its own force:
+    """Accuracy of a solved Hertz simulation (the half-disk, the half-ball, its quarter or its
+    meridian section) against the closed form for its own force (the whole ball's):
     dict(force, a, a_h, p0, p0_h, pressure_L2) with a_h the half-width (radius) of the
     contact zone {λ_h > 0} (from its measure), p0_h the largest facet average of λ_h and
     pressure_L2 = ‖λ_h − p‖/‖p‖ on Γ3 (λ_h the enforcement's multiplier at the residual's
     points, integrated with 2p + 2 extra orders per facet)."""
-    dim = sim.body.dim
+    dim = 3 if sim.body.axisymmetric else sim.body.dim      # a body of revolution: the 3D closed form
     record = sim.history[-1].contact
-    force = float(record.force[dim - 1])
+    share = 4 if "symx" in sim.body.mesh.GetBoundaries() else 1        # a quarter-ball records a quarter
+    force = share * float(record.force[-1])
     a, p0 = closed_form(force, dim)
     u, phi = sim.u, sim.phi
     traction = ngs.CF(0.0)
     lam = sim.enforcement.multiplier(u, phi, traction)
-    r2 = ngs.x * ngs.x if dim == 2 else ngs.x * ngs.x + ngs.y * ngs.y
+    r2 = ngs.x * ngs.x if sim.body.dim == 2 else ngs.x * ngs.x + ngs.y * ngs.y     # (r = x on a meridian section)
     exact = p0 * ngs.sqrt(ngs.IfPos(1 - r2 / (a * a), 1 - r2 / (a * a), 0.0))
     difference = sim.side.integrate((lam - exact) ** 2)
     norm = sim.side.integrate(exact ** 2)
-    area = record.contact_area
+    area = share * record.contact_area
     a_h = area / 2 if dim == 2 else math.sqrt(area / math.pi)
     return dict(force=force, a=a, a_h=a_h, p0=p0, p0_h=float(record.multiplier.max()),
                 pressure_L2=math.sqrt(difference / norm))

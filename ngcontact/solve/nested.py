@@ -95,7 +95,8 @@ def coarse_body(body, mesh, order=None):
     supports = {s.key: "normal" if s.normal or s.sign != 1 else "".join("xyz"[a] for a in s.axes)
                 for s in body.supports}
     orders = dict(order=body.order, order_phi=body.order_phi) if order is None else dict(order=order, order_phi=order)
-    return type(body)(mesh, body.material, supports=supports or None, **orders, **names)
+    return type(body)(mesh, body.material, supports=supports or None, **orders, **names,
+                      axisymmetric=body.axisymmetric)
 
 
 class Nested:

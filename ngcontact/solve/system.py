@@ -90,11 +90,12 @@ class StepSystem:
             if self.condense:
                 raise ValueError("condense=True needs linear tensors: a nonlinear law makes the interiors nonlinear")
         self.K_el = ngs.BilinearForm(X, symmetric=False)
-        self.K_el += (forms.bulk(T, trial, test) if T.linear else forms.linear_bulk(T, trial, test)) * ngs.dx
+        weighted = body.weighted                   # 2π r for a body of revolution, else nothing
+        self.K_el += weighted(forms.bulk(T, trial, test) if T.linear else forms.linear_bulk(T, trial, test)) * ngs.dx
         self.K_A = None
         if T.viscous and T.A_law is None:
             self.K_A = ngs.BilinearForm(X, symmetric=False)
-            self.K_A += forms.a(T, trial[0], test[0]) * ngs.dx
+            self.K_A += weighted(forms.a(T, trial[0], test[0])) * ngs.dx
         weak_supports = self._weak_supports(trial, test)
         for elastic, viscous, dx in weak_supports:
             self.K_el += elastic * dx
@@ -111,7 +112,7 @@ class StepSystem:
             bulk = forms.bulk(T, trial, test)
             if T.viscous:
                 bulk = bulk + coefficients.rate * forms.a(T, trial[0], test[0])
-            self._K_condensed += bulk * ngs.dx
+            self._K_condensed += weighted(bulk) * ngs.dx
             for elastic, viscous, dx in weak_supports:
                 self._K_condensed += (elastic if viscous is None else elastic + coefficients.rate * viscous) * dx
             self._schur = None
@@ -146,7 +147,8 @@ class StepSystem:
             dx, indicator = element_boundary_layer(self.body.mesh, region)
             elastic, viscous = forms.weak_normal_support(self.body.tensors, self.body.order, trial, test,
                                                          SLIP_GAMMA0)
-            terms.append((indicator * elastic, None if viscous is None else indicator * viscous, dx))
+            weighted = self.body.weighted
+            terms.append((weighted(indicator * elastic), None if viscous is None else weighted(indicator * viscous), dx))
         return terms
 
     def add_boundary_terms(self, terms, side, realcompile=False):

@@ -100,9 +100,13 @@ class PrimalDualActiveSet:
         free = np.array(list(body.X.FreeDofs()), dtype=bool)
         nodes = {}
         for numbers, normal, length in zip(side.facet_vertex_numbers, side.normals, side.measure):
-            for nr in numbers:
+            shares = np.full(len(numbers), length / dim)             # ∫ of each hat function over the facet
+            if side.axisymmetric:                                    # 2π ∫ r φ_a ds = 2π L (2 r_a + r_b)/6
+                r = np.array([mesh.vertices[nr].point[0] for nr in numbers])
+                shares = 2 * np.pi * length * (2 * r + r[::-1]) / 6
+            for nr, share in zip(numbers, shares):
                 n, w = nodes.get(nr, (np.zeros(dim), 0.0))
-                nodes[nr] = (n + normal * length, w + length / dim)
+                nodes[nr] = (n + normal * length, w + share)
         self.nodes = [nr for nr in sorted(nodes) if all(free[c * nv + nr] for c in range(dim))]
         # held nodes of Γ3 and the positions (in self.nodes) of their free neighbours on Γ3
         position = {nr: i for i, nr in enumerate(self.nodes)}

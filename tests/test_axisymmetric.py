@@ -1,0 +1,222 @@
+"""Bodies of revolution (``Body(axisymmetric=True)``): a manufactured solution written from the
+cylindrical equations by hand, Hertz's sphere, the same scene against ngcontact's 3D
+quarter-ball, the records in whole-body units, and what is refused."""
+import dataclasses
+import math
+
+import ngsolve as ngs
+import numpy as np
+import pytest
+import sympy as sp
+from netgen.occ import OCCGeometry, Rectangle, X, Y
+
+import ngcontact as ngc
+from ngcontact.obstacles import Plane
+from ngcontact.scenes import hertz
+
+r, z = sp.symbols("x y")             # the mesh's x is the radius r, its y the axis z
+
+
+def _scaled_pzt():
+    m = ngc.pzt5a()
+    return ngc.Material(m.c / 1e10, m.e, m.eps / 1e-9, name="scaled PZT-5A")
+
+
+def _manufactured(T):
+    """u = (u_r, u_z), φ (u_r odd in r, u_z and φ even: smooth bodies of revolution; zero on
+    z = 0) and the data that make them exact, from the equations in cylindrical coordinates:
+    (div σ)_r = ∂_r σ_rr + ∂_z σ_rz + (σ_rr − σ_θθ)/r, (div σ)_z = ∂_r σ_rz + ∂_z σ_zz + σ_rz/r,
+    div D = ∂_r D_r + D_r/r + ∂_z D_z."""
+    ur = r * z * (1 + sp.cos(r ** 2 + z)) / 10
+    uz = z * sp.sin(r ** 2 + 2 * z) / 10
+    phi = z * sp.exp(-r ** 2) * (1 + z) / 10
+    F, E, C = (sp.Matrix(np.asarray(M)) for M in (T.F, T.E, T.C))
+    strain = sp.Matrix([sp.diff(ur, r), sp.diff(uz, z), sp.diff(ur, z) + sp.diff(uz, r), ur / r])
+    field = sp.Matrix([sp.diff(phi, r), sp.diff(phi, z)])
+    srr, szz, srz, stt = F * strain + E.T * field
+    D = E * strain - C * field
+    return dict(u=(ur, uz), phi=phi, strain=tuple(strain), field=tuple(field),
+                f0=(-(sp.diff(srr, r) + sp.diff(srz, z) + (srr - stt) / r), -(sp.diff(srz, r) + sp.diff(szz, z) + srz / r)),
+                q0=-(sp.diff(D[0], r) + D[0] / r + sp.diff(D[1], z)),
+                f2={"right": (srr, srz), "top": (srz, szz)}, qb={"right": D[0], "top": D[1]})
+
+
+def _cf(expressions):
+    # r kept away from 0: NGSolve's padded quadrature points may sit on the axis, where 1/r of
+    # the data would be NaN even with weight 0
+    names = {"x": ngs.IfPos(ngs.x - 1e-12, ngs.x, 1e-12), "y": ngs.y, "sin": ngs.sin, "cos": ngs.cos,
+             "exp": ngs.exp}
+    values = tuple(ngs.CF(eval(str(e), names)) for e in np.atleast_1d(expressions))
+    return values[0] if len(values) == 1 else ngs.CF(values)
+
+
+def _square(refinements):
+    shape = Rectangle(1, 1).Face()
+    shape.edges.Min(X).name, shape.edges.Max(X).name = "axis", "right"
+    shape.edges.Min(Y).name, shape.edges.Max(Y).name = "bottom", "top"
+    mesh = OCCGeometry(shape, dim=2).GenerateMesh(maxh=0.34)
+    for _ in range(refinements):
+        mesh.Refine()
+    return ngs.Mesh(mesh)
+
+
+def _manufactured_errors(order, refinements):
+    material = _scaled_pzt()
+    data = _manufactured(material.tensors(2, axisymmetric=True))
+    mesh = _square(refinements)
+    body = ngc.Body(mesh, material, clamped="bottom", grounded="bottom", order=order, axisymmetric=True)
+    loads = ngc.Loads(f0=_cf(data["f0"]), q0=_cf(data["q0"]), f2={k: _cf(v) for k, v in data["f2"].items()},
+                      qb={k: _cf(v) for k, v in data["qb"].items()})
+    sim = ngc.Simulation(body, loads, keep_states=False, physical_checks=False)
+    sim.step(1.0)
+    weight, degree = 2 * math.pi * ngs.x, 2 * order + 4
+    u, phi = _cf(data["u"]), _cf(data["phi"])
+    l2 = ngs.Integrate(weight * ((sim.u - u) ** 2 + (sim.phi - phi) ** 2), mesh, order=degree)
+    e_u = body.tensors.strain(sim.u) - _cf(data["strain"])
+    e_phi = ngs.grad(sim.phi) - _cf(data["field"])
+    energy = ngs.Integrate(weight * (e_u * e_u + e_phi * e_phi), mesh, order=degree)
+    return math.sqrt(l2), math.sqrt(energy)
+
+
+@pytest.mark.parametrize("order", [1, 2, 3])
+def test_a_manufactured_piezoelectric_body_of_revolution_converges_at_the_rates(order):
+    """Smooth u_r, u_z, φ on the (r, z) square with its axis, the data from the cylindrical
+    equations by hand (not from the library's forms): the L2 error falls as h^(p+1), the
+    strain and field error as h^p (a missing hoop strain, weight or hoop stress stalls them)."""
+    errors = [_manufactured_errors(order, k) for k in (1, 2)]
+    l2_rate = math.log2(errors[0][0] / errors[1][0])
+    energy_rate = math.log2(errors[0][1] / errors[1][1])
+    assert l2_rate == pytest.approx(order + 1, abs=0.25), errors
+    assert energy_rate == pytest.approx(order, abs=0.15), errors
+
+
+@pytest.fixture(scope="module")
+def sphere():
+    sim = hertz.simulation(2, h_contact=0.0025, axisymmetric=True, keep_states=False)
+    sim.step(1.0)
+    return sim
+
+
+def test_the_sphere_on_a_plane_meets_hertz(sphere):
+    """The elastic half-ball on its meridian section pressed 0.01 R onto the plane, a/R ≈ 0.1:
+    a = (3FR/(4E*))^(1/3) and p0 = 3F/(2πa²) within 2 %, the pressure profile within 5 % in L2
+    (over the contact disk, 2π r dr)."""
+    errors = hertz.errors(sphere)
+    assert errors["a"] == pytest.approx(0.1025, rel=0.01)                       # a/R ≈ 0.1
+    assert errors["a_h"] == pytest.approx(errors["a"], rel=0.02)
+    assert errors["p0_h"] == pytest.approx(errors["p0"], rel=0.02)
+    assert errors["pressure_L2"] < 0.05
+
+
+def test_the_records_are_in_whole_body_units(sphere):
+    """Forces in N and areas in m², as in 3D: the contact force balances the top's reaction,
+    the radial resultant is 0 by symmetry, the contact area is the disk the pressure covers."""
+    record = sphere.history[-1]
+    contact = record.contact
+    assert contact.force[0] == 0.0
+    assert contact.force[1] == pytest.approx(-record.boundary_reaction["top"][1], rel=1e-8)
+    a_h = hertz.errors(sphere)["a_h"]
+    assert contact.contact_area == pytest.approx(math.pi * a_h ** 2, rel=1e-12)
+    # the facet averages weigh by r: the pressure's average times the ring areas is the force
+    assert np.sum(contact.pressure * sphere.side.weighted_measure) == pytest.approx(contact.force[1], rel=1e-6)
+    assert np.sum(sphere.side.weighted_measure) == pytest.approx(sphere.side.integrate(ngs.CF(1.0)), rel=1e-12)
+
+
+def test_the_axis_holds_the_radial_displacement_without_being_named(sphere):
+    """u_r = 0 on the axis (the mesh's boundary "axis", named in no part by the user), u_z free."""
+    body = sphere.body
+    assert body.axis == ["axis"]
+    assert any(s.names == ("axis",) and s.axes == (0,) for s in body.supports)
+    points = [sphere.body.mesh(0.0, y) for y in (0.2, 0.5, 0.8)]
+    assert all(abs(sphere.u(p)[0]) < 1e-14 for p in points)
+    assert all(abs(sphere.u(p)[1]) > 1e-4 for p in points)
+
+
+def _compare(order, sizes, material=None, conductance=0.0, section=0.0025):
+    """Force, contact radius and Γ3 charge flux of the half-ball pressed 0.01 R (the whole
+    ball's) on its meridian section and on the 3D quarter-ball at two contact mesh sizes."""
+    def scene(axisymmetric, h):
+        t = ngs.Parameter(0.0)
+        if axisymmetric:
+            mesh = hertz.mesh(2, h_contact=h, curve=order, axisymmetric=True)
+            supports, move, up = {"top": "all"}, (0, -0.01 * t), (0, 1)
+        else:
+            mesh = hertz.mesh(3, h_contact=h, curve=order, quarter=True)
+            supports, move, up = {"top": "all", "symx": "x", "symy": "y"}, (0, 0, -0.01 * t), (0, 0, 1)
+        body = ngc.Body(mesh, material or hertz.material(), grounded="top", contact_side="contact", order=order,
+                        supports=supports, axisymmetric=axisymmetric)
+        contact = ngc.Contact(obstacle=Plane((0,) * len(up), up), conductance=conductance)
+        sim = ngc.Simulation(body, ngc.Loads(displacement={"top": move}), contact=contact, time=t,
+                             keep_states=False)
+        sim.step(1.0)
+        share = 1 if axisymmetric else 4
+        record = sim.history[-1].contact
+        return np.array([share * record.force[-1], math.sqrt(share * record.contact_area / math.pi),
+                         share * record.charge_flux])
+    return scene(True, section), [scene(False, h) for h in sizes]
+
+
+def _within_the_3d_error(axisymmetric, coarse, fine, quantities):
+    for k in quantities:
+        resolution = abs(fine[k] - coarse[k])          # the 3D run's own discretisation error
+        assert abs(axisymmetric[k] - fine[k]) <= 1.5 * resolution, (k, axisymmetric[k], coarse[k], fine[k])
+        assert abs(axisymmetric[k] - fine[k]) <= 0.15 * abs(fine[k])
+
+
+def test_the_elastic_half_ball_agrees_with_the_3d_quarter_ball():
+    """Force and contact radius of the section's solve lie within the 3D run's discretisation
+    error (two 3D contact mesh sizes; the 3D values converge towards the section's)."""
+    axisymmetric, (coarse, fine) = _compare(2, (0.08, 0.04), section=0.005)
+    _within_the_3d_error(axisymmetric, coarse, fine, (0, 1))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("conductance", [0.0, 1e-5], ids=["insulating", "conducting"])
+def test_the_piezoelectric_half_ball_agrees_with_the_3d_quarter_ball(conductance):
+    """PZT-5A poled along the axis, the top grounded, on an insulating or a conducting
+    (grounded) plane: force, contact radius and the charge drawn through Γ3 within the 3D
+    run's discretisation error (about 1 min of 3D solves)."""
+    axisymmetric, (coarse, fine) = _compare(2, (0.04, 0.02), ngc.pzt5a(), conductance)
+    _within_the_3d_error(axisymmetric, coarse, fine, (0, 1, 2) if conductance else (0, 1))
+
+
+def test_the_conducting_piezoelectric_half_ball_agrees_with_a_coarse_3d_quarter_ball():
+    """The conducting case of the slow test at coarse 3D meshes: the charge through Γ3 (C) and
+    the force (N) of the section within the 3D run's error."""
+    axisymmetric, (coarse, fine) = _compare(2, (0.08, 0.04), ngc.pzt5a(), 1e-5, section=0.005)
+    _within_the_3d_error(axisymmetric, coarse, fine, (0, 2))
+
+
+def test_what_a_body_of_revolution_cannot_be_is_refused():
+    half_disk = hertz.mesh(2, h_contact=0.1)
+    with pytest.raises(ValueError, match="half-plane x = r >= 0.*reaches x = -1"):
+        ngc.Body(half_disk, hertz.material(), supports={"top": "all"}, axisymmetric=True)
+    with pytest.raises(ValueError, match="must be 2D"):
+        ngc.Body(hertz.mesh(3, h_contact=0.2), hertz.material(), supports={"top": "all"}, axisymmetric=True)
+    with pytest.raises(TypeError, match="axisymmetric"):
+        ngc.Body(half_disk, hertz.material(), supports={"top": "all"}, axisymmetric="yes")
+    shape = Rectangle(1, 1).Face()                    # the axis and the top share a name
+    shape.edges.Min(X).name = shape.edges.Max(Y).name = "side"
+    shape.edges.Min(Y).name, shape.edges.Max(X).name = "bottom", "right"
+    mesh = ngs.Mesh(OCCGeometry(shape, dim=2).GenerateMesh(maxh=0.5))
+    with pytest.raises(ValueError, match=r"boundary \['side'\] lies partly on the axis"):
+        ngc.Body(mesh, hertz.material(), clamped="bottom", axisymmetric=True)
+    section = hertz.mesh(2, h_contact=0.1, axisymmetric=True)
+    radial = ngc.Material(ngc.pzt5a().c, ngc.pzt5a().e, ngc.pzt5a().eps, poling="x")
+    with pytest.raises(ValueError, match="poling must be along the axis of revolution"):
+        ngc.Body(section, radial, supports={"top": "all"}, grounded="top", axisymmetric=True)
+    law = dataclasses.replace(hertz.material(),
+                              elasticity_law=ngc.laws.StrainLaw(lambda eps, linear: linear(eps), "linear"))
+    with pytest.raises(ValueError, match="linear materials only"):
+        ngc.Body(section, law, supports={"top": "all"}, axisymmetric=True)
+    twisted = ngc.pzt5a().c.copy()
+    twisted[0, 4] = twisted[4, 0] = 1e9                # couples a normal strain to a twist shear
+    with pytest.raises(ValueError, match="couple the axisymmetric fields to twist"):
+        ngc.Body(section, ngc.Material(twisted, ngc.pzt5a().e, ngc.pzt5a().eps), supports={"top": "all"},
+                 grounded="top", axisymmetric=True)
+
+
+def test_the_estimator_refuses_a_body_of_revolution(sphere):
+    from ngcontact.estimators.equilibrated import EquilibratedEstimator
+    with pytest.raises(ValueError, match="bodies of revolution"):
+        EquilibratedEstimator(sphere)
