@@ -1,5 +1,5 @@
 """Command line interface: ``python -m ngcontact demo | convergence | stability | hertz | bench | cluster |
-timesteps | timeorder | adapt``.
+timesteps | timeorder | adapt | axisymmetric``.
 
 It parses the arguments and calls ``demo.run`` or a study's command; bad input and a failed
 Newton solve end in one line on stderr and exit status 2 (``main``).
@@ -16,7 +16,7 @@ KEPT = dict(demo="{out}/run (continue with --resume)", convergence="{out}/cases 
             cluster="{out}/runs (--resume skips them)",
             stability="{out}/<study>.csv of the finished studies (--resume skips them)",
             timesteps="nothing (the study runs again whole)", timeorder="nothing (the study runs again whole)",
-            adapt="nothing (the study runs again whole)")
+            adapt="nothing (the study runs again whole)", axisymmetric="nothing (the study runs again whole)")
 """Where each command keeps what it computed before an error."""
 
 
@@ -179,6 +179,12 @@ def parser():
                        help="instead of the study: solve each scene's step to the relative estimate TOL "
                             "(adapt.solve: averaging marking, the bound certifies the last level) and print "
                             "its levels and certificate")
+    axi = commands.add_parser("axisymmetric", parents=[common], help="the half-ball on a plane solved on its "
+                              "meridian section (a body of revolution) against the 3D quarter-ball: pressure error "
+                              "against wall time, axisymmetric.csv, axisymmetric.md and a chart")
+    axi.add_argument("--out", metavar="DIR", default="axisymmetric", help="output directory")
+    axi.add_argument("--rounds", metavar="N", type=int, default=2, help="interleaved repetitions (default 2)")
+    axi.add_argument("--quick", action="store_true", help="the coarsest sizes only, one round (seconds)")
     return main_parser
 
 
@@ -325,6 +331,10 @@ def _dispatch(args):
         else:
             adaptivity.main(args.out, scenes=tuple(args.scene), orders=tuple(args.orders),
                             stop_newton=args.stop_newton, marking=args.marking, fraction=args.fraction)
+    elif args.command == "axisymmetric":
+        from ngcontact import checks
+        from ngcontact.studies import axisymmetric
+        axisymmetric.command(args.out, rounds=checks.integer("--rounds", args.rounds, 1, 20), quick=args.quick)
     elif args.command == "cluster":
         from ngcontact.studies import cluster
         rounds = dict(repeat=args.repeat) if args.repeat is not None else {}     # the defaults: 3 and 1

@@ -18,7 +18,10 @@ argv[1]:
   F(ε) = ℰε + ζ(ε − P_K ε) (ζ = 5e10 Pa, K the von Mises ball of radius 1e-5), 10 steps of the push;
 * "indenter3d": a PZT-5A block 10 × 10 × 4 mm (maxh 0.7 mm, P1) on rollers (its "bottom" held
   in z) with two symmetry planes ("left", "front": u·ν = 0), indented on its "top" by a rigid
-  sphere of radius 10 mm driven 0.1 mm down over 4 steps (``obstacles.Sphere``), bottom grounded.
+  sphere of radius 10 mm driven 0.1 mm down over 4 steps (``obstacles.Sphere``), bottom grounded;
+* "axisymmetric": the half-ball of PZT-5A (poled along its axis) on its meridian section
+  (``Body(axisymmetric=True)``, P2), its top grounded and moved down 0.01 R over 3 steps onto a
+  conducting plane.
 """
 import json
 import sys
@@ -69,6 +72,18 @@ elif scene == "reference-law":
     sim, steps, T = reference.simulation(1, 0.005, material=material, keep_states=False, **options), 10, 0.1
 elif scene == "indenter3d":
     sim, T, steps, probe = indenter3d(options)
+elif scene == "axisymmetric":                 # a body of revolution: 2π r in every integral
+    from ngcontact.obstacles import Plane
+    from ngcontact.scenes import hertz
+    comm = parallel.world()
+    section = lambda: hertz.mesh(2, h_contact=0.01, axisymmetric=True)      # noqa: E731
+    mesh = parallel.distributed_mesh(lambda: section().ngmesh, 0, comm) if comm else section()
+    t = ngs.Parameter(0.0)
+    body = ngc.Body(mesh, ngc.pzt5a(), supports={"top": "all"}, grounded="top", contact_side="contact", order=2,
+                    axisymmetric=True)
+    sim = ngc.Simulation(body, ngc.Loads(displacement={"top": (0, -0.01 * t)}), time=t, keep_states=False,
+                         contact=ngc.Contact(obstacle=Plane((0, 0), (0, 1)), conductance=1e-5), **options)
+    steps, T, probe = 3, 1.0, (0.0, 0.5)
 else:
     raise SystemExit(f"unknown scene {scene!r}")
 probes = []                               # (u, φ) at the probe point after each step

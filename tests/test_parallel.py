@@ -125,10 +125,10 @@ def serial_scenes(tmp_path_factory):
     return runs
 
 
-SCENES = ("reference-law", "reference-p3", "reference-p1start", "hertz-force", "indenter3d")
+SCENES = ("reference-law", "reference-p3", "reference-p1start", "hertz-force", "indenter3d", "axisymmetric")
 
 
-LONG = {("reference-p3", 3), ("indenter3d", 3)}
+LONG = {("reference-p3", 3), ("indenter3d", 3), ("axisymmetric", 3)}
 """The cases on 3 ranks whose 2-rank runs check the same code (20–26 s each): ``-m slow``."""
 
 
@@ -140,14 +140,15 @@ def test_distributed_scenes_equal_the_serial_run(serial_scenes, tmp_path, scene,
     law, issue 26), the plate at P3 with static condensation, at P2 started from P1 at every
     step (``guess="p1"``), the Hertz half-disk under force control (held by the contact alone:
     the "touch" start), and a 3D block on rollers and two symmetry planes indented by a
-    moving rigid sphere (``tests/distributed_scenes.py``): per step the contact force (every component),
+    moving rigid sphere, and a piezoelectric body of revolution on a conducting plane
+    (``tests/distributed_scenes.py``): per step the contact force (every component),
     the charge flux (the plate; the block has no conduction: u and φ at a probe under the
     indenter instead) and the supports' reactions equal the serial run to 1e-8 of their largest
     values, Newton's iterations to ±1; the indenter's force balances the reactions (1e-8)."""
     launch(ranks, str(HERE / "distributed_scenes.py"), scene, "default", str(tmp_path / "run.json"), timeout=900)
     distributed, serial = json.loads((tmp_path / "run.json").read_text()), serial_scenes[scene]
     assert distributed["ranks"] == ranks
-    conducts = scene.startswith("reference")          # the others: u and φ at a probe instead of the charge
+    conducts = scene.startswith("reference") or scene == "axisymmetric"   # else u, φ at a probe, not the charge
     keys = ("force", "charge") if conducts else ("force", "probe_u") + (("probe_phi",) if scene == "indenter3d" else ())
     pairs = [(key, serial[key], distributed[key]) for key in keys]
     pairs += [(name, serial["reactions"][name], distributed["reactions"][name]) for name in serial["reactions"]]
@@ -162,6 +163,10 @@ def test_distributed_scenes_equal_the_serial_run(serial_scenes, tmp_path, scene,
         for run in (serial, distributed):
             force, reactions = np.array(run["force"])[1:], sum(np.array(r) for r in run["reactions"].values())
             assert np.abs(force + reactions).max() <= 1e-8 * np.abs(force).max()
+    if scene == "axisymmetric":                   # the axial force balances the top's (N, whole body)
+        for run in (serial, distributed):
+            force, top = np.array(run["force"])[1:, 1], np.array(run["reactions"]["top"])[:, 1]
+            assert np.abs(force + top).max() <= 1e-8 * np.abs(force).max()
 
 
 LOOPS = ("bdf2", "bdf2-rtol", "penalty", "law", "active_set")

@@ -132,9 +132,10 @@ class Body:
 
     def _axis_supports(self, supports):
         """``supports`` with u_r = 0 (component x) on the axis boundaries that no part holds yet."""
+        if supports is not None and not isinstance(supports, dict):
+            return supports                                          # refused by name when parsed
         held = set(self.boundaries["clamped"]) | set(self.boundaries["contact_side"])
-        if isinstance(supports, dict):
-            held |= {n for key in supports if isinstance(key, str) for n in split_names(key)}
+        held |= {n for key in supports or {} if isinstance(key, str) for n in split_names(key)}
         free = [name for name in self.axis if name not in held]
         if not free:
             return supports
@@ -201,5 +202,6 @@ class Body:
         return self.X.ndofglobal if parallel.is_distributed(self.mesh) else self.X.ndof
 
     def __repr__(self):
-        return (f"Body({self.material.name or 'material'}, dim={self.dim}{', axisymmetric' if self.axisymmetric else ''}, order=({self.order}, "
+        kind = ", axisymmetric" if self.axisymmetric else ""
+        return (f"Body({self.material.name or 'material'}, dim={self.dim}{kind}, order=({self.order}, "
                 f"{self.order_phi}), ndof={self.ndof}, {self.boundaries})")

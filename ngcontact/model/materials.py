@@ -20,13 +20,12 @@ c33 + e33²/ε33 against c33.
 """
 from dataclasses import dataclass, replace
 
+import ngsolve as ngs
 import numpy as np
 
 from ngcontact.checks import number
 from ngcontact.model import axisymmetric as axisymmetric_model
 from ngcontact.model.laws import StrainLaw
-import ngsolve as ngs
-
 from ngcontact.model.voigt import matrix_cf, strain_vector
 
 EPS0 = 8.8541878128e-12
@@ -276,13 +275,14 @@ class Material:
                              f"axisymmetric body, got {poling!r}")
         Q = _rotation(poling)
 
-        def turned(Q, c, e, eps):
+        def four(c):                             # the 6 × 6 Voigt matrix in the global frame
             t = np.einsum("ga,hb,kc,ld,abcd->ghkl", Q, Q, Q, Q, _full4(c))
-            e3 = np.einsum("ga,hb,kc,abc->ghk", Q, Q, Q, _full3(e))
-            return (np.array([[t[i, j, k, l] for (k, l) in VOIGT] for (i, j) in VOIGT]),
-                    np.array([[e3[i, k, l] for (k, l) in VOIGT] for i in range(3)]), Q @ eps @ Q.T)
-        c3, e, eps = turned(Q, self.c, self.e, self.eps)
-        eta3 = turned(Q, self.eta, self.e, self.eps)[0]
+            return np.array([[t[i, j, k, l] for (k, l) in VOIGT] for (i, j) in VOIGT])
+
+        c3, eta3 = four(self.c), four(self.eta)
+        e = np.einsum("ga,hb,kc,abc->ghk", Q, Q, Q, _full3(self.e))
+        e = np.array([[e[i, k, l] for (k, l) in VOIGT] for i in range(3)])
+        eps = Q @ self.eps @ Q.T
         if axisymmetric:
             if self.elasticity_law is not None or self.viscosity_law is not None:
                 raise ValueError("axisymmetric bodies take linear materials only (no elasticity_law or "

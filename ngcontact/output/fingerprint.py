@@ -7,7 +7,8 @@ never continued with another scene. Its fields (one key each, e.g. ``contact.gam
 * ``mesh.*``: dimension, vertex and element counts, boundary names, curve order, and a hash
   of the vertex coordinates (to 1e-9 of the body's size) and of the vertex numbers and
   region indices of every element; ``space.ndof``;
-* ``body.*``: the orders of u and φ, the boundary parts Γ1, Γa, Γ3 and the supports;
+* ``body.*``: the orders of u and φ, the boundary parts Γ1, Γa, Γ3 and the supports, and
+  whether it is a body of revolution;
 * ``material.*``: c, e, eps, eta and poling (the data as given, SI units), a law's name,
   sampled constants and tangent at 0;
 * ``contact.*``: every field of ``Contact`` (``contact`` is None without a contact law; the
@@ -80,6 +81,8 @@ def fingerprint(body, loads, contact, ndof, options, at, T):
              "body.order": body.order, "body.order_phi": body.order_phi}
     found.update({f"body.{part}": list(names) for part, names in body.boundaries.items()})
     found["body.supports"] = [repr(s) for s in body.supports]
+    if body.axisymmetric:                          # (only then: runs of other bodies keep their keys)
+        found["body.axisymmetric"] = True
     found.update({f"material.{f.name}": _plain(getattr(body.material, f.name))
                   for f in dataclasses.fields(Material) if f.name != "name"})
     for key, law in (("elasticity_law", body.tensors.F_law), ("viscosity_law", body.tensors.A_law)):
