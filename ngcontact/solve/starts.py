@@ -36,6 +36,7 @@ import ngsolve as ngs
 import numpy as np
 
 from ngcontact import parallel
+from ngcontact.model.axisymmetric import AXIS_TOLERANCE
 from ngcontact.model.loads import as_cf
 from ngcontact.solve.nested import Nested
 from ngcontact.model.rigid import Floating, normal_components
@@ -197,10 +198,16 @@ class Starts:
             u.vec.FV().NumPy()[free] = values[free]
 
     def _components(self, u):
-        """(u·n − g at the sample points of Γ3, r·n of the free motions there (points × motions))."""
+        """(u·n − g at the sample points of Γ3, r·n of the free motions there (points × motions)).
+        On a body of revolution a point on the axis holds nothing (its ring has no area, the
+        weight 2π r of Γ3's terms is 0 there): its components are 0."""
         g = self.gamma3
         opening = g.side.normal_displacement(u, g.sampled_normal).ravel() - g.side.sample(g.gap).ravel()
-        return opening, normal_components(self.floating.fields, g.side, g.sampled_normal).T @ self.floating.basis
+        components = normal_components(self.floating.fields, g.side, g.sampled_normal).T @ self.floating.basis
+        if self.body.axisymmetric:
+            radius = g.side.sample_points[..., 0].ravel()
+            components = components * (radius > AXIS_TOLERANCE * self.body.size)[:, None]
+        return opening, components
 
     def _holds(self, points, components, gathered=False):
         """Whether the sample points ``points`` (a mask) of Γ3 hold every free motion; the
