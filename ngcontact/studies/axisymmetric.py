@@ -22,6 +22,7 @@ section, ...) over ``rounds`` and the median is kept. ``summary`` interpolates (
 the time each kind needs to reach an error and their ratio.
 """
 import math
+import pathlib
 import time
 
 import numpy as np
@@ -158,7 +159,6 @@ def chart(rows, path):
 def command(out, order=2, rounds=2, quick=False, progress=True):
     """``python -m ngcontact axisymmetric``: ``axisymmetric.csv``, ``axisymmetric.md`` and
     ``axisymmetric.png`` in ``out``; ``quick``: the three coarsest sizes of each kind, one round."""
-    import pathlib
     out = pathlib.Path(out)
     out.mkdir(parents=True, exist_ok=True)
     sections, quarters = (SECTION_SIZES[:3], QUARTER_SIZES[:2]) if quick else (SECTION_SIZES, QUARTER_SIZES)
