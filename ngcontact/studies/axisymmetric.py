@@ -53,13 +53,17 @@ def solve(kind, order, h_contact):
     return sim, time.perf_counter() - t0
 
 
+def _radius(sim):
+    """The distance from the axis of the Gauss points of Γ3 (facets × points, m)."""
+    points = sim.side.gauss_points
+    return points[..., 0] if sim.body.axisymmetric else np.hypot(points[..., 0], points[..., 1])
+
+
 def pressure_points(sim):
     """(r, λ_h, weights) at the Gauss points of Γ3 (m, Pa, m²), sorted by r."""
-    side, record = sim.side, sim.history[-1].contact
-    points = side.gauss_points.reshape(-1, side.gauss_points.shape[-1])
-    r = points[:, 0] if sim.body.axisymmetric else np.hypot(points[:, 0], points[:, 1])
+    r = _radius(sim).ravel()
     order = np.argsort(r, kind="stable")
-    return r[order], record.multiplier_points.ravel()[order], side.gauss_weights.ravel()[order]
+    return r[order], sim.history[-1].contact.multiplier_points.ravel()[order], sim.side.gauss_weights.ravel()[order]
 
 
 def pressure_error(sim, reference, averages=False):
@@ -67,11 +71,8 @@ def pressure_error(sim, reference, averages=False):
     the reference run. ``averages``: of the facet averages P_B λ_h − P_B λ_ref instead (the
     pressure a ``ContactRecord`` reports), which the kink of λ_h inside the facet at the end of
     the contact zone does not dominate."""
-    side, record = sim.side, sim.history[-1].contact
-    points = side.gauss_points
-    r = points[..., 0] if sim.body.axisymmetric else np.hypot(points[..., 0], points[..., 1])
-    lam, w = record.multiplier_points, side.gauss_weights               # facets × points
-    exact = np.interp(r, reference[0], reference[1], right=0.0)
+    lam, w = sim.history[-1].contact.multiplier_points, sim.side.gauss_weights      # facets × points
+    exact = np.interp(_radius(sim), reference[0], reference[1], right=0.0)
     if averages:
         W = w.sum(axis=1)
         lam, exact, w = (np.sum(w * lam, axis=1) / W, np.sum(w * exact, axis=1) / W, W)
