@@ -32,6 +32,7 @@ The CLI cases call ``ngcontact.cli.main`` there (as ``python -m ngcontact`` woul
 Python's start-up); a few run ``python -m ngcontact`` itself, the rest of those are ``slow``.
 """
 import functools
+import glob
 import importlib
 import math
 import multiprocessing
@@ -1220,17 +1221,12 @@ cli("demo --steps 2 --maxh 0.02 --gamma0 1e-6", "step|gamma0", process=True)
 # ----------------------------------------------------------------------------- classes of the newer features
 
 # Each newer feature has its class in a module of its own beside this one (``hostile_<class>.py``,
-# with a ``register(h)`` that adds its cases through ``h.case`` and uses this module's scenes,
+# found by name, with a ``register(h)`` that adds its cases through ``h.case`` and uses this module's scenes,
 # outcomes and checks as ``h.<name>``); the fork server imports them with this module.
-EXTENSIONS = ("hostile_scheme", "hostile_laws", "hostile_adapt", "hostile_petsc", "hostile_trust", "hostile_scales")
+EXTENSIONS = tuple(sorted(os.path.basename(p)[:-3] for p in glob.glob(os.path.join(os.path.dirname(__file__),
+                                                                                 "hostile_*.py"))))
 for _name in EXTENSIONS:
-    try:
-        _module = importlib.import_module(_name)
-    except ModuleNotFoundError as err:
-        if err.name != _name:
-            raise
-        continue
-    _module.register(sys.modules[__name__])
+    importlib.import_module(_name).register(sys.modules[__name__])
 
 
 # ----------------------------------------------------------------------------- running a case in its own process
