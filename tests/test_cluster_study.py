@@ -135,7 +135,7 @@ def test_refused_under_mpiexec(tmp_path):
     itself): exit status 2, one line naming the command, nothing written."""
     env = dict(os.environ, PYTHONWARNINGS="ignore")
     done = subprocess.run([cluster.mpiexec(), "-n", "2", sys.executable, "-m", "ngcontact", "cluster", "--out",
-                           str(tmp_path / "out")], capture_output=True, text=True, timeout=120, env=env)
+                           str(tmp_path / "out")], capture_output=True, text=True, timeout=600, env=env)
     assert done.returncode == 2
     assert "python -m ngcontact cluster runs serially only" in done.stderr and "without mpiexec" in done.stderr
     assert done.stderr.count("error") == 1 and not (tmp_path / "out").exists()

@@ -227,7 +227,7 @@ def test_the_cli_prints_one_line_and_exits_2(arguments, words, tmp_path):
     the sizes, levels, orders and DOF limits that would never finish or mean nothing."""
     out = [] if "--out" in arguments else ["--out", str(tmp_path / "out")]
     done = subprocess.run([sys.executable, "-m", "ngcontact", *arguments, *out], capture_output=True, text=True,
-                          timeout=120)
+                          timeout=600)
     assert done.returncode == 2
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1 and words in lines[0] and "Traceback" not in done.stderr, done.stderr

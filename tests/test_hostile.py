@@ -26,8 +26,12 @@ to the right answer or fail with the reason". Anything else fails the case: anot
 exception, a result that fails its check unflagged, a crash or a hang.
 
 Every case runs in a fresh process forked from a server that has imported ngcontact but never
-meshed (forking after Netgen has meshed deadlocks in OpenCASCADE's thread pool), with a time
-limit and 4 GiB of address space, so that a hang or a runaway size fails its case only.
+meshed (forking after Netgen has meshed deadlocks in OpenCASCADE's thread pool), with a limit on
+its CPU time and 4 GiB of address space, so that a hang or a runaway size fails its case only.
+Every limit of the suite is on **CPU time** (the case's process and the processes it waited for),
+not on the wall clock: a machine busy with other work (a second copy of the suite beside it)
+stretches the wall clock several times but hardly the CPU time, so no outcome flips with load.
+The wall clock only catches a process that waits for ever (``WALL`` times its CPU limit).
 The CLI cases call ``ngcontact.cli.main`` there (as ``python -m ngcontact`` would, without
 Python's start-up); a few run ``python -m ngcontact`` itself, the rest of those are ``slow``.
 """
@@ -40,9 +44,9 @@ import os
 import re
 import resource
 import shutil
+import signal
 import subprocess
 import sys
-import time
 import traceback
 import warnings
 from dataclasses import dataclass
@@ -68,9 +72,10 @@ from ngcontact.scenes import reference as scene
 
 pytestmark = pytest.mark.timeout(400)     # pytest-timeout: the outer guard; each case has its own limit
 
-BEFORE_WORK = 5.0         # s: an error on bad input comes before any long work (coarse meshes here)
-CLI_LIMIT = 20.0          # s: a CLI error, Python's start-up included
-HANG = dict(default=30.0, extreme=120.0, held=120.0, resume=60.0, cli=40.0)   # s until a case is a hang
+BEFORE_WORK = 5.0         # CPU s: an error on bad input comes before any long work (coarse meshes here)
+CLI_LIMIT = 20.0          # CPU s: a CLI error, Python's start-up included
+HANG = dict(default=30.0, extreme=120.0, held=120.0, resume=60.0, cli=40.0)   # CPU s until a case is a hang
+WALL = 10.0               # a case's process that has not ended after WALL × its CPU limit waits for ever
 MEMORY = 4 << 30          # bytes of address space of a case's process
 TE, VE = "TypeError", "ValueError"
 CHOICE = "TypeError|ValueError"   # a value of the wrong type for an option with a few allowed values
@@ -83,8 +88,8 @@ H3 = 0.005                # m, the facets of Γ3 of the coarse reference plate (
 @dataclass(frozen=True)
 class Outcome:
     """What a case's call did: ``kind`` "returned", "raised", "died" or "hang"; the exception's
-    type names (its MRO) and message; the value returned; the seconds it took; the warnings
-    issued (category name, message)."""
+    type names (its MRO) and message; the value returned; the CPU seconds it took (its own and
+    its child processes'); the warnings issued (category name, message)."""
     kind: str
     types: tuple = ()
     message: str = ""
@@ -1137,13 +1142,24 @@ def command_line(argv, ctx, base=None):
         return dict(code=code, stderr=f.read())
 
 
+def cpu_limited(seconds):
+    """A ``preexec_fn`` for a process that may use ``seconds`` of CPU time (then SIGXCPU ends it)."""
+    def limit():
+        resource.setrlimit(resource.RLIMIT_CPU, (math.ceil(seconds), math.ceil(seconds) + 5))
+    return limit
+
+
 def python_m(argv, ctx):
-    """``python -m ngcontact ARGV`` as its own process (Python's start-up included)."""
+    """``python -m ngcontact ARGV`` as its own process (Python's start-up included), with the
+    CPU limit of a CLI case."""
+    limit = HANG["cli"] - 5
     try:
         done = subprocess.run([sys.executable, "-m", "ngcontact", *argv], capture_output=True, text=True,
-                              timeout=HANG["cli"] - 5, cwd=ctx["work"])
+                              timeout=WALL * limit, cwd=ctx["work"], preexec_fn=cpu_limited(limit))
     except subprocess.TimeoutExpired:
-        return dict(code=None, stderr="hang: killed after the time limit")
+        return dict(code=None, stderr=f"hang: still waiting after {WALL * limit:g} s")
+    if done.returncode == -signal.SIGXCPU:
+        return dict(code=None, stderr=f"hang: killed after {limit:g} s of CPU time")
     return dict(code=done.returncode, stderr=done.stderr)
 
 
@@ -1231,9 +1247,16 @@ for _name in EXTENSIONS:
 
 # ----------------------------------------------------------------------------- running a case in its own process
 
-def _child(connection, case_id, ctx):
-    """Run one case in this fresh process and send its Outcome."""
+def cpu_seconds():
+    """The CPU time of this process and of the child processes it waited for, s."""
+    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
+def _child(connection, case_id, ctx, limit):
+    """Run one case in this fresh process (at most ``limit`` s of CPU time) and send its Outcome."""
     resource.setrlimit(resource.RLIMIT_AS, (MEMORY, MEMORY))
+    resource.setrlimit(resource.RLIMIT_CPU, (math.ceil(cpu_seconds() + limit), math.ceil(cpu_seconds() + limit) + 5))
     os.chdir(ctx["work"])
     for fd, name in ((1, "stdout"), (2, "stderr")):
         sys.stdout.flush(), sys.stderr.flush()
@@ -1243,14 +1266,14 @@ def _child(connection, case_id, ctx):
     found = {c.id: c for c in CASES}[case_id]
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        start = time.perf_counter()
+        start = cpu_seconds()
         try:
             value = found.call(ctx)
             outcome = dict(kind="returned", value=_plain(value))
         except BaseException as err:        # the outcome to judge, whatever it is
             outcome = dict(kind="raised", types=tuple(c.__name__ for c in type(err).__mro__), message=str(err)[:4000],
                            detail=traceback.format_exc()[-2000:])
-        outcome["elapsed"] = time.perf_counter() - start
+        outcome["elapsed"] = cpu_seconds() - start
     outcome["warnings"] = tuple((w.category.__name__, str(w.message)[:1000]) for w in caught)
     sys.stdout.flush(), sys.stderr.flush()
     connection.send(Outcome(**outcome))
@@ -1284,20 +1307,23 @@ def _server():
 
 
 def outcome_of(found, ctx):
-    """Run the case in a process forked from the server; its Outcome, or "hang"/"died"."""
+    """Run the case in a process forked from the server; its Outcome, or "hang" (its CPU limit
+    used up, or no end after WALL times that) or "died"."""
     _server()
     limit = HANG.get(found.group, HANG["default"])
     receive, send = _CONTEXT.Pipe(duplex=False)
-    process = _CONTEXT.Process(target=_child, args=(send, found.id, ctx), daemon=True)
+    process = _CONTEXT.Process(target=_child, args=(send, found.id, ctx, limit), daemon=True)
     process.start()
     send.close()
     try:
-        if not receive.poll(limit):
-            return Outcome("hang", detail=f"no outcome in {limit:g} s")
+        if not receive.poll(WALL * limit):
+            return Outcome("hang", detail=f"no outcome after {WALL * limit:g} s (waiting for ever?)")
         try:
             return receive.recv()
         except EOFError:
             process.join(5)
+            if process.exitcode == -signal.SIGXCPU:
+                return Outcome("hang", detail=f"no outcome in {limit:g} s of CPU time")
             return Outcome("died", detail=f"the process ended with status {process.exitcode} "
                                           f"({_tail(ctx['stderr'])})")
     finally:

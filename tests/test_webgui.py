@@ -30,7 +30,7 @@ def screenshot(page, png, profile):
                     "--disable-quic", "--no-first-run", "--disable-background-networking",
                     "--disable-component-update", "--disable-sync", f"--user-data-dir={profile}",
                     "--window-size=900,600", "--virtual-time-budget=5000", f"--screenshot={png}",
-                    page.as_uri()], check=True, timeout=120, capture_output=True)
+                    page.as_uri()], check=True, timeout=600, capture_output=True)
     return imread(png)[..., :3]
 
 
