@@ -160,8 +160,8 @@ def test_the_old_and_public_import_paths_give_the_modules_of_the_layers():
         warnings.simplefilter("ignore", DeprecationWarning)
         for old, new in {**MOVED, **PUBLIC}.items():
             assert importlib.import_module(f"ngcontact.{old}") is importlib.import_module(f"ngcontact.{new}"), old
-        from ngcontact.enforcement.nitsche import Nitsche
-        newton = importlib.import_module("ngcontact.newton")
+        from ngcontact.enforcement.nitsche import Nitsche             # (deprecated paths, on purpose)
+        newton = importlib.import_module("ngcontact.newton")          # (deprecated)
     from ngcontact.schemes.bdf2 import BDF2
     assert Nitsche is ngc.Nitsche and BDF2 is ngc.schemes.BDF2
     assert newton.__name__ == newton.__spec__.name == "ngcontact.solve.newton"
