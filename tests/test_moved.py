@@ -205,17 +205,20 @@ def clean():
         out["paths"] = []
         for path in {paths!r}:
             parts = path.split(".")
-            for cut in range(len(parts), 0, -1):
-                try:
-                    target = importlib.import_module(".".join(parts[:cut]))
-                except ImportError:
-                    continue
-                break
-            for part in parts[cut:]:
-                if not hasattr(target, part):
-                    out["paths"].append(path)
+            try:
+                for cut in range(len(parts), 0, -1):
+                    try:
+                        target = importlib.import_module(".".join(parts[:cut]))
+                    except ImportError:
+                        continue
                     break
-                target = getattr(target, part)
+                for part in parts[cut:]:
+                    if not hasattr(target, part):
+                        out["paths"].append(path)
+                        break
+                    target = getattr(target, part)
+            except DeprecationWarning as warning:
+                out["paths"].append(f"{{path}} ({{warning}})")
         out["paths"] += [f"ngc.{{name}}" for name in {attributes!r} if name not in vars(ngcontact)]
         print(json.dumps(out))
     """, "-W", "error::DeprecationWarning")
@@ -241,7 +244,8 @@ def test_every_documented_path_is_a_real_module_or_a_name_of_ngcontact(clean):
     module of the package or a name in one (the longest module prefix imported, the rest read as
     attributes); each ``ngc.X`` in the documents is a name of ``ngcontact``."""
     where = {path: f"{w}: {line}" for w, line, path in mentions()}
-    assert not clean["paths"], "\n".join(where.get(path, path) for path in clean["paths"])
+    where |= {f"ngc.{name}": w for w, text, _ in documented() for name in ATTRIBUTE.findall(text)}
+    assert not clean["paths"], "\n".join(f"{path}: {where.get(path.split()[0], '')}" for path in clean["paths"])
 
 
 def test_gamma3_build_is_the_function_and_its_module_imports_by_path(clean):
