@@ -7,8 +7,9 @@ deprecated, removed in ``REMOVED_IN``).
 ``install()`` puts a finder on ``sys.meta_path`` that answers either path with the module itself
 (the same object: a ``monkeypatch`` of one is a patch of the other), importing it only when
 asked. An old path issues a ``DeprecationWarning`` naming the path to use and the release that
-drops it, at its first import in a process (``import ngcontact.forms``, ``from ngcontact.forms
-import ...``) and at each ``ngcontact.forms`` read as an attribute of the package.
+drops it, at the user's line: at its first import in a process (``import ngcontact.forms``,
+``from ngcontact.forms import ...``), and at each read as an attribute of the package
+(``ngcontact.forms``, ``from ngcontact import forms``) until then.
 """
 import importlib
 import importlib.abc
