@@ -66,7 +66,8 @@ def register(h):
 
     # ------------------------------------------------------------------ old paths: warned, and the module of the layer
 
-    case("import ngcontact.forms", "import ngcontact.forms\nvalue = ngcontact.forms", warns("forms", name="ngcontact.model.forms"))
+    case("import ngcontact.forms", "import ngcontact.forms\nvalue = ngcontact.forms",
+         warns("forms", name="ngcontact.model.forms"))
     case("import ngcontact.gamma3_terms as", "import ngcontact.gamma3_terms as value",
          warns("gamma3_terms", name="ngcontact.gamma3.terms"))
     case("from ngcontact.newton import NewtonError",
@@ -85,7 +86,8 @@ def register(h):
     case("from ngcontact import stepping", "from ngcontact import stepping as value",
          warns("stepping", name="ngcontact.time.stepping"))
     case("import ngcontact.webgui, then its new path",
-         "import ngcontact.webgui\nimport ngcontact.output.webgui as value", warns("webgui", name="ngcontact.output.webgui"))
+         "import ngcontact.webgui\nimport ngcontact.output.webgui as value",
+         warns("webgui", name="ngcontact.output.webgui"))
 
     # ------------------------------------------------------------------ public paths: silent
 
@@ -94,7 +96,8 @@ def register(h):
     case("import ngcontact.results as", "import ngcontact.results as value", silent("ngcontact.output.results"))
     case("from ngcontact.schemes.bdf2 import BDF2",
          "from ngcontact.schemes.bdf2 import BDF2\nimport ngcontact\n"
-         "value = BDF2 if BDF2 is ngcontact.schemes.BDF2 else None", silent("BDF2", "type", "ngcontact.time.schemes.bdf2"))
+         "value = BDF2 if BDF2 is ngcontact.schemes.BDF2 else None",
+         silent("BDF2", "type", "ngcontact.time.schemes.bdf2"))
     case("from ngcontact.gamma3 import build", "from ngcontact.gamma3 import build as value",
          silent("build", "function", "ngcontact.gamma3.build"))
     case("from ngcontact.gamma3.build import Gamma3, then gamma3's build",
@@ -107,4 +110,5 @@ def register(h):
          h.Error("ModuleNotFoundError", r"ngcontact\.no_such_module"))
     case("import ngcontact.forms.no_such_module", "import ngcontact.forms.no_such_module",
          h.Error("ModuleNotFoundError", r"ngcontact\.forms\.no_such_module"))
-    case("ngcontact.no_such_name", "import ngcontact\nngcontact.no_such_name", h.Error("AttributeError", "no_such_name"))
+    case("ngcontact.no_such_name", "import ngcontact\nngcontact.no_such_name",
+         h.Error("AttributeError", "no_such_name"))
