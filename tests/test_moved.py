@@ -108,9 +108,9 @@ def test_a_script_sees_the_warning_under_the_default_filters(old_paths):
     warning (PEP 565), on the script's line."""
     _, stderr = old_paths
     lines = [line for line in stderr.splitlines() if "DeprecationWarning" in line]
-    assert lines == [f"<string>:2: DeprecationWarning: ngcontact.forms is deprecated (an import path from before "
-                     f"the layers) and will be removed in ngcontact {REMOVED_IN}: import ngcontact.model.forms instead"], \
-        stderr
+    expected = (f"<string>:2: DeprecationWarning: ngcontact.forms is deprecated (an import path from before the "
+                f"layers) and will be removed in ngcontact {REMOVED_IN}: import ngcontact.model.forms instead")
+    assert lines == [expected], stderr
 
 
 def imports_of(source):
