@@ -150,16 +150,24 @@ def test_petsc_is_imported_by_the_linear_algebra_layer_only():
     assert not wrong, wrong
 
 
-def test_the_old_import_paths_give_the_modules_of_the_layers():
-    """``ngcontact.forms`` and the like (the paths before the layers) are the same module objects."""
+def test_the_old_and_public_import_paths_give_the_modules_of_the_layers():
+    """``ngcontact.forms`` and the like (the paths before the layers, deprecated: tests/test_moved.py)
+    and the public modules (``ngcontact.obstacles``, ...) are the same module objects."""
     import importlib
-    from ngcontact.moved import MOVED
-    for old, new in MOVED.items():
-        assert importlib.import_module(f"ngcontact.{old}") is importlib.import_module(f"ngcontact.{new}"), old
-    from ngcontact.enforcement.nitsche import Nitsche
+    import warnings
+    from ngcontact.moved import MOVED, PUBLIC
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        for old, new in {**MOVED, **PUBLIC}.items():
+            assert importlib.import_module(f"ngcontact.{old}") is importlib.import_module(f"ngcontact.{new}"), old
+        from ngcontact.enforcement.nitsche import Nitsche             # (deprecated paths, on purpose)
+        newton = importlib.import_module("ngcontact.newton")          # (deprecated)
     from ngcontact.schemes.bdf2 import BDF2
     assert Nitsche is ngc.Nitsche and BDF2 is ngc.schemes.BDF2
-    assert ngc.newton.__name__ == ngc.newton.__spec__.name == "ngcontact.solve.newton"
+    assert newton.__name__ == newton.__spec__.name == "ngcontact.solve.newton"
+    assert {name: getattr(ngc, name) for name in PUBLIC} == {name: importlib.import_module(f"ngcontact.{new}")
+                                                             for name, new in PUBLIC.items()}
+    assert set(PUBLIC) <= set(ngc.__all__)
 
 
 def test_the_public_api_is_typed():

@@ -6,5 +6,13 @@ the enforcement methods of Signorini's condition (``enforcement``: Nitsche, pena
 constraint), the Γ3 terms of the step residual (``terms``), the laws' switches Newton reads
 (``switches``), and ``build``, which assembles Γ3 for a simulation.
 
+``ngcontact.gamma3.build`` as a name is that function (``from ngcontact.gamma3 import build``, as
+when Γ3 was one module), with ``Gamma3`` and ``gamma3_data``; the module that holds them is
+imported by its path (``from ngcontact.gamma3.build import gamma3_data``, or
+``sys.modules["ngcontact.gamma3.build"]``), never as an attribute of this package.
+
 May import: the foundation and ``ngcontact.model``.
 """
+from ngcontact.gamma3.build import Gamma3, build, gamma3_data  # (the name ``build``: the function)
+
+__all__ = ["Gamma3", "build", "gamma3_data"]
