@@ -19,8 +19,6 @@ def save_html(filename, *args, **kwargs):
     them otherwise, before anything is written.
     """
     import ngsolve as ngs
-    from ngsolve.webgui import Draw
-    from webgui_jupyter_widgets.html import GenerateHTML
     if not isinstance(filename, (str, os.PathLike)) or not str(filename):
         raise TypeError(f"save_html: filename must be a path (str or pathlib.Path) of the page to write, got "
                         f"{filename!r} ({type(filename).__name__})")
@@ -33,6 +31,8 @@ def save_html(filename, *args, **kwargs):
             not (len(args) > 1 and isinstance(args[1], ngs.Mesh)) and not isinstance(kwargs.get("mesh"), ngs.Mesh):
         raise TypeError("save_html(filename, cf, mesh, ...): a CoefficientFunction is drawn on a mesh: give the "
                         "ngsolve.Mesh after it")
+    from ngsolve.webgui import Draw                               # slow to import: after the checks
+    from webgui_jupyter_widgets.html import GenerateHTML
     path = pathlib.Path(filename)
     path.parent.mkdir(parents=True, exist_ok=True)
     scene = Draw(*args, show=False, **kwargs)
