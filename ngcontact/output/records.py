@@ -135,7 +135,8 @@ class History(list):
         """A field of the ContactRecords at every step, stacked (steps × ...)."""
         _field("contact_column", name, ContactRecord)
         if any(r.contact is None for r in self):
-            raise ValueError("contact_column: the simulation has no contact (Simulation(contact=...)): no ContactRecords")
+            raise ValueError("contact_column: the simulation has no contact (Simulation(contact=...)): it records no "
+                             "ContactRecords")
         return np.array([getattr(r.contact, name) for r in self])
 
     def boundary_reactions(self, name):

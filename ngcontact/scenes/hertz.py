@@ -189,6 +189,9 @@ def errors(sim):
     record = sim.history[-1].contact
     share = 4 if "symx" in sim.body.mesh.GetBoundaries() else 1        # a quarter-ball records a quarter
     force = share * float(record.force[-1])
+    if not force > 0:
+        raise ValueError(f"errors: the contact force of the simulation's last step is {force:g} (N, N/m in 2D): the "
+                         "body does not press on the plane; Hertz's closed form needs a force > 0")
     a, p0 = closed_form(force, dim)
     u, phi = sim.u, sim.phi
     traction = ngs.CF(0.0)
