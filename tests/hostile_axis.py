@@ -131,6 +131,9 @@ def register(h):
     meshes("indenter.simulation(h_contact=2e-8)", scene("indenter", h_contact=2e-8), VE, "h_contact")
     meshes("indenter.simulation(h_contact=0)", scene("indenter", h_contact=0.0), VE, "h_contact")
     meshes("electrode.simulation(h_contact=1e-7)", scene("electrode", h_contact=1e-7), VE, "h_contact")
+    meshes("indenter.simulation(width=1)", scene("indenter", width=1.0), VE, "width", "thickness")
+    meshes("indenter.mesh(fine=0)", lambda ctx: repr(__import__("ngcontact.scenes.indenter", fromlist=["mesh"]).mesh(
+        fine=0.0)), VE, "fine")
 
     def square():
         from netgen.geom2d import unit_square
