@@ -146,7 +146,7 @@ def register(h):
         return call
 
     meshes("nested_mesh(m, 14)", nested(14), VE, "refine")
-    # about 3000 vertices refined 10 times: 1e10 DOFs, 19 TiB, more than any machine
+    # about 3000 vertices refined 10 times: 1e10 DOFs, 18 TiB, more than any machine
     meshes("nested_mesh(m, 10) (memory)", nested(10, maxh=0.02), VE, "refine", "TiB")
     meshes("nested_mesh(m, -1)", nested(-1), VE, "refine")
     meshes("nested_mesh(m, None)", nested(None), TE, "refine")
