@@ -8,14 +8,41 @@ iteration (``nested``) rebuild the levels from the hierarchy a Body holds (``Bod
 before the first refinement. NGSolve 6.2.2608 cannot refine a distributed mesh: a mesh
 distributed over MPI ranks has no hierarchy.
 """
+import math
+import numbers
 import pickle
 from dataclasses import dataclass
 
 import ngsolve as ngs
 import numpy as np
+from netgen.meshing import Mesh as NetgenMesh
+
+from ngcontact import checks
 
 COARSE = "ngcontact_hierarchy"
 """The attribute by which ``nested_mesh`` hands its ``Hierarchy`` to the Body of the mesh it makes."""
+MAX_MESHED_VERTICES = 5e4
+"""The most vertices a scene's mesh maker (``scenes.hertz.mesh``, ``scenes.indenter.mesh``) asks
+Netgen to make at once (estimated, ``check_meshed``): their local size restrictions make meshing
+far slower than refining, so a finer mesh comes from ``refine=`` (``nested_mesh``)."""
+
+
+def check_meshed(what, name, h, fine, dim, refine=0, finer="refine=..., which halves h each time"):
+    """Refuse, before meshing, a mesh size ``h`` (m; the parameter ``name``) that would have Netgen
+    make more than ``MAX_MESHED_VERTICES`` vertices over the region of measure ``fine`` (m² in 2D,
+    m³ in 3D) meshed at h (``checks.VERTICES_PER_CELL``), naming its smallest allowed value; and
+    the mesh refined ``refine`` times that does not fit in memory (``checks.fits_in_memory``);
+    ``finer`` says how to make a finer mesh."""
+    log = math.log(checks.VERTICES_PER_CELL[dim] * fine) - dim * math.log(h)
+    vertices = math.exp(min(log, 690.0))
+    if vertices > MAX_MESHED_VERTICES:
+        smallest = (checks.VERTICES_PER_CELL[dim] * fine / MAX_MESHED_VERTICES) ** (1 / dim)
+        step = 10.0 ** (math.floor(math.log10(smallest)) - 2)              # 3 digits, rounded up
+        raise ValueError(f"{what}: {name} = {h:g} m would have Netgen make about {vertices:.2g} vertices (at most "
+                         f"{MAX_MESHED_VERTICES:g}); {name} must be >= {math.ceil(smallest / step) * step:.3g} m "
+                         f"(a finer mesh: {finer})")
+    checks.fits_in_memory(f"{what}: {name} = {h:g} m, refine = {refine} (u and φ at P1)",
+                          checks.estimated_ndof(vertices, dim, refine))
 
 
 @dataclass(frozen=True, eq=False)
@@ -26,6 +53,33 @@ class Hierarchy:
     coarse: object
     refinements: int
     vertices: int
+
+    def __post_init__(self):
+        if not isinstance(self.coarse, NetgenMesh):
+            raise TypeError(f"Hierarchy: coarse must be a Netgen mesh (netgen.meshing.Mesh, e.g. ngsolve_mesh.ngmesh "
+                            f"before it is refined; nested_mesh keeps one), got {type(self.coarse).__name__}")
+        object.__setattr__(self, "refinements", checks.integer("Hierarchy: refinements", self.refinements, 0,
+                                                               checks.MAX_REFINE))
+        object.__setattr__(self, "vertices", checks.integer("Hierarchy: vertices", self.vertices, 1))
+        points = len(self.coarse.Points())
+        if self.refinements and self.vertices <= points or self.vertices < points:
+            raise ValueError(f"Hierarchy: {self.vertices} vertices of the finest level, but the coarse mesh has "
+                             f"{points}, refined {self.refinements} times (each refinement adds vertices)")
+
+    def check_finest(self, mesh, size):
+        """A ValueError naming ``hierarchy`` unless ``mesh`` (of diagonal ``size``, m) is the finest
+        level: its dimension, boundary names and vertices (``check``) those of the coarse mesh
+        refined ``refinements`` times."""
+        if self.coarse.dim != mesh.dim:
+            raise ValueError(f"hierarchy: its coarse mesh is {self.coarse.dim}D, the mesh {mesh.dim}D")
+        names, theirs = set(self.coarse.GetRegionNames(codim=1)), set(mesh.GetBoundaries())
+        if names != theirs:
+            raise ValueError(f"hierarchy: its coarse mesh has the boundaries {sorted(names)}, the mesh "
+                             f"{sorted(theirs)} (the levels of nested meshes share their boundaries)")
+        if self.vertices != mesh.nv:
+            raise ValueError(f"hierarchy must be an ngcontact.meshes.Hierarchy whose finest level is the mesh "
+                             f"({mesh.nv} vertices), got {self.vertices} vertices")
+        self.check(self.level(self.refinements), mesh, size, "hierarchy")
 
     def levels(self, curve_order=1):
         """The levels 0 (a copy of the coarse mesh), 1, ..., ``refinements`` as one ngsolve.Mesh
@@ -51,14 +105,29 @@ class Hierarchy:
         mine, theirs = np.asarray(replica.ngmesh.Coordinates()), np.asarray(mesh.ngmesh.Coordinates())
         if mine.shape != theirs.shape or not np.allclose(mine, theirs, rtol=0, atol=1e-12 * size):
             raise ValueError(f"{what}: the mesh's vertices differ from its kept coarse mesh refined "
-                             f"{self.refinements} times: the mesh was changed after nested_mesh()")
+                             f"{self.refinements} times: the mesh was changed after nested_mesh(), or the "
+                             "hierarchy is another mesh's")
 
 
 def nested_mesh(ngmesh, refine=0):
     """``ngsolve.Mesh(ngmesh)`` refined ``refine`` times by ``mesh.Refine()`` (h halves each
-    time), with its ``Hierarchy`` (``hierarchy``: what a Body of it takes by default)."""
-    if int(refine) != refine or refine < 0:
+    time), with its ``Hierarchy`` (``hierarchy``: what a Body of it takes by default). ``refine``
+    at most ``checks.MAX_REFINE``, and the refined mesh must fit in memory with u and φ at P1
+    (estimated from the vertices, each refinement multiplying them by 2^dim): refused before
+    refining otherwise."""
+    if not isinstance(ngmesh, NetgenMesh):
+        raise TypeError(f"nested_mesh takes a Netgen mesh (netgen.meshing.Mesh, e.g. geometry.GenerateMesh(...) or "
+                        f"ngsolve_mesh.ngmesh), got {type(ngmesh).__name__}")
+    if isinstance(refine, bool) or not isinstance(refine, numbers.Real):
+        raise TypeError(f"refine must be an integer >= 0, got {refine!r} ({type(refine).__name__})")
+    if not math.isfinite(refine) or int(refine) != refine or refine < 0:
         raise ValueError(f"refine must be an integer >= 0, got {refine}")
+    if refine > checks.MAX_REFINE:
+        raise ValueError(f"refine must be an integer >= 0 and <= {checks.MAX_REFINE} (each refinement multiplies the "
+                         f"elements by 2^dim), got {refine}")
+    points = len(ngmesh.Points())
+    checks.fits_in_memory(f"nested_mesh: refine = {int(refine)} of a mesh of {points} vertices (u and φ at P1)",
+                          checks.estimated_ndof(points, ngmesh.dim, int(refine)))
     coarse = ngmesh.Copy()
     mesh = ngs.Mesh(ngmesh)
     for _ in range(int(refine)):

@@ -52,13 +52,16 @@ class Body:
         space (4.1)).
     order_phi : int in [1, 10] or None, order of φ (default: ``order``).
     hierarchy : the nested meshes whose finest level is ``mesh`` (``meshes.Hierarchy``: the coarse
-        mesh and its refinements, for multigrid and nested iteration); default: the one
+        mesh and its refinements, for multigrid and nested iteration; one given is checked: its
+        coarse mesh refined is the mesh, the same boundaries and vertices); default: the one
         ``meshes.nested_mesh`` made the mesh with (``ngcontact.geometries`` do), else None.
     axisymmetric : a body of revolution (``model.axisymmetric``): the 2D mesh is its meridian
         section, x = r >= 0 and y the axis; ε_θθ = u_r/r joins the strains, every integral
         is taken with 2π r (forces in N, charges in C, areas in m², as in 3D), and the
         boundaries on the axis r = 0 hold u_r = 0 without being named (``axis``). The
-        material is read in the frame (e_r, e_z, e_θ), poled along the axis.
+        material is read in the frame (e_r, e_z, e_θ), poled along the axis. The axis, a line
+        without area, takes no other part (clamped, grounded, contact_side, a support of u_z:
+        refused by name); a support "x" or "normal" there is redundant.
 
     ``X = V × W`` is the body's space; each simulation works on its own copy (``space()``),
     so that what one simulation sets on it (static condensation) does not reach another.
@@ -88,9 +91,11 @@ class Body:
                              "mpiexec")
         self.mesh = mesh
         self.hierarchy = meshes.hierarchy(mesh) if hierarchy is None else hierarchy
-        if hierarchy is not None and (not isinstance(hierarchy, meshes.Hierarchy) or hierarchy.vertices != mesh.nv):
-            raise ValueError(f"hierarchy must be an ngcontact.meshes.Hierarchy whose finest level is the mesh "
-                             f"({mesh.nv} vertices), got {hierarchy!r}")
+        if hierarchy is not None and not isinstance(hierarchy, meshes.Hierarchy):
+            raise TypeError(f"hierarchy must be an ngcontact.meshes.Hierarchy (made by meshes.nested_mesh, or "
+                            f"Hierarchy(coarse, refinements, vertices)) or None, got {type(hierarchy).__name__}")
+        if hierarchy is not None:
+            hierarchy.check_finest(mesh, self.size)
         self.dim = mesh.dim
         self.material = material
         self.axisymmetric = checks.flag("axisymmetric", axisymmetric)
@@ -128,6 +133,8 @@ class Body:
         both = set(self.boundaries["clamped"]) & set(self.boundaries["supports"])
         if both:
             raise ValueError(f"supports must not overlap clamped Γ1 (u = 0 there already): {sorted(both)}")
+        if self.axisymmetric:
+            axisymmetric_model.check_parts(self)
         self.V, self.W, self.X = self._spaces()
 
     def _axis_supports(self, supports):

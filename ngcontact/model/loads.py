@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 import ngsolve as ngs
 import numpy as np
 
+from ngcontact.model import axisymmetric
 from ngcontact.model.body import split_names
 from ngcontact.checks import number
 
@@ -84,7 +85,8 @@ class Loads:
     def check(self, body):
         """Each boundary key must lie on its part of ∂Ω: f2 on Γ2 (and the supports that leave
         components free), qb on Γb \\ Γ3, potential on Γa; each displacement key within one
-        support of ``body.supports`` (its value: one number per fixed component)."""
+        support of ``body.supports`` (its value: one number per fixed component). On a body of
+        revolution no f2 or qb on its axis, and u_r = 0 there (``axisymmetric.check_loads``)."""
         held = [n for s in body.supports if len(s.axes) == body.dim for n in s.names]
         allowed = {"f2": [n for n in body.free_names(("clamped", "contact_side")) if n not in held],
                    "qb": body.free_names(("grounded", "contact_side")),
@@ -103,3 +105,5 @@ class Loads:
                                  f"{value!r}")
             as_cf(value, support.size, f"Loads.displacement[{key!r}] (support {support.key!r}: "
                                        f"{support.size} fixed component(s))")
+        if body.axisymmetric:
+            axisymmetric.check_loads(body, self)

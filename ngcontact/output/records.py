@@ -120,6 +120,7 @@ class History(list):
 
     def column(self, name):
         """A field of the StepRecords at every step, stacked."""
+        _field("column", name, StepRecord)
         return np.array([getattr(r, name) for r in self])
 
     @property
@@ -132,6 +133,10 @@ class History(list):
 
     def contact_column(self, name):
         """A field of the ContactRecords at every step, stacked (steps × ...)."""
+        _field("contact_column", name, ContactRecord)
+        if any(r.contact is None for r in self):
+            raise ValueError("contact_column: the simulation has no contact (Simulation(contact=...)): it records no "
+                             "ContactRecords")
         return np.array([getattr(r.contact, name) for r in self])
 
     def boundary_reactions(self, name):
@@ -145,3 +150,12 @@ class History(list):
     @property
     def newton_iterations(self):
         return self.column("newton_iterations")
+
+
+def _field(what, name, record):
+    """A TypeError or ValueError naming ``what`` unless ``name`` is a field of the dataclass ``record``."""
+    fields = list(record.__dataclass_fields__)
+    if not isinstance(name, str):
+        raise TypeError(f"{what}: the name of a field of {record.__name__} (a str, one of {fields}), got {name!r}")
+    if name not in fields:
+        raise ValueError(f"{what}: {name!r} is not a field of {record.__name__}; its fields are {fields}")

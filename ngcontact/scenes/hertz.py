@@ -28,7 +28,7 @@ from netgen.occ import Box, Circle, OCCGeometry, Pnt, Rectangle, Sphere, X, Y, Z
 
 import ngcontact as ngc
 from ngcontact import parallel
-from ngcontact.meshes import nested_mesh
+from ngcontact.meshes import check_meshed, nested_mesh
 from ngcontact.obstacles import Plane
 from ngcontact.solve.starts import Approach
 
@@ -49,13 +49,25 @@ def mesh(dim=2, h_contact=None, refine=0, curve=1, radius=None, axisymmetric=Fal
     ``axisymmetric`` (dim 2): the half-ball's meridian section, the quarter-disk x = r >= 0,
     with its boundary "axis" on r = 0 (``Body(axisymmetric=True)``); default h_contact 0.02 R.
     ``quarter`` (dim 3): the quarter-ball x, y >= 0, its symmetry planes named "symx" (x = 0)
-    and "symy" (y = 0)."""
-    size = R if radius is None else radius
-    h_contact = (0.02 if dim == 2 else 0.04) * size if h_contact is None else h_contact
+    and "symy" (y = 0). Refused before meshing: h_contact outside (0, radius], or so small that
+    Netgen would make more than ``meshes.MAX_MESHED_VERTICES`` vertices (``meshes.check_meshed``).
+    """
+    dim = ngc.checks.choice("dim", dim, (2, 3))
+    axisymmetric, quarter = ngc.checks.flag("axisymmetric", axisymmetric), ngc.checks.flag("quarter", quarter)
+    curve = ngc.checks.order("curve", curve)
+    size = R if radius is None else ngc.checks.number("radius", radius, 0, ngc.checks.MAX_LENGTH, low_open=True,
+                                                     unit="m")
+    h_contact = (0.02 if dim == 2 else 0.04) * size if h_contact is None else \
+        ngc.checks.number("h_contact", h_contact, 0, size, low_open=True, unit="m (up to the radius)")
     if axisymmetric and dim != 2:
         raise ValueError(f"axisymmetric: the mesh is the 2D meridian section (dim=2), got dim={dim}")
     if quarter and dim != 3:
         raise ValueError(f"quarter: the quarter-ball is 3D (dim=3), got dim={dim}")
+    # the region meshed at h_contact: |x| < R/4 (x >= 0 on the section and the quarter), R/20 deep
+    # in 2D, R/10 in 3D (upper estimates of Netgen's meshes)
+    band = (0.25 if axisymmetric else 0.5) * 0.05 if dim == 2 else math.pi / 16 * 0.1 / (4 if quarter else 1)
+    check_meshed("hertz.mesh", "h_contact", h_contact, band * size ** dim, dim,
+                 ngc.checks.integer("refine", refine, 0, ngc.checks.MAX_REFINE))
     if dim == 2:
         width, left = (size, 0) if axisymmetric else (2 * size, -size)
         shape = Circle(Pnt(0, size), size).Face() * Rectangle(width, size).Face().Move((left, 0, 0))
@@ -156,7 +168,9 @@ def informed_start(force, dim=2):
 
 
 def closed_form(force, dim=2):
-    """(a, p0) of Hertz for the contact force ``force`` (N/m in 2D, N in 3D)."""
+    """(a, p0) of Hertz for the contact force ``force`` (N/m in 2D, N in 3D; > 0) and ``dim`` 2 or 3."""
+    dim = ngc.checks.choice("dim", dim, (2, 3))
+    force = ngc.checks.number("force", force, 0, low_open=True, unit="N (N/m in 2D)")
     if dim == 2:
         a = math.sqrt(4 * force * R / (math.pi * E_STAR))
         return a, 2 * force / (math.pi * a)
@@ -175,6 +189,9 @@ def errors(sim):
     record = sim.history[-1].contact
     share = 4 if "symx" in sim.body.mesh.GetBoundaries() else 1        # a quarter-ball records a quarter
     force = share * float(record.force[-1])
+    if not force > 0:
+        raise ValueError(f"errors: the contact force of the simulation's last step is {force:g} (N, N/m in 2D): the "
+                         "body does not press on the plane; Hertz's closed form needs a force > 0")
     a, p0 = closed_form(force, dim)
     u, phi = sim.u, sim.phi
     traction = ngs.CF(0.0)

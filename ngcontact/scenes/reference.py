@@ -55,12 +55,12 @@ def body(order=1, maxh=0.005, refine=0, dim=2, material=None):
     """The plate with its boundary parts; the mesh is halved along Γ3 and refined ``refine``
     times by ``mesh.Refine()``. ``dim=3``: the block L1 × WIDTH × L2 (mesh size ``maxh``,
     poled along z). ``material`` replaces PZT-5A with the relaxation time RELAXATION_TIME."""
+    dim = ngc.checks.choice("dim", dim, (2, 3))
+    maxh = ngc.checks.number("maxh", maxh, 0, low_open=True, unit="m")
     if dim == 3:
         mesh = block(L1, WIDTH, L2, maxh=maxh, refine=refine)
-    elif dim == 2:
-        mesh = plate(L1, L2, maxh=maxh, maxh_contact=maxh / 2, refine=refine)
     else:
-        raise ValueError(f"dim must be 2 or 3, got {dim}")
+        mesh = plate(L1, L2, maxh=maxh, maxh_contact=maxh / 2, refine=refine)
     return ngc.Body(mesh, material or ngc.pzt5a(relaxation_time=RELAXATION_TIME), clamped="left",
                     grounded="top", contact_side="bottom", order=order)
 
