@@ -285,7 +285,8 @@ def test_a_method_of_the_users_runs_without_an_edit_of_the_package():
 
 
 def test_a_method_object_and_contacts_fields_must_agree():
-    with pytest.raises(ValueError, match="Contact.gamma0 = 7 disagrees with the method"):
+    with pytest.raises(ValueError, match=r"Contact.gamma0 = 7 contradicts method=Nitsche\(theta=1, gamma0=5.0\) "
+                                         "\(its gamma0 is 5.0\): give gamma0 in one place"):
         Contact(method=ngc.Nitsche(gamma0=5.0), gamma0=7)
     with pytest.raises(ValueError, match="Contact.theta = -1 means nothing with method Penalty"):
         Contact(method=ngc.Penalty(), theta=-1)
