@@ -175,11 +175,6 @@ def check(method):
         raise TypeError(f"Contact.method must be a method object, got the class {method.__qualname__}: "
                         f"give an instance, e.g. {method.__qualname__}()")
     missing = _missing(method, ("name",) + FLAGS + CALLS)
-    if not missing:
-        if not method.distributable:
-            missing += _missing(method, ("serial_only",))
-        if not method.takes_obstacle:
-            missing += _missing(method, ("check_obstacle",))
     if missing:
         _refuse(method, f"lacks {', '.join(missing)}")
     if not isinstance(method.name, str) or not method.name:
@@ -187,6 +182,11 @@ def check(method):
     wrong = [f"{n} = {getattr(method, n)!r}" for n in FLAGS if not isinstance(getattr(method, n), (bool, np.bool_))]
     if wrong:
         _refuse(method, f"has {', '.join(wrong)}: each must be True or False")
+    missing = [f"{n} (needed as its {flag} is False)" for n, flag in (("serial_only", "distributable"),
+                                                                      ("check_obstacle", "takes_obstacle"))
+               if not getattr(method, flag) and not hasattr(method, n)]
+    if missing:
+        _refuse(method, f"lacks {' and '.join(missing)}")
     if not method.distributable and not (isinstance(method.serial_only, tuple) and len(method.serial_only) == 2
                                          and all(isinstance(w, str) for w in method.serial_only)):
         _refuse(method, f"has serial_only = {method.serial_only!r}: it must be (what it is, why it runs on one "
