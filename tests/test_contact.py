@@ -394,3 +394,25 @@ def test_a_user_methods_class_and_parameters_are_in_the_fingerprint():
     assert fingerprint.differences(prints[0], prints[2]) == []
     assert not any(k.startswith("contact.method.") for k in prints[3])
     assert (prints[3]["contact.theta"], prints[3]["contact.gamma0"], prints[3]["contact.penalty"]) == (1, 10.0, 1e4)
+
+
+def test_a_user_methods_parameters_come_from_parameters_or_its_public_attributes():
+    """``parameters()`` where the method has it; else its attributes without the private ones
+    (a cache of its own is no parameter)."""
+    from ngcontact.output import fingerprint
+
+    class Cached(_Layer):
+        def build(self, body, contact, side, **kw):
+            self._terms = super().build(body, contact, side, **kw)
+            return self._terms
+
+    class Declared(_Layer):
+        def parameters(self):
+            return {"ε factor": self.factor, "law": "linear"}
+
+    cached = pressed_plate(Contact(gap=GAP, method=Cached(1e4)), maxh=0.02).fingerprint(1.0)
+    declared = pressed_plate(Contact(gap=GAP, method=Declared(2e4)), maxh=0.02).fingerprint(1.0)
+    assert {k: v for k, v in cached.items() if k.startswith("contact.method.parameters")} == {
+        "contact.method.parameters.factor": 1e4}
+    assert {k: v for k, v in declared.items() if k.startswith("contact.method.parameters")} == {
+        "contact.method.parameters.law": "linear", "contact.method.parameters.ε factor": 2e4}

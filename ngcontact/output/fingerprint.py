@@ -17,10 +17,10 @@ never continued with another scene. Its fields (one key each, e.g. ``contact.gam
   own data; a method object of another class than the package's (``enforcement.METHODS``)
   adds ``contact.method.class`` (its module and qualified name) and
   ``contact.method.parameters.<name>`` for each of its parameters (its ``parameters()`` if it
-  has one, else a dataclass's fields, else ``vars()``: values as plain JSON values,
-  CoefficientFunctions sampled on Γ3, functions by their qualified name, other objects by
-  their repr where their class defines one, else by their class name), so that two methods
-  of the user's that differ in a parameter are two scenes;
+  has one, else a dataclass's fields, else ``vars()`` without names starting with "_":
+  values as plain JSON values, CoefficientFunctions sampled on Γ3, functions by their
+  qualified name, other objects by their repr where their class defines one, else by their
+  class name), so that two methods of the user's that differ in a parameter are two scenes;
 * ``loads.*``: every entry of ``Loads``, keyed by its boundary;
 * ``options.*``: the options of ``Simulation`` that change the results: Newton's rtol and
   maxit, the electric choice (``Simulation.electric``), the predictor, Newton's step limit and globalisation,
@@ -226,7 +226,8 @@ def _method_parameters(method, sampled):
     elif dataclasses.is_dataclass(method):
         found = {f.name: getattr(method, f.name) for f in dataclasses.fields(method)}
     else:
-        found = dict(vars(method)) if hasattr(method, "__dict__") else {}
+        found = {k: v for k, v in vars(method).items() if not str(k).startswith("_")} \
+            if hasattr(method, "__dict__") else {}                  # (private attributes are no parameters)
     return {str(k): _parameter(v, sampled) for k, v in sorted(found.items(), key=lambda item: str(item[0]))}
 
 

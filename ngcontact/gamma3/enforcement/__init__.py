@@ -63,7 +63,7 @@ class Method(Protocol):
     def parameters(self) -> dict:
         """Optional: {name: plain value (number, str, bool, None, or lists of them)} of its
         parameters for the run's fingerprint. Without it the fingerprint takes a dataclass's
-        fields, else ``vars(method)``."""
+        fields, else ``vars(method)`` without the names that start with "_"."""
 
     def build(self, body, contact, side, *, gap, coefficients, normal) -> "Enforcement":
         """Its Γ3 expressions: the Body, the Contact data, the ContactSide Γ3, the gap g
