@@ -285,7 +285,8 @@ def test_a_method_of_the_users_runs_without_an_edit_of_the_package():
 
 
 def test_a_method_object_and_contacts_fields_must_agree():
-    with pytest.raises(ValueError, match="Contact.gamma0 = 7 disagrees with the method"):
+    with pytest.raises(ValueError, match=r"Contact.gamma0 = 7 contradicts method=Nitsche\(theta=1, gamma0=5.0\) "
+                                         r"\(its gamma0 is 5.0\): give gamma0 in one place"):
         Contact(method=ngc.Nitsche(gamma0=5.0), gamma0=7)
     with pytest.raises(ValueError, match="Contact.theta = -1 means nothing with method Penalty"):
         Contact(method=ngc.Penalty(), theta=-1)
@@ -296,3 +297,122 @@ def test_a_method_object_and_contacts_fields_must_agree():
     with pytest.raises(TypeError, match="Contact.method must be one of .* or a method object"):
         Contact(method=object())
     assert Contact(method=ngc.Nitsche(theta=0, gamma0=5.0)).theta == 0
+
+
+@pytest.mark.parametrize("data, words", [
+    (dict(method=ngc.Nitsche(theta=-1), theta=1), r"Contact.theta = 1 contradicts method=Nitsche\(theta=-1, "),
+    (dict(method=ngc.Nitsche(gamma0=5.0), gamma0=10.0), r"Contact.gamma0 = 10.0 contradicts method=Nitsche\("),
+    (dict(method=ngc.Penalty(1e4), penalty=1e3), r"Contact.penalty = 1000.0 contradicts method=Penalty\("),
+    (dict(method="penalty", gamma0=10.0), r"Contact.gamma0 = 10.0 means nothing with method 'penalty'"),
+    (dict(method="active_set", penalty=1e3), r"Contact.penalty = 1000.0 means nothing with method 'active_set'"),
+    (dict(penalty=1e3), r"Contact.penalty = 1000.0 means nothing with method 'nitsche'"),
+    (dict(method=ngc.NodalConstraint(), theta=1), r"Contact.theta = 1 means nothing with method NodalConstraint\(\)"),
+])
+def test_only_the_parameters_given_count_and_each_must_fit_the_method(data, words):
+    """θ, γ0 and penalty given are compared with the method (also at the values they default
+    to): a contradiction with the method object, or one the method does not take, is refused."""
+    with pytest.raises(ValueError, match=words):
+        Contact(**data)
+
+
+def test_the_parameters_left_out_take_the_methods_and_replace_round_trips():
+    import dataclasses
+    from ngcontact.gamma3.contact import NOT_GIVEN
+    nitsche, penalty = Contact(gap=GAP), Contact(gap=GAP, method="penalty")
+    assert (nitsche.theta, nitsche.gamma0, nitsche.penalty) == (1, 10.0, NOT_GIVEN)
+    assert (penalty.theta, penalty.gamma0, penalty.penalty) == (NOT_GIVEN, NOT_GIVEN, 1e3)
+    assert Contact(method=ngc.Nitsche(theta=-1), theta=-1).enforcement_method == ngc.Nitsche(theta=-1)
+    for contact in (nitsche, penalty, Contact(method=ngc.Nitsche(theta=0, gamma0=3.0))):
+        again = dataclasses.replace(contact, gap=1e-5)
+        assert again.enforcement_method == contact.enforcement_method and again.gap == 1e-5
+
+
+class _Layer:
+    """A complete method of the user's (the penalty law) with one parameter."""
+    name, keeps_symmetry, skew_symmetric = "layer", True, False
+    condensable, distributable, takes_obstacle = True, True, True
+
+    def __init__(self, factor):
+        self.factor = factor
+
+    def contact_fields(self):
+        return {}
+
+    def stiffness_factors(self):
+        return {"the layer": self.factor}
+
+    def flags(self):
+        return []
+
+    def build(self, body, contact, side, *, gap, coefficients, normal):
+        from ngcontact.gamma3.enforcement.penalty import PenaltyTerms
+        return PenaltyTerms(self, body, gap=gap, coefficients=coefficients, normal=normal)
+
+
+def _lacking(*names, **changes):
+    members = {n: getattr(_Layer, n) for n in ("name", "keeps_symmetry", "skew_symmetric", "condensable",
+                                                "distributable", "takes_obstacle", "contact_fields",
+                                                "stiffness_factors", "flags", "build", "__init__")}
+    return type("Lacking", (), {**{k: v for k, v in members.items() if k not in names}, **changes})(1e4)
+
+
+@pytest.mark.parametrize("names, changes, words", [
+    (("condensable",), {}, "lacks condensable"),
+    (("flags", "contact_fields"), {}, "lacks contact_fields, flags"),
+    ((), dict(distributable=False), r"lacks serial_only \(needed as its distributable is False\)"),
+    ((), dict(takes_obstacle=False), r"lacks check_obstacle \(needed as its takes_obstacle is False\)"),
+    ((), dict(condensable="yes"), "has condensable = 'yes': each must be True or False"),
+    ((), dict(contact_fields=lambda self: {"gamma": 1}), r"returned \{'gamma': 1\} from contact_fields\(\)"),
+    ((), dict(build=lambda self, body: None), "has a build that does not take"),
+])
+def test_a_user_method_is_checked_member_by_member_at_contact(names, changes, words):
+    with pytest.raises(TypeError, match=rf"Contact.method: the method object .*Lacking {words}"):
+        Contact(method=_lacking(*names, **changes))
+    with pytest.raises(TypeError, match=r"got the class _Layer: give an instance, e.g. _Layer\(\)"):
+        Contact(method=_Layer)
+
+
+def test_what_a_user_methods_build_returns_is_checked():
+    class Nothing(_Layer):
+        def build(self, body, contact, side, **kw):
+            return None
+
+    with pytest.raises(TypeError, match=r"Contact.method: .*Nothing.build returned None: it must return the Γ3 "
+                                        r"expressions .*Enforcement"):
+        pressed_plate(Contact(gap=GAP, method=Nothing(1e4)), maxh=0.02)
+
+
+def test_a_user_methods_class_and_parameters_are_in_the_fingerprint():
+    """Two user methods that differ in a parameter are two scenes; the package's methods keep
+    their fields (no class, no parameters: earlier runs keep their fingerprint)."""
+    from ngcontact.output import fingerprint
+    prints = [pressed_plate(Contact(gap=GAP, method=m), maxh=0.02).fingerprint(1.0)
+              for m in (_Layer(1e4), _Layer(2e4), _Layer(1e4), ngc.Penalty(1e4))]
+    assert prints[0]["contact.method.class"] == "test_contact._Layer"
+    assert prints[0]["contact.method.parameters.factor"] == 1e4
+    assert [k for k, _, _ in fingerprint.differences(prints[0], prints[1])] == ["contact.method.parameters.factor"]
+    assert fingerprint.differences(prints[0], prints[2]) == []
+    assert not any(k.startswith("contact.method.") for k in prints[3])
+    assert (prints[3]["contact.theta"], prints[3]["contact.gamma0"], prints[3]["contact.penalty"]) == (1, 10.0, 1e4)
+
+
+def test_a_user_methods_parameters_come_from_parameters_or_its_public_attributes():
+    """``parameters()`` where the method has it; else its attributes without the private ones
+    (a cache of its own is no parameter)."""
+    from ngcontact.output import fingerprint
+
+    class Cached(_Layer):
+        def build(self, body, contact, side, **kw):
+            self._terms = super().build(body, contact, side, **kw)
+            return self._terms
+
+    class Declared(_Layer):
+        def parameters(self):
+            return {"ε factor": self.factor, "law": "linear"}
+
+    cached = pressed_plate(Contact(gap=GAP, method=Cached(1e4)), maxh=0.02).fingerprint(1.0)
+    declared = pressed_plate(Contact(gap=GAP, method=Declared(2e4)), maxh=0.02).fingerprint(1.0)
+    assert {k: v for k, v in cached.items() if k.startswith("contact.method.parameters")} == {
+        "contact.method.parameters.factor": 1e4}
+    assert {k: v for k, v in declared.items() if k.startswith("contact.method.parameters")} == {
+        "contact.method.parameters.law": "linear", "contact.method.parameters.ε factor": 2e4}

@@ -18,6 +18,7 @@ from ngcontact.model.admissible import GapCheck
 from ngcontact.gamma3.contact_side import ContactSide
 from ngcontact.model.loads import as_cf
 from ngcontact.gamma3.obstacles import check_normal
+from ngcontact.gamma3.enforcement import built
 
 
 @dataclass(frozen=True)
@@ -78,8 +79,8 @@ def build(body, contact, system, realcompile=False):
         if sampled_normal is not None:
             check_normal(side, gap, normal, body.size)
     beta = BondingField(side, contact)
-    enforcement = contact.enforcement_method.build(body, contact, side, gap=gap, coefficients=coefficients,
-                                                   normal=normal)
+    enforcement = built(contact.enforcement_method, body, contact, side, gap=gap, coefficients=coefficients,
+                        normal=normal)                    # checked: the Enforcement protocol
 
     def terms(state, test):
         return body.weighted(forms.contact_terms(contact, enforcement, beta.gf, gap, foundation_potential, state,

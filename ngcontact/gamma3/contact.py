@@ -7,8 +7,30 @@ import ngsolve as ngs
 from ngcontact.gamma3 import contact_laws as laws
 from ngcontact.checks import number, parameters
 from ngcontact.model.loads import as_cf
-from ngcontact.gamma3.enforcement import METHODS, resolve
+from ngcontact.gamma3 import enforcement
+from ngcontact.gamma3.enforcement import CONTACT_FIELDS, METHODS, resolve
 from ngcontact.gamma3.obstacles import OBSTACLES
+
+
+class _NotGiven:
+    """The default of ``Contact.theta``, ``gamma0`` and ``penalty``: not given (a method that
+    has the parameter takes its own default)."""
+    __slots__ = ()
+
+    def __repr__(self):
+        return "NOT_GIVEN"
+
+    def __reduce__(self):                # pickled and copied as the one object
+        return "NOT_GIVEN"
+
+
+NOT_GIVEN = _NotGiven()
+"""A parameter of ``Contact`` left out: given explicitly it means the same."""
+
+MEANING = {"theta": "θ, the variant of Nitsche's method (method='nitsche' or Nitsche(theta=...))",
+           "gamma0": "γ0, the parameter of Nitsche's method (method='nitsche' or Nitsche(gamma0=...))",
+           "penalty": "the factor of the penalty method (method='penalty' or Penalty(factor=...))"}
+"""What each of ``CONTACT_FIELDS`` stands for, for the refusal of one a method ignores."""
 
 
 @dataclass
@@ -49,11 +71,16 @@ class Contact:
             nodal constraint u_ν <= g at the nodes of Γ3, P1 only, with nodal multipliers) or
             one of the user's (``enforcement.Method``); or a shorthand of ``enforcement.METHODS``,
             "nitsche" (the default), "penalty" or "active_set", with the parameters below.
-        theta : 1 (symmetric), 0 (incomplete) or -1 (skew-symmetric); "nitsche" only.
-        gamma0 : γ0 > 0; γ = γ0 p² (stiffness)/h, see ``forms.boundary_stiffness``.
-        penalty : > 0, the penalty factor: ε = penalty p² (stiffness)/h; "penalty" only.
-    With a method object, theta, gamma0 and penalty are read from it (given here as well,
-    they must agree). ``enforcement_method`` is the method object either way.
+        theta : 1 (symmetric, the default), 0 (incomplete) or -1 (skew-symmetric); Nitsche only.
+        gamma0 : γ0 > 0 (default 10); γ = γ0 p² (stiffness)/h, see ``forms.boundary_stiffness``;
+            Nitsche only.
+        penalty : > 0 (default 1e3), the penalty factor: ε = penalty p² (stiffness)/h; the
+            penalty method only.
+    Only what is given counts (``NOT_GIVEN``, the default, is not a value): one of theta, gamma0,
+    penalty that the method does not take is refused (ValueError naming both), and with a
+    method object they are read from it (given here as well, they must agree, else a
+    ValueError naming both). Afterwards each holds the method's value, or ``NOT_GIVEN`` where
+    the method has no such parameter. ``enforcement_method`` is the method object either way.
     """
     gap: object = 0.0
     obstacle: object = None
@@ -68,24 +95,19 @@ class Contact:
     potential_truncation: float = 1e4
     foundation_potential: object = 0.0
     gating: str = "pressure"
-    theta: int = 1
-    gamma0: float = 10.0
+    theta: int = NOT_GIVEN
+    gamma0: float = NOT_GIVEN
     method: object = "nitsche"
-    penalty: float = 1e3
+    penalty: float = NOT_GIVEN
 
     def __post_init__(self):
         given = self.method
-        if not isinstance(given, str) and not (hasattr(given, "build") and hasattr(given, "keeps_symmetry")):
-            raise TypeError(f"Contact.method must be one of {', '.join(map(repr, METHODS))} or a method object "
-                            "(ngcontact.Nitsche, Penalty, NodalConstraint, or one with the protocol of "
-                            f"ngcontact.gamma3.enforcement.Method), got {given!r}")
-        if not isinstance(given, str):                 # θ, γ0, penalty: the object's
-            for name, value in given.contact_fields().items():
-                default = type(self).__dataclass_fields__[name].default
-                if getattr(self, name) != default and getattr(self, name) != value:
-                    raise ValueError(f"Contact.{name} = {getattr(self, name)!r} disagrees with the method "
-                                     f"{given!r}: give {name} to the method only")
-                setattr(self, name, value)
+        if not isinstance(given, str):
+            if not isinstance(given, type) and not any(hasattr(given, n) for n in ("build", "keeps_symmetry", "name")):
+                raise TypeError(f"Contact.method must be one of {', '.join(map(repr, METHODS))} or a method object "
+                                "(ngcontact.Nitsche, Penalty, NodalConstraint, or one with the protocol of "
+                                f"ngcontact.gamma3.enforcement.Method), got {given!r}")
+            enforcement.check(given)                   # every member of the protocol
         for name, allowed, words in (("method", tuple(METHODS), "one of " + ", ".join(map(repr, METHODS))),
                                      ("gating", ("gap", "pressure"), "'gap' or 'pressure'"),
                                      ("beta_update", ("explicit", "implicit"), "'explicit' or 'implicit'")):
@@ -95,16 +117,28 @@ class Contact:
             if not isinstance(value, str) or value not in allowed:
                 raise (ValueError if isinstance(value, str) else TypeError)(
                     f"Contact.{name} must be {words}, got {value!r}")
-        number("Contact.penalty", self.penalty, 0, low_open=True)
-        if isinstance(self.theta, bool) or not isinstance(self.theta, numbers.Real):
-            raise TypeError(f"Contact.theta must be 1, 0 or -1, got {self.theta!r} ({type(self.theta).__name__})")
-        if self.theta not in (1, 0, -1):
-            raise ValueError(f"Contact.theta must be 1, 0 or -1, got {self.theta!r}")
-        number("Contact.gamma0 (Nitsche parameter)", self.gamma0, 0, low_open=True)
+        if self.penalty is not NOT_GIVEN:
+            number("Contact.penalty", self.penalty, 0, low_open=True)
+        if self.theta is not NOT_GIVEN:
+            if isinstance(self.theta, bool) or not isinstance(self.theta, numbers.Real):
+                raise TypeError(f"Contact.theta must be 1, 0 or -1, got {self.theta!r} ({type(self.theta).__name__})")
+            if self.theta not in (1, 0, -1):
+                raise ValueError(f"Contact.theta must be 1, 0 or -1, got {self.theta!r}")
+        if self.gamma0 is not NOT_GIVEN:
+            number("Contact.gamma0 (Nitsche parameter)", self.gamma0, 0, low_open=True)
+        # theta, gamma0 and penalty as given: ``from_contact`` of a shorthand reads them
+        self.given_parameters = {n: getattr(self, n) for n in CONTACT_FIELDS if getattr(self, n) is not NOT_GIVEN}
         self.enforcement_method = resolve(self)
-        if self.theta != 1 and "theta" not in self.enforcement_method.contact_fields():
-            raise ValueError(f"Contact.theta = {self.theta!r} means nothing with method {self.method!r}: θ chooses "
-                             "the variant of Nitsche's method (method='nitsche'); leave theta at 1")
+        fields = self.enforcement_method.contact_fields()
+        for name, value in self.given_parameters.items():
+            if name not in fields:
+                raise ValueError(f"Contact.{name} = {value!r} means nothing with method {given!r}: {name} is "
+                                 f"{MEANING[name]}; leave {name} out")
+            if not isinstance(given, str) and value != fields[name]:
+                raise ValueError(f"Contact.{name} = {value!r} contradicts method={given!r} (its {name} is "
+                                 f"{fields[name]!r}): give {name} in one place")
+        for name in CONTACT_FIELDS:                     # the method's values, as it uses them
+            setattr(self, name, fields.get(name, NOT_GIVEN))
         number("Contact.bond_length", self.bond_length, 0, low_open=True, unit="m")
         number("Contact.ramp_width", self.ramp_width, 0, low_open=True, unit="m")
         number("Contact.potential_truncation", self.potential_truncation, 0, low_open=True, unit="V")
@@ -134,6 +168,9 @@ class Contact:
                                  "obstacle (the gap comes from it), not both")
             if not self.enforcement_method.takes_obstacle:
                 self.enforcement_method.check_obstacle()
+                raise ValueError(f"Contact: the method {given!r} takes no obstacle (its takes_obstacle is False), "
+                                 "but its check_obstacle() did not refuse one; give gap, or a method that takes "
+                                 "an obstacle")
         for name in ("compliance", "conductance"):
             if isinstance(getattr(self, name), ngs.CoefficientFunction):
                 raise TypeError(f"Contact.{name} must be a number >= 0 or a function r ↦ "

@@ -12,8 +12,15 @@ never continued with another scene. Its fields (one key each, e.g. ``contact.gam
 * ``material.*``: c, e, eps, eta and poling (the data as given, SI units), a law's name,
   sampled constants and tangent at 0;
 * ``contact.*``: every field of ``Contact`` (``contact`` is None without a contact law; the
-  method by its name, its parameters in ``theta``, ``gamma0``, ``penalty``) and
-  ``contact.obstacle.*``, the obstacle's own data;
+  method by its name, its parameters in ``theta``, ``gamma0``, ``penalty``, each the Contact's
+  default where the method has none, ``UNUSED``) and ``contact.obstacle.*``, the obstacle's
+  own data; a method object of another class than the package's (``enforcement.METHODS``)
+  adds ``contact.method.class`` (its module and qualified name) and
+  ``contact.method.parameters.<name>`` for each of its parameters (its ``parameters()`` if it
+  has one, else a dataclass's fields, else ``vars()`` without names starting with "_":
+  values as plain JSON values, CoefficientFunctions sampled on Γ3, functions by their
+  qualified name, other objects by their repr where their class defines one, else by their
+  class name), so that two methods of the user's that differ in a parameter are two scenes;
 * ``loads.*``: every entry of ``Loads``, keyed by its boundary;
 * ``options.*``: the options of ``Simulation`` that change the results: Newton's rtol and
   maxit, the electric choice (``Simulation.electric``), the predictor, Newton's step limit and globalisation,
@@ -53,7 +60,8 @@ import numpy as np
 
 from ngcontact import parallel
 from ngcontact.solve.linalg.solver_choice import describe
-from ngcontact.gamma3.contact import Contact
+from ngcontact.gamma3.contact import NOT_GIVEN, Contact
+from ngcontact.gamma3.enforcement import METHODS
 from ngcontact.model.loads import Loads
 from ngcontact.model.materials import Material
 
@@ -175,6 +183,11 @@ def _by(a, b):
     return f" (differing by up to {np.abs(np.subtract(a, b, dtype=float)).max():.3g})"
 
 
+UNUSED = {"theta": 1, "gamma0": 10.0, "penalty": 1e3}
+"""The values ``contact.theta``, ``contact.gamma0`` and ``contact.penalty`` take where the
+method has no such parameter (``Contact``'s defaults, so that earlier runs keep their fingerprint)."""
+
+
 def _contact(contact, body, sample):
     """The ``contact.*`` fields."""
     if contact is None:
@@ -183,8 +196,15 @@ def _contact(contact, body, sample):
     found = {"contact": "Contact"}
     for f in dataclasses.fields(Contact):
         value = getattr(contact, f.name)
-        if f.name == "method":          # its name; the parameters of a built-in one are the fields θ, γ0, penalty
-            found["contact.method"] = contact.enforcement_method.name
+        if f.name in UNUSED and value is NOT_GIVEN:
+            found[f"contact.{f.name}"] = UNUSED[f.name]
+        elif f.name == "method":        # its name; the parameters of a built-in one are the fields θ, γ0, penalty
+            method = contact.enforcement_method
+            found["contact.method"] = method.name
+            if type(method) not in METHODS.values():
+                found["contact.method.class"] = f"{type(method).__module__}.{type(method).__qualname__}"
+                found.update({f"contact.method.parameters.{k}": v
+                              for k, v in _method_parameters(method, lambda v: sample(v, gamma3)).items()})
         elif f.name == "obstacle":
             found["contact.obstacle"] = None if value is None else type(value).__name__
             if value is not None:
@@ -194,6 +214,43 @@ def _contact(contact, body, sample):
         else:
             found[f"contact.{f.name}"] = sample(value, gamma3)
     return found
+
+
+def _method_parameters(method, sampled):
+    """{name: value} of a method object's parameters as JSON values (see the module)."""
+    if callable(getattr(method, "parameters", None)):
+        found = method.parameters()
+        if not isinstance(found, dict):
+            raise TypeError(f"Contact.method: {type(method).__qualname__}.parameters() returned {found!r}: it must "
+                            "be a dict {name: value} of the method's parameters (for the run's fingerprint)")
+    elif dataclasses.is_dataclass(method):
+        found = {f.name: getattr(method, f.name) for f in dataclasses.fields(method)}
+    else:
+        found = {k: v for k, v in vars(method).items() if not str(k).startswith("_")} \
+            if hasattr(method, "__dict__") else {}                  # (private attributes are no parameters)
+    return {str(k): _parameter(v, sampled) for k, v in sorted(found.items(), key=lambda item: str(item[0]))}
+
+
+def _parameter(value, sampled):
+    """One parameter of a method as a JSON value: plain data as ``_plain``, CoefficientFunctions
+    sampled, containers entry by entry, other objects by their repr if their class has one of
+    its own (not an address), else by their class name."""
+    if isinstance(value, ngs.CoefficientFunction):
+        return sampled(value)
+    if isinstance(value, dict):
+        return {str(k): _parameter(v, sampled) for k, v in value.items()}
+    if isinstance(value, (tuple, list)):
+        return [_parameter(v, sampled) for v in value]
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {"class": type(value).__qualname__,
+                **{f.name: _parameter(getattr(value, f.name), sampled) for f in dataclasses.fields(value)}}
+    if isinstance(value, numbers.Complex) and not isinstance(value, numbers.Real):
+        return [_plain(value.real), _plain(value.imag)]
+    if value is None or isinstance(value, (bool, str, numbers.Number, np.ndarray, np.generic)):
+        return _plain(value)
+    if callable(value):
+        return f"{getattr(value, '__module__', '')}.{getattr(value, '__qualname__', type(value).__qualname__)}"
+    return repr(value) if type(value).__repr__ is not object.__repr__ else type(value).__qualname__
 
 
 def _mesh(mesh, size):

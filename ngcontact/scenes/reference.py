@@ -70,12 +70,14 @@ def loads(t, dim=2, history=LOAD_HISTORY):
     return ngc.Loads(f2={"top": (0,) * (dim - 1) + (-pressure(t, history),)})
 
 
-def contact(theta=1, gamma0=10.0, bare=False, **changes):
-    """The Γ3 data ``CONTACT`` with Nitsche's θ and γ0; ``bare=True``: no glue and an
-    insulating foundation (γ_ν = k_e = 0, Signorini contact across the gap), so that with
-    θ = 1 the step Jacobian is symmetric; ``changes`` replace any Contact field."""
+def contact(theta=None, gamma0=None, bare=False, **changes):
+    """The Γ3 data ``CONTACT`` with Nitsche's θ and γ0 (None: not given, Contact's 1 and 10);
+    ``bare=True``: no glue and an insulating foundation (γ_ν = k_e = 0, Signorini contact
+    across the gap), so that with θ = 1 the step Jacobian is symmetric; ``changes`` replace
+    any Contact field (another method: θ and γ0 left out)."""
     data = dict(CONTACT, adhesion=0.0, conductance=0.0) if bare else dict(CONTACT)
-    return ngc.Contact(**{**data, "theta": theta, "gamma0": gamma0, **changes})
+    nitsche = {k: v for k, v in (("theta", theta), ("gamma0", gamma0)) if v is not None}
+    return ngc.Contact(**{**data, **nitsche, **changes})
 
 
 _contact = contact          # for simulation(), whose parameter ``contact`` hides the function

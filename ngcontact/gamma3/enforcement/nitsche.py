@@ -55,8 +55,9 @@ class Nitsche:
 
     @classmethod
     def from_contact(cls, contact):
-        """The method of ``Contact(method="nitsche", theta=..., gamma0=...)``."""
-        return cls(contact.theta, contact.gamma0)
+        """The method of ``Contact(method="nitsche", theta=..., gamma0=...)`` (its defaults for
+        those not given)."""
+        return cls(**{k: v for k, v in contact.given_parameters.items() if k in ("theta", "gamma0")})
 
     def contact_fields(self):
         """The fields of ``Contact`` that stand for this method's parameters."""

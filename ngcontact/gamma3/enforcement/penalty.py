@@ -37,8 +37,9 @@ class Penalty:
 
     @classmethod
     def from_contact(cls, contact):
-        """The method of ``Contact(method="penalty", penalty=...)``."""
-        return cls(contact.penalty)
+        """The method of ``Contact(method="penalty", penalty=...)`` (its default factor if not given)."""
+        given = contact.given_parameters
+        return cls(given["penalty"]) if "penalty" in given else cls()
 
     def contact_fields(self):
         """The fields of ``Contact`` that stand for this method's parameters."""
