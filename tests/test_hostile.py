@@ -196,12 +196,15 @@ class Correct:
 
 @dataclass(frozen=True)
 class CliError:
-    """Exit status 2 within CLI_LIMIT s, one line on stderr naming the ``words``, no traceback
-    (besides one-line warnings, "ngcontact: warning: ...", printed before it)."""
+    """Exit status 2 within CLI_LIMIT s (``within`` s for an error that comes after the work, a
+    run that fails by name), one line on stderr naming the ``words``, no traceback (besides
+    one-line warnings, "ngcontact: warning: ...", printed before it)."""
     words: tuple
+    within: float = CLI_LIMIT
 
-    def __init__(self, *words):
+    def __init__(self, *words, within=CLI_LIMIT):
         object.__setattr__(self, "words", words)
+        object.__setattr__(self, "within", within)
 
     def problem(self, outcome, references):
         if outcome.kind != "returned":
@@ -217,7 +220,7 @@ class CliError:
         missing = _named(lines[0], self.words)
         if missing:
             return f"the line does not name {'/'.join(missing)}: {_line(lines[0])}"
-        if outcome.elapsed > CLI_LIMIT:
+        if outcome.elapsed > self.within:
             return f"exit 2 after {outcome.elapsed:.1f} s: {_line(lines[0])}"
         return None
 
@@ -1163,7 +1166,7 @@ def python_m(argv, ctx):
     return dict(code=done.returncode, stderr=done.stderr)
 
 
-def cli(arguments, words, base=None, process=False, slow=False):
+def cli(arguments, words, base=None, process=False, slow=False, within=CLI_LIMIT):
     argv = arguments.split()
     command = argv[0] if argv else ""
     full = argv[:1] + (CHEAP.get(command, []) if base is None else []) + argv[1:]
@@ -1173,7 +1176,7 @@ def cli(arguments, words, base=None, process=False, slow=False):
     else:
         call = lambda ctx, a=full, b=base: command_line(a, ctx, b)
         label = arguments or "(no command)"
-    case("cli", label, call, CliError(*words.split(",")) if words else CliError(), needs=(base,) if base else (),
+    case("cli", label, call, CliError(*(words.split(",") if words else ()), within=within), needs=(base,) if base else (),
          slow=slow)
 
 
@@ -1231,7 +1234,7 @@ PROCESS_CASES = ["demo --order abc", "demo --maxh 1e-6", "demo --refine 12", "de
                  "stability --out /proc/hostile", ""]
 for arguments, words in CLI_CASES:
     cli(arguments, words, process=True, slow=arguments not in PROCESS_CASES)
-cli("demo --steps 2 --maxh 0.02 --gamma0 1e-6", "step|gamma0", process=True)
+cli("demo --steps 2 --maxh 0.02 --gamma0 1e-6", "step|gamma0", process=True, within=HANG["cli"])   # fails by name
 
 
 # ----------------------------------------------------------------------------- classes of the newer features
