@@ -56,7 +56,8 @@ def parser():
                                "foundation, then pulled off")
     demo.add_argument("--order", metavar="P", type=int, default=1,
                       help="polynomial order of u and φ (default 1, the paper's P1)")
-    demo.add_argument("--out", metavar="DIR", type=_directory, default="results", help="output directory (default results)")
+    demo.add_argument("--out", metavar="DIR", type=_directory, default="results",
+                      help="output directory (default results)")
     demo.add_argument("--maxh", metavar="H", type=float, help="mesh size in m (default 0.005 in 2D, 0.01 in 3D)")
     demo.add_argument("--dim", type=int, choices=(2, 3), default=2, help="2D plate (default) or 3D block")
     demo.add_argument("--refine", metavar="K", type=int, default=0,
@@ -207,7 +208,8 @@ def _cluster_parser(commands, common):
                                   "rank and contact forces per solver and number of ranks, a scaling model (runs.csv, "
                                   "summary.md, model.json, charts); --factorisations: UMFPACK against MUMPS; not under "
                                   "mpiexec")
-    cluster.add_argument("--out", metavar="DIR", type=_directory, default="cluster", help="output directory (default cluster)")
+    cluster.add_argument("--out", metavar="DIR", type=_directory, default="cluster",
+                         help="output directory (default cluster)")
     cluster.add_argument("--scene", choices=("plate", "block"), default="plate",
                          help="the reference scene: the 2D plate (default) or the 3D block")
     cluster.add_argument("--orders", metavar="P", type=int, nargs="+", default=[1],
