@@ -28,8 +28,12 @@ that is not positive, limits that are not positive integers or a DOF limit beyon
 memory or below the first mesh's DOFs, a scene that is not a function of the mesh or a mesh
 that is not an ngsolve.Mesh, a mesh that cannot be refined (no geometry, distributed), what the
 estimator cannot estimate (``estimators.equilibrated.check``: nonlinear laws, weak normal
-supports), callbacks that are not functions, and streaming a history (``out=``, ``vtk=``: every
-level would write into one directory). A target not reached within the limits stops with every
+supports), callbacks that are not functions, streaming a history (``out=``, ``vtk=``: every
+level would write into one directory), and a scene whose Simulation has already stepped (or was
+resumed): ``step`` and ``solve`` adapt and certify the first step from the initial state, and
+``history`` the history from t = 0; the state a stepped scene starts from would be computed on
+each level's own mesh, so each level would solve another problem and the certificate would not
+be that of the step asked for. A target not reached within the limits stops with every
 level kept and the reason; a zero estimate (an exact discrete solution) stops as "target
 reached" (its relative estimate is 0), or, without a target, as "nothing to refine".
 """
@@ -183,6 +187,12 @@ def _build(scene, mesh):
         raise TypeError(f"scene(mesh) must return an ngcontact.Simulation, got {type(sim).__name__}")
     if sim.body.mesh is not mesh:
         raise ValueError("scene(mesh) must build its Simulation on the mesh it is given")
+    if len(sim.history) > 1:                     # stepped (or resumed) inside the scene
+        raise ValueError(f"scene(mesh) returned a Simulation that has already stepped ({len(sim.history) - 1} "
+                         f"step(s), t = {sim.t:g} s): the adaptation solves and certifies the steps from the "
+                         "initial state, and a step from a state computed on each level's own mesh is another "
+                         "problem on every level; return the Simulation before it steps (its start: u0=), or "
+                         "adapt the whole load history with adapt.history")
     estimable(sim)                               # before it is solved
     return sim, wallclock.perf_counter() - t0
 
@@ -315,12 +325,17 @@ def step(scene, mesh, dt, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5
 
 def solve(scene, mesh, tol, *, dt=1.0, fraction=0.5, max_levels=30, max_ndof=2e5, guess=None, on_level=None,
           stop_newton=0.1, polygonal=False, marking="averaging"):
-    """Solve one step of length dt (s) to a tolerance: refine until the equilibrated bound of
-    the energy error, relative to the energy of the discrete state, is at most ``tol``
+    """Solve the first step, of length dt (s) from the scene's initial state, to a tolerance:
+    refine until the equilibrated bound of the energy error, relative to the energy of the
+    discrete state, is at most ``tol``
     (certified: the last level's ``estimate`` is that bound), marking by the cheap averaging
     indicator (``MARKINGS``) and stopping Newton and GMRES at ``stop_newton`` times the
     estimate expected on each level (None: the fixed tolerances). ``step`` with these defaults;
-    returns its ``Adaptation`` (``reached`` False and the reason if a limit came first)."""
+    returns its ``Adaptation`` (``reached`` False and the reason if a limit came first). A
+    scene whose Simulation has already stepped is refused (ValueError, before its first solve):
+    its state at the start of the step would be computed anew on every level's mesh, so the
+    levels would solve different steps and none of them the step certified; to adapt a later
+    step, build the scene with the displacement it starts from as its initial one (``u0=``)."""
     if tol is None:
         raise ValueError("adapt.solve: tol must be a finite number > 0 (the relative estimate to certify), got None")
     return step(scene, mesh, dt, tol=tol, fraction=fraction, max_levels=max_levels, max_ndof=max_ndof, guess=guess,

@@ -2,7 +2,8 @@
 timesteps | timeorder | adapt | axisymmetric``.
 
 It parses the arguments and calls ``demo.run`` or a study's command; bad input and a failed
-Newton solve end in one line on stderr and exit status 2 (``main``).
+Newton solve end in one line on stderr and exit status 2 (``main``); ``adapt --tol`` that does
+not reach its tolerance within a scene's limits ends in one line and exit status 1.
 """
 import argparse
 import os
@@ -28,6 +29,15 @@ class _Parser(argparse.ArgumentParser):
         sys.exit(2)
 
 
+def _directory(text):
+    """An ``--out`` directory: refused if empty (a path of nothing would write into the working
+    directory); whether it can be written is checked by the command, before its work."""
+    if not text:
+        raise argparse.ArgumentTypeError(f"an empty path ({text!r}) names no directory (the files would land in the "
+                                         "working directory); give a directory, e.g. --out results")
+    return text
+
+
 def _one_line_warning(message, category, filename, lineno, file=None, line=None):
     """A warning (e.g. a ``PhysicsWarning``) as one line on stderr."""
     print(f"ngcontact: warning: {' '.join(str(message).split())}", file=sys.stderr)
@@ -46,7 +56,8 @@ def parser():
                                "foundation, then pulled off")
     demo.add_argument("--order", metavar="P", type=int, default=1,
                       help="polynomial order of u and φ (default 1, the paper's P1)")
-    demo.add_argument("--out", metavar="DIR", default="results", help="output directory (default results)")
+    demo.add_argument("--out", metavar="DIR", type=_directory, default="results",
+                      help="output directory (default results)")
     demo.add_argument("--maxh", metavar="H", type=float, help="mesh size in m (default 0.005 in 2D, 0.01 in 3D)")
     demo.add_argument("--dim", type=int, choices=(2, 3), default=2, help="2D plate (default) or 3D block")
     demo.add_argument("--refine", metavar="K", type=int, default=0,
@@ -83,7 +94,7 @@ def parser():
     conv.add_argument("--scheme", choices=tuple(ngcontact.schemes.SCHEMES), default="backward_euler",
                       help="time-step variant: the time scheme (default backward_euler, the paper's; bdf2 is "
                            "second order)")
-    conv.add_argument("--out", metavar="DIR", default="convergence", help="output directory")
+    conv.add_argument("--out", metavar="DIR", type=_directory, default="convergence", help="output directory")
     conv.add_argument("--resume", action="store_true",
                       help="reuse the runs already in OUT/cases (and the streamed fine run of --case reference)")
 
@@ -91,7 +102,7 @@ def parser():
                                "β time step, ν → 1/2, strong coupling, debonding, load cycles, laws, electrode contact, "
                                "pull-off): "
                                "<study>.csv and charts")
-    stab.add_argument("--out", metavar="DIR", default="stability", help="output directory")
+    stab.add_argument("--out", metavar="DIR", type=_directory, default="stability", help="output directory")
     stab.add_argument("--quick", action="store_true", help="fewer runs per study (about a third)")
     stab.add_argument("--resume", action="store_true", help="skip the studies whose <study>.csv is in OUT")
     stab.add_argument("--study", metavar="NAME", nargs="+", default=None,
@@ -100,7 +111,7 @@ def parser():
 
     hertz = commands.add_parser("hertz", parents=[common], help="contact on a curved side against Hertz (half-disk "
                                 "on a plane), obstacle normal and body normal: hertz.csv, hertz.md, a chart")
-    hertz.add_argument("--out", metavar="DIR", default="hertz", help="output directory")
+    hertz.add_argument("--out", metavar="DIR", type=_directory, default="hertz", help="output directory")
     hertz.add_argument("--orders", metavar="P", type=int, nargs="+", default=[1, 2])
     hertz.add_argument("--levels", metavar="N", type=int, default=4, help="nested meshes, h halving (default 4)")
     hertz.add_argument("--dim", type=int, choices=(2, 3), default=2, help="half-disk (2D) or half-ball (3D)")
@@ -108,7 +119,7 @@ def parser():
 
     bench = commands.add_parser("bench", parents=[common], help="time per step of the reference scene against one "
                                 "linear solve, orders x sizes: bench.csv and a chart")
-    bench.add_argument("--out", metavar="DIR", default="bench", help="output directory")
+    bench.add_argument("--out", metavar="DIR", type=_directory, default="bench", help="output directory")
     bench.add_argument("--dim", type=int, choices=(2, 3), default=2, help="2D plate or 3D block")
     bench.add_argument("--orders", metavar="P", type=int, nargs="+", default=[1, 2, 3, 4])
     bench.add_argument("--max-ndof", metavar="N", type=float, default=1e6,
@@ -146,7 +157,7 @@ def parser():
                                 "(fixed-k backward Euler and BDF2, error-controlled BDF2) on the reference plate "
                                 "(Nitsche, and the nodal constraint) and the debonding column: time_steps.csv, "
                                 "summary.csv and charts")
-    steps.add_argument("--out", metavar="DIR", default="timesteps", help="output directory")
+    steps.add_argument("--out", metavar="DIR", type=_directory, default="timesteps", help="output directory")
     steps.add_argument("--scene", nargs="+", choices=("plate", "plate-nodal", "column"),
                        default=["plate", "plate-nodal", "column"], help="the scenes (default: all three)")
     steps.add_argument("--maxh", metavar="H", type=float, default=0.01, help="the plate's mesh size in m (default 0.01)")
@@ -155,34 +166,35 @@ def parser():
     order = commands.add_parser("timeorder", parents=[common], help="the order in time of backward Euler and "
                                 "BDF2 on the glued column, against Radau on its semi-discrete system (lift-off, "
                                 "and debonding to β ≈ 4e-4): column_order.csv and chart")
-    order.add_argument("--out", metavar="DIR", default="timeorder", help="output directory")
+    order.add_argument("--out", metavar="DIR", type=_directory, default="timeorder", help="output directory")
     order.add_argument("--history", nargs="+", choices=("lift", "debond"), default=["lift", "debond"],
                        help="the load histories (default: both)")
     adapt = commands.add_parser("adapt", parents=[common], help="adaptive against uniform refinement "
                                 "(equilibrated estimate, Dörfler marking) on the manufactured contact case, the "
                                 "Hertz scenes and the reference plate: errors.csv, summary.csv and charts")
-    adapt.add_argument("--out", metavar="DIR", default="adapt", help="output directory")
+    adapt.add_argument("--out", metavar="DIR", type=_directory, default="adapt", help="output directory")
     adapt.add_argument("--scene", nargs="+", choices=("manufactured", "hertz", "hertz3d", "reference"),
                        default=["manufactured", "hertz"], help="the scenes (default: manufactured hertz)")
     adapt.add_argument("--orders", metavar="P", type=int, nargs="+", default=[1, 2],
                        help="polynomial orders (default 1 2; hertz3d runs P1 only)")
     adapt.add_argument("--stop-newton", metavar="F", type=float, default=None,
                        help="adaptive stopping: Newton stops once its correction is below F times the "
-                            "estimate (0 < F <= 1; default: the fixed tolerances)")
-    adapt.add_argument("--marking", choices=("equilibrated", "averaging"), default="equilibrated",
-                       help="what the adaptive runs mark by: the equilibrated estimate on every level (default), "
-                            "or the cheap averaging indicator with the equilibrated bound on the first and last "
-                            "levels (the study adds it on the others, outside the loop's time)")
+                            "estimate (0 < F <= 1; default: the fixed tolerances, with --tol 0.1)")
+    adapt.add_argument("--marking", choices=("equilibrated", "averaging"), default=None,
+                       help="what the adaptive runs mark by: the equilibrated estimate on every level (the study's "
+                            "default), or the cheap averaging indicator with the equilibrated bound on the first and "
+                            "last levels (the study adds it on the others, outside the loop's time; the default "
+                            "with --tol)")
     adapt.add_argument("--fraction", metavar="F", type=float, default=None,
                        help="the adaptive runs' Dörfler fraction (0 < F <= 1; default 0.5)")
     adapt.add_argument("--tol", metavar="TOL", type=float, default=None,
                        help="instead of the study: solve each scene's step to the relative estimate TOL "
-                            "(adapt.solve: averaging marking, the bound certifies the last level) and print "
-                            "its levels and certificate")
+                            "(1e-6 <= TOL < 1; adapt.solve: averaging marking, the bound certifies the last level) "
+                            "and print its levels and certificate; exit status 1 if a scene's limit comes first")
     axi = commands.add_parser("axisymmetric", parents=[common], help="the half-ball on a plane solved on its "
                               "meridian section (a body of revolution) against the 3D quarter-ball: pressure error "
                               "against wall time, axisymmetric.csv, axisymmetric.md and a chart")
-    axi.add_argument("--out", metavar="DIR", default="axisymmetric", help="output directory")
+    axi.add_argument("--out", metavar="DIR", type=_directory, default="axisymmetric", help="output directory")
     axi.add_argument("--rounds", metavar="N", type=int, default=2, help="interleaved repetitions (default 2)")
     axi.add_argument("--quick", action="store_true", help="the coarsest sizes only, one round (seconds)")
     return main_parser
@@ -196,7 +208,8 @@ def _cluster_parser(commands, common):
                                   "rank and contact forces per solver and number of ranks, a scaling model (runs.csv, "
                                   "summary.md, model.json, charts); --factorisations: UMFPACK against MUMPS; not under "
                                   "mpiexec")
-    cluster.add_argument("--out", metavar="DIR", default="cluster", help="output directory (default cluster)")
+    cluster.add_argument("--out", metavar="DIR", type=_directory, default="cluster",
+                         help="output directory (default cluster)")
     cluster.add_argument("--scene", choices=("plate", "block"), default="plate",
                          help="the reference scene: the 2D plate (default) or the 3D block")
     cluster.add_argument("--orders", metavar="P", type=int, nargs="+", default=[1],
@@ -235,7 +248,9 @@ def main(argv=None):
     mpiexec rank 0 prints it and every rank exits. Options that need an engine that is not
     installed, and commands that would run nothing, are refused before any work
     (``_refuse_before_work``). ``--traceback`` (or NGCONTACT_TRACEBACK=1) shows the full
-    traceback instead. Warnings (``PhysicsWarning``) print one line each."""
+    traceback instead. Warnings (``PhysicsWarning``) print one line each. A computation that
+    ran but missed its target (``adapt --tol`` not reached) prints one line and exits with
+    status 1."""
     args = parser().parse_args(argv)
     warnings.showwarning = _one_line_warning
     try:
@@ -326,11 +341,19 @@ def _dispatch(args):
     elif args.command == "adapt":
         from ngcontact.studies import adaptivity
         if args.tol is not None:
-            adaptivity.to_tolerance(args.tol, scenes=tuple(args.scene), orders=tuple(args.orders),
-                                    fraction=args.fraction)
+            results = adaptivity.to_tolerance(args.tol, scenes=tuple(args.scene), orders=tuple(args.orders),
+                                              fraction=args.fraction, marking=args.marking,
+                                              stop_newton=args.stop_newton)
+            missed = [f"{name} P{order} ({result.reason}: relative estimate {result.last.relative:.3g})"
+                      for (name, order), result in results.items() if not result.reached]
+            if missed:       # a run that did not certify its tol is not a success
+                print(f"ngcontact adapt: --tol {args.tol:g} NOT reached for {', '.join(missed)}; the levels computed "
+                      "are printed above; ask for a larger --tol", file=sys.stderr)
+                sys.exit(1)
         else:
             adaptivity.main(args.out, scenes=tuple(args.scene), orders=tuple(args.orders),
-                            stop_newton=args.stop_newton, marking=args.marking, fraction=args.fraction)
+                            stop_newton=args.stop_newton, marking=args.marking or "equilibrated",
+                            fraction=args.fraction)
     elif args.command == "axisymmetric":
         from ngcontact import checks
         from ngcontact.studies import axisymmetric

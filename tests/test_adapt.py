@@ -192,3 +192,24 @@ def test_a_level_keeps_its_build_time_and_the_solves_adaptive_stopping_ended():
     assert stopped.levels[0].estimate_stops == 0                     # no estimate yet on the first mesh
     assert sum(level.estimate_stops for level in stopped.levels) >= 1
     assert all(level.elapsed_s > sum(l.solve_s for l in plain.levels[:i + 1]) for i, level in enumerate(plain.levels))
+
+
+@pytest.mark.filterwarnings("ignore::ngcontact.PhysicsWarning")     # the coarse disk's penetration
+@pytest.mark.parametrize("where", ["step", "solve"])
+def test_a_scene_that_has_already_stepped_is_refused_before_the_first_solve(where):
+    """A scene that steps its Simulation before returning it: each level would start from a
+    state computed on its own mesh (another step problem per level) and the certificate would
+    be that of a later step than the one asked for; refused naming the steps, the time and the
+    fix, before the adaptation solves anything (the scene's own step is the only one taken)."""
+    steps = []
+
+    def stepped(mesh):
+        sim = _hertz(mesh)
+        sim.step(0.5)
+        steps.append(sim)
+        return sim
+    call = adapt.solve if where == "solve" else lambda s, m, tol: adapt.step(s, m, 1.0, tol=tol)
+    with pytest.raises(ValueError, match=r"scene\(mesh\) returned a Simulation that has already stepped \(1 step\(s\), "
+                                         r"t = 0.5 s\).*return the Simulation before it steps.*adapt.history"):
+        call(stepped, hertz.mesh(2, h_contact=0.2), 0.1)
+    assert len(steps) == 1 and len(steps[0].history) == 2

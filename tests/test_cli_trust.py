@@ -80,6 +80,136 @@ def test_orders_are_each_run_once():
     assert common.orders("--orders", [2, 1, 2, 1]) == [2, 1]
 
 
+# ----------------------------------------------------------------------------- adapt --tol, axisymmetric, pull-off
+
+class Stop(Exception):
+    """Raised by a stand-in for the work, to see what it was given without doing it."""
+
+
+def _cli(argv, capsys):
+    """(exit status, the lines on stderr but one-line warnings, stdout) of ``python -m ngcontact
+    ARGV`` in this process."""
+    with pytest.raises(SystemExit) as stop:
+        cli.main(argv)
+    out = capsys.readouterr()
+    lines = [line for line in out.err.splitlines() if line.strip() and not line.startswith("ngcontact: warning:")]
+    return stop.value.code, lines, out.out
+
+
+@pytest.mark.parametrize("arguments, words", [
+    ("--tol 1e-300", "--tol must be a finite number in [1e-06, 1), got 1e-300"),
+    ("--tol 0", "--tol must be a finite number in [1e-06, 1), got 0.0"),
+    ("--tol 1", "--tol must be a finite number in [1e-06, 1), got 1.0"),
+    ("--tol nan", "--tol must be a finite number in [1e-06, 1), got nan"),
+    ("--tol 0.1 --stop-newton 5", "--stop-newton must be a finite number in (0, 1], got 5.0"),
+    ("--tol 0.1 --fraction 0", "--fraction must be a finite number in (0, 1], got 0.0"),
+    ("--tol 0.1 --scene hertz3d --orders 2", "--scene hertz3d with --orders 2: nothing to solve to --tol (hertz3d "
+                                             "runs P1 only); add --orders 1 or another --scene"),
+    ("--tol 0.1 --scene reference", "--tol solves one step to a tolerance; the reference plate is a load history: "
+                                    "run it without --tol"),
+])
+def test_adapt_to_a_tolerance_refuses_before_any_work(arguments, words, capsys, monkeypatch):
+    """Each option of ``adapt --tol`` is checked (the --tol floor, adaptive stopping, the
+    fraction, scenes and orders that leave nothing to solve) before any scene is built."""
+    from ngcontact.studies import adaptivity
+    monkeypatch.setattr(adaptivity.adapt, "solve", lambda *a, **k: pytest.fail("solved"))
+    code, lines, _ = _cli(["adapt", *arguments.split()], capsys)
+    assert code == 2 and lines == [f"ngcontact adapt: error: {words}"]
+
+
+@pytest.mark.parametrize("arguments, given", [
+    ("", {}),                                                          # adapt.solve's own defaults
+    ("--marking equilibrated --stop-newton 0.5 --fraction 0.7", dict(marking="equilibrated", stop_newton=0.5,
+                                                                     fraction=0.7)),
+    ("--marking averaging", dict(marking="averaging")),
+])
+def test_adapt_to_a_tolerance_honours_marking_and_adaptive_stopping(arguments, given, capsys, monkeypatch):
+    from ngcontact.studies import adaptivity
+    calls = []
+
+    def solve(scene, mesh, tol, **options):
+        calls.append((tol, options))
+        raise Stop
+    monkeypatch.setattr(adaptivity.adapt, "solve", solve)
+    with pytest.raises(Stop):
+        cli.main(["adapt", "--tol", "0.01", "--scene", "hertz", "--orders", "1", *arguments.split()])
+    ((tol, options),) = calls
+    assert tol == 0.01 and {k: v for k, v in options.items() if k not in ("dt", "max_ndof")} == given
+
+
+def test_adapt_to_a_tolerance_not_reached_exits_1_saying_so(capsys, monkeypatch):
+    """The Hertz disk (P1, coarse) with a DOF limit of 400: the levels stop at the limit with a
+    relative estimate above the tol; the certificate line says NOT reached and ">", the one
+    line on stderr names the scene and the reason, exit status 1."""
+    from ngcontact.scenes import hertz
+    from ngcontact.studies import adaptivity
+
+    def small():
+        scene = adaptivity.SCENES["hertz3d"]()
+        scene.name, scene.max_ndof = "hertz", 400
+        scene.mesh = lambda order: hertz.mesh(2, h_contact=0.2, curve=order)
+        scene.scene = lambda order: (lambda mesh: hertz.simulation(order, mesh=mesh, keep_states=False))
+        return scene
+    monkeypatch.setitem(adaptivity.SCENES, "hertz", small)
+    code, lines, out = _cli(["adapt", "--tol", "1e-3", "--scene", "hertz", "--orders", "1"], capsys)
+    assert code == 1 and len(lines) == 1, lines
+    assert lines[0].startswith("ngcontact adapt: --tol 0.001 NOT reached for hertz P1 (DOF limit: relative estimate ")
+    (certificate,) = [line for line in out.splitlines() if "reached" in line or "certified" in line]
+    relative = float(certificate.split("relative estimate ")[1].split()[0])
+    assert certificate.startswith("NOT reached (DOF limit 400): ") and f"{relative:.3g} > 0.001 at " in certificate
+    assert relative > 1e-3
+
+
+@pytest.mark.parametrize("out, words", [
+    ("/proc/ngcontact-cannot-write", "out (the output directory) '/proc/ngcontact-cannot-write' cannot be written"),
+    ("FILE", "cannot be written: File exists"),
+])
+def test_axisymmetric_refuses_an_output_it_cannot_write_before_any_run(out, words, tmp_path, capsys, monkeypatch):
+    from ngcontact.studies import axisymmetric
+    monkeypatch.setattr(axisymmetric, "study", lambda *a, **k: pytest.fail("ran"))
+    (tmp_path / "file").write_text("")
+    out = str(tmp_path / "file") if out == "FILE" else out
+    code, lines, _ = _cli(["axisymmetric", "--quick", "--out", out], capsys)
+    assert code == 2 and len(lines) == 1 and words in lines[0], lines
+
+
+@pytest.mark.parametrize("command", ["axisymmetric", "adapt", "timesteps", "timeorder", "demo", "bench"])
+def test_an_empty_out_is_refused_by_name(command, capsys, monkeypatch):
+    """``--out ''`` would write into the working directory: refused, naming --out."""
+    monkeypatch.setattr(cli, "_dispatch", lambda args: pytest.fail("dispatched"))
+    code, lines, _ = _cli([command, "--out", ""], capsys)
+    assert code == 2 and len(lines) == 1
+    assert lines[0].startswith(f"ngcontact {command}: error: argument --out: an empty path ('') names no directory")
+
+
+@pytest.mark.parametrize("cases, error, words", [
+    ([(0.5, 0.005)], ValueError, r"cases: dt = 0.5 s must be in \[2e-07, 0.1\] s: the history runs to T_END = 0.2 s "
+                                 r"in at least two steps"),
+    ([(0.15, 0.005)], ValueError, r"cases: dt = 0.15 s must be in \[2e-07, 0.1\] s"),         # one step
+    ([(0.0, 0.005)], ValueError, r"cases: dt = 0 s must be in \[2e-07, 0.1\] s"),
+    ([(float("nan"), 0.005)], ValueError, r"cases: dt = nan s must be in"),
+    ([(1e-9, 0.005)], ValueError, r"cases: dt = 1e-09 s .*at most 1000000 steps"),
+    ([(0.01, 0.005), (0.01, 0.0)], ValueError, r"cases: maxh must be a finite number in \(0, 0.02\] m"),
+    ([(0.01, 1e-7)], ValueError, r"cases: maxh = 1e-07 m, order = 2: about .* DOFs \(estimated\)"),
+    ([], ValueError, "cases must hold at least one"),
+    ("x", TypeError, "cases must be a list of"),
+    ([0.01], TypeError, "each of cases must be a"),
+    ([("a", 0.005)], TypeError, "cases: dt must be a number"),
+])
+def test_the_pull_off_cases_are_refused_before_any_run(cases, error, words, monkeypatch):
+    from ngcontact.studies.stability import pull_off
+    monkeypatch.setattr(pull_off, "_case", lambda *a: pytest.fail("ran"))
+    with pytest.raises(error, match=words):
+        pull_off.run(cases=cases, progress=False)
+
+
+def test_the_pull_off_in_two_steps_runs():
+    """The fewest steps allowed (dt = T_END / 2): the row is measured, its force balance holds."""
+    from ngcontact.studies.stability import pull_off
+    (row,) = pull_off.run(cases=[(0.1, 0.01)], order=1, progress=False)
+    assert row["failure"] == "" and row["steps"] == 2 and row["balance"] < 1e-8
+
+
 # ----------------------------------------------------------------------------- the compiler
 
 def _wrapper(directory):

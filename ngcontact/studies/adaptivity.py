@@ -340,14 +340,27 @@ def main(out, scenes=("manufactured", "hertz"), orders=(1, 2), stop_newton=None,
     return rows, result
 
 
-def to_tolerance(tol, scenes=("hertz",), orders=(2,), fraction=None, progress=True):
-    """``adapt.solve`` on each step scene's initial mesh to the relative estimate ``tol``: print
-    every level (DOFs, averaging indicator, the bound where certified, times) and the certificate
-    reached; returns {(scene, order): Adaptation}."""
+TOL_FLOOR = 1e-6
+"""The smallest ``--tol``. The P2 Hertz disk certifies 1e-2 at 6 927 DOFs and 2e-3 at 39 210
+(docs/adaptivity.md), about N^(-0.9): its DOF limit (``Scene.max_ndof``, 1.2e5) reaches about
+7e-4, and 1e-6 would need about 10⁸ DOFs (200 GB at ``checks.MEMORY_PER_DOF``), where the
+energy of the error also nears the round-off of a state solved to Newton's relative residual
+of 1e-10. A smaller tol could not be met on any machine; one between it and what a scene's
+limit reaches ends "NOT reached" (exit status 1 on the command line)."""
+
+
+def to_tolerance(tol, scenes=("hertz",), orders=(2,), fraction=None, progress=True, marking=None, stop_newton=None):
+    """``adapt.solve`` on each step scene's initial mesh to the relative estimate ``tol`` (in
+    [``TOL_FLOOR``, 1)): print every level (DOFs, averaging indicator, the bound where
+    certified, times) and the certificate reached, or that it was not and why (a limit came
+    first); returns {(scene, order): Adaptation}. ``marking``, ``stop_newton`` and ``fraction``
+    go to ``adapt.solve`` (None: its defaults, averaging marking and Newton stopped at 0.1 of
+    the expected estimate). Checked before any work; hertz3d runs P1 only, and scenes and
+    orders that leave nothing to run are refused."""
     from ngcontact import checks, parallel
     from .common import orders as checked_orders
     parallel.refuse_under_mpiexec("adapt")
-    tol = checks.number("--tol", tol, 0, low_open=True)
+    tol = checks.number("--tol", tol, TOL_FLOOR, 1, high_open=True)
     scenes = [scenes] if isinstance(scenes, str) else list(dict.fromkeys(scenes))
     for name in scenes:
         if name not in SCENES:
@@ -356,7 +369,18 @@ def to_tolerance(tol, scenes=("hertz",), orders=(2,), fraction=None, progress=Tr
             raise ValueError("--tol solves one step to a tolerance; the reference plate is a load history: "
                              "run it without --tol")
     orders = checked_orders("--orders", list(orders))
-    options = {} if fraction is None else dict(fraction=checks.number("--fraction", fraction, 0, 1, low_open=True))
+    if not any(name != "hertz3d" or order == 1 for name in scenes for order in orders):
+        raise ValueError(f"--scene {' '.join(scenes)} with --orders {' '.join(map(str, orders))}: nothing to solve "
+                         "to --tol (hertz3d runs P1 only); add --orders 1 or another --scene")
+    options = {}
+    if fraction is not None:
+        options["fraction"] = checks.number("--fraction", fraction, 0, 1, low_open=True)
+    if stop_newton is not None:
+        options["stop_newton"] = checks.number("--stop-newton", stop_newton, 0, 1, low_open=True)
+    if marking is not None:
+        if marking not in adapt.MARKINGS:
+            raise ValueError(f"--marking must be one of {', '.join(adapt.MARKINGS)}, got {marking!r}")
+        options["marking"] = marking
     results = {}
     for name in scenes:
         scene = SCENES[name]()
@@ -375,7 +399,21 @@ def to_tolerance(tol, scenes=("hertz",), orders=(2,), fraction=None, progress=Tr
             print(table(rows, list(rows[0])))
             last = result.last
             pressure = f", Hertz pressure error {scene.pressure(last.sim):.3%}" if scene.pressure else ""
-            print(f"{'certified' if result.reached else 'NOT reached (' + result.reason + ')'}: relative estimate "
-                  f"{last.relative:.3g} <= {tol:g} at {last.ndof} DOFs in {last.elapsed_s:.2f} s{pressure}")
+            if result.reached:
+                print(f"certified: relative estimate {last.relative:.3g} <= {tol:g} at {last.ndof} DOFs in "
+                      f"{last.elapsed_s:.2f} s{pressure}")
+            else:
+                print(f"NOT reached ({result.reason}{limit(result, scene)}): relative estimate {last.relative:.3g} "
+                      f"> {tol:g} at {last.ndof} DOFs in {last.elapsed_s:.2f} s{pressure}")
             results[(name, order)] = result
     return results
+
+
+def limit(result, scene):
+    """The limit that stopped an adaptation that did not reach its target, for a line ("" for
+    another reason)."""
+    if result.reason == "DOF limit":
+        return f" {scene.max_ndof:.3g}"
+    if result.reason == "level limit":
+        return f" {len(result.levels)}"
+    return ""

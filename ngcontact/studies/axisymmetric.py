@@ -22,12 +22,12 @@ section, ...) over ``rounds`` and the median is kept. ``summary`` interpolates (
 the time each kind needs to reach an error and their ratio.
 """
 import math
-import pathlib
 import time
 
 import numpy as np
 from matplotlib.figure import Figure
 
+from ngcontact import checks
 from ngcontact.output.progress import bar
 from ngcontact.scenes import hertz
 
@@ -159,9 +159,13 @@ def chart(rows, path):
 
 def command(out, order=2, rounds=2, quick=False, progress=True):
     """``python -m ngcontact axisymmetric``: ``axisymmetric.csv``, ``axisymmetric.md`` and
-    ``axisymmetric.png`` in ``out``; ``quick``: the three coarsest sizes of each kind, one round."""
-    out = pathlib.Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    ``axisymmetric.png`` in ``out``; ``quick``: the three coarsest sizes of each kind, one round.
+    The arguments are checked before any run: ``out`` a directory that can be written (created),
+    ``order`` in [1, ``checks.MAX_ORDER``], ``rounds`` in [1, 20]."""
+    order = checks.order("order", order)
+    rounds = checks.integer("rounds", rounds, 1, 20)
+    quick = checks.flag("quick", quick)
+    out = checks.writable_directory(out, "out (the output directory)")
     sections, quarters = (SECTION_SIZES[:3], QUARTER_SIZES[:2]) if quick else (SECTION_SIZES, QUARTER_SIZES)
     rows = study(order, sections, quarters, 1 if quick else rounds, progress)
     write_csv(rows, out / "axisymmetric.csv", COLUMNS)

@@ -7,10 +7,15 @@ current contact set; releasing them loads the next ones, so a step whose front c
 points takes about one iteration per point crossed. The study measures that relation on the
 reference history (P2) at fixed steps, with the default solver.
 """
+import math
+import numbers
+from collections.abc import Iterable
+
 import numpy as np
 from matplotlib.figure import Figure
 
 import ngcontact as ngc
+from ngcontact import checks
 from ngcontact.output.progress import bar
 from ngcontact.scenes import reference
 
@@ -31,7 +36,9 @@ def run(out=None, *, cases=None, order=2, quick=False, progress=True):
     ----------
     out : pathlib.Path or None, where to draw ``pull_off.png``.
     cases : (dt in s, maxh in m) pairs; default dt 2.5, 5, 10, 20 ms at maxh 5 mm and maxh
-        2.5, 10 mm at dt 5 ms (quick: 10 ms at 5 mm).
+        2.5, 10 mm at dt 5 ms (quick: 10 ms at 5 mm). Checked before any run (``checked``):
+        dt finite in [``smallest_dt``, T_END / 2] (at least two steps to ``T_END``, at most
+        ``checks.MAX_STEPS``), maxh finite in (0, L2] (the plate's thickness) and within memory.
     order : polynomial order.
     quick : one case.
     progress : show a progress bar and a line per run.
@@ -45,9 +52,11 @@ def run(out=None, *, cases=None, order=2, quick=False, progress=True):
     ``over_10``: steps after the first contact with more than 10 iterations; ``balance``: max
     |reaction + contact force − load| / peak load; ``failure`` (the kind, or "").
     """
+    quick = checks.flag("quick", quick)
     if cases is None:
         cases = ((0.01, 0.005),) if quick else \
             ((0.0025, 0.005), (0.005, 0.005), (0.01, 0.005), (0.02, 0.005), (0.005, 0.0025), (0.005, 0.01))
+    cases, order = checked(cases, order)
     rows, traces = [], {}
     with bar(len(cases), "pull_off", progress, unit="run") as shown:
         for dt, maxh in cases:
@@ -59,6 +68,42 @@ def run(out=None, *, cases=None, order=2, quick=False, progress=True):
     if out is not None:
         _plot(traces, out)
     return rows
+
+
+def smallest_dt():
+    """The smallest time step of a case, s: ``MIN_DT``, and at most ``checks.MAX_STEPS`` steps to T_END."""
+    return max(ngc.MIN_DT, T_END / checks.MAX_STEPS)
+
+
+def checked(cases, order):
+    """(cases as a list of (dt, maxh) float pairs, order), refused before any run: a TypeError
+    or ValueError naming ``cases``, the pair, dt or maxh, the value and the allowed range."""
+    order = checks.order("order", order)
+    if isinstance(cases, (str, bytes)) or not isinstance(cases, Iterable):
+        raise TypeError(f"pull_off: cases must be a list of (dt in s, maxh in m) pairs, got {cases!r}")
+    cases = list(cases)
+    if not cases:
+        raise ValueError("pull_off: cases must hold at least one (dt in s, maxh in m) pair, got none")
+    low, high = smallest_dt(), T_END / 2
+    out = []
+    for pair in cases:
+        if isinstance(pair, (str, bytes)) or not isinstance(pair, Iterable) or len(pair := tuple(pair)) != 2:
+            raise TypeError(f"pull_off: each of cases must be a (dt in s, maxh in m) pair, got {pair!r}")
+        dt = pair[0]
+        if isinstance(dt, bool) or not isinstance(dt, numbers.Real):
+            raise TypeError(f"pull_off: cases: dt must be a number in [{low:g}, {high:g}] s, got {dt!r} "
+                            f"({type(dt).__name__})")
+        dt = float(dt)
+        if not (math.isfinite(dt) and low <= dt <= high):
+            raise ValueError(f"pull_off: cases: dt = {dt:g} s must be in [{low:g}, {high:g}] s: the history runs "
+                             f"to T_END = {T_END:g} s in at least two steps (the steps after the first contact are "
+                             f"what the study measures) and at most {checks.MAX_STEPS} steps")
+        maxh = checks.number("cases: maxh", pair[1], 0, reference.L2, low_open=True,
+                             unit="m (the plate's thickness L2)")
+        checks.fits_in_memory(f"pull_off: cases: maxh = {maxh:g} m, order = {order}", checks.estimated_ndof(
+            checks.estimated_vertices((reference.L1, reference.L2), maxh), 2, 0, order))
+        out.append((dt, maxh))
+    return out, order
 
 
 def _case(dt, maxh, order):
@@ -76,11 +121,17 @@ def _case(dt, maxh, order):
     except ngc.NewtonError as err:     # a failed step ends the case: the study reports it
         failure = failure_kind(err.residuals)
     h = sim.history
+    if not steps:                      # the first step failed: nothing measured
+        nan = float("nan")
+        return dict(dt=dt, maxh=maxh, order=order, failure=failure, steps=0, worst_time=nan, worst_newton=0,
+                    worst_crossed=0, crossed_max=0, per_point=nan, over_10=0, balance=nan), ((), (), ())
     load = APPLIED * np.interp(h.times[1:], *np.array(reference.LOAD_HISTORY).T)
     balance = h.reactions[1:, 1] + h.contact_column("force")[1:, 1] - load
     times, newton, crossed, touching = (np.array(c) for c in zip(*steps))
     first = int(np.argmax(touching))
     after = np.arange(len(steps)) > first
+    if not after.any():                # no step after the first contact (a failure ended the case there)
+        after = np.arange(len(steps)) == len(steps) - 1
     worst = int(np.flatnonzero(after)[np.argmax(newton[after])])
     fronts = after & (crossed >= 4)
     row = dict(dt=dt, maxh=maxh, order=order, failure=failure, steps=len(steps),
