@@ -179,10 +179,11 @@ class ConvergenceTest:
         small = value <= FLOOR_LIMIT * scale
         if verdict.converged or not (small or stalling or slow):
             return verdict                                   # the floors cannot decide
-        if hasattr(self.system, "contact_magnitude"):
-            bulk, contact = self.system.magnitude(x, 0.0), self.system.contact_magnitude(x)
-        else:
-            bulk, contact = self.system.magnitude(x), None
+        split = hasattr(self.system, "contact_magnitude")
+        bulk = self.system.magnitude(x, 0.0) if split else self.system.magnitude(x)
+        if not (small or stalling) and value > 2 * ROUNDOFF * self.norm.dual(bulk):
+            return verdict                                   # above F (at most twice the bulk's floor)
+        contact = self.system.contact_magnitude(x) if split else None
         total = bulk if contact is None else bulk + contact
         verdict.floor = ROUNDOFF * self.norm.dual(total)
         if contact is not None and verdict.floor > 0:
