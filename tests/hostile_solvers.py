@@ -113,11 +113,11 @@ class Blamed:
     """A NewtonError at the first correction (iteration 1, one time step tried: no cut-backs)
     naming every word (the solver and what it returned), and none of the model's remedies."""
 
-    def __init__(self, *words):
-        self.words = words
+    def __init__(self, h, *words):
+        self.h, self.words = h, words
 
     def problem(self, outcome, references):
-        from test_hostile import _line, _named
+        _line, _named = self.h._line, self.h._named
         if outcome.kind != "raised" or "NewtonError" not in outcome.types:
             return f"expected a NewtonError naming {'/'.join(self.words)}; {outcome.describe()}"
         message = outcome.message
@@ -219,20 +219,28 @@ def released(v):
 
 
 def register(h):
-    def run(solver):
-        """The coarse reference scene with ``solver``, two steps of 0.05 s."""
-        return lambda ctx: h.reference_run(solver=solver() if isinstance(solver, type) else solver)
+    def run(solver, order=1, **options):
+        """The coarse reference scene with ``solver``, two steps of 0.05 s (cut-backs allowed)."""
+        def call(ctx):
+            sim = h.scene.simulation(order, 0.01, solver=solver(), **options)
+            sim.run(0.05, 0.1)
+            return h.measure(sim, h.applied(sim.t))
+        return call
 
     def balanced(v):
         return h._balance(v)
 
     h.case("solvers", "a solver object that keeps the protocol", run(Exact), Right(balanced))
+    h.case("solvers", "a solver object that keeps the protocol, P2 condensed", run(Exact, order=2, condense=True),
+           Right(balanced))
     for solver, words in ((NaNs, ("NaNs", "NaN")), (Nothing, ("Nothing", "no correction")),
                           (Returns, ("Returns", "no correction", "returned a ndarray")),
                           (Zeros, ("Zeros", "no correction", "returned 0")),
                           (Opposite, ("Opposite", "opposite sign")), (Outside, ("Outside", "outside the free DOFs")),
                           (WrongSize, ("WrongSize", "ValueError")), (Raising, ("Raising", "MemoryError"))):
-        h.case("solvers", f"{solver.__doc__.strip()} ({solver.__name__})", run(solver), Blamed("linear solver", *words))
+        doc = solver.__doc__.strip().rstrip(".")
+        h.case("solvers", f"{solver.__name__}: {doc[0].lower()}{doc[1:]}", run(solver),
+               Blamed(h, "linear solver", *words))
     h.case("solvers", "the class instead of an instance", lambda ctx: h.built(h.simulation(solver=Exact)),
            h.Error(h.TE, "solver", "instance", "Exact"))
     h.case("solvers", "solve(A, b)", lambda ctx: h.built(h.simulation(solver=TwoArguments())),
