@@ -19,8 +19,8 @@ size of every force that acts.
 A solve has converged at x when
 
 1. ``‖R(x)‖ <= rtol · S(x)``, or
-2. **the residual is at the round-off of the state it holds**, whatever the size of S: for each
-   field b (forces, charges) ``‖R_b(x)‖ <= F_b(x)``, with the floor
+2. **the residual is at the round-off of the state it holds**, whatever the size of S: in each
+   field (forces, charges) on its own ``‖R(x)‖ <= ‖F(x)‖``, with the floor
    ``F(x) = ROUNDOFF · (B + min(C, B))``, ``B = |K||x| + |b|`` the size of the bulk's terms that
    sum to R (``StepSystem.magnitude``), ``C = |R_Γ3'||x|`` that of the Γ3 terms (entrywise; the
    Γ3 terms count up to the size of the bulk's) and ``ROUNDOFF`` 10 machine epsilons. No
@@ -33,8 +33,8 @@ A solve has converged at x when
    S lies under that round-off, out of reach. A wrong state has a residual of the size of K
    times its error, above F unless that error is at the round-off of x itself. A contact term
    made absurdly stiff cannot raise F beyond twice the bulk's floor (the min): the residual of
-   a state that penetrates under it stalls at that term's round-off, far above (γ0 = 1e30 stops
-   with a force 13 times too small); or
+   a wrong state that it hides (γ0 = 1e30: a contact force 13 times too small) stalls at that
+   term's round-off, far above F; or
 3. the residual is down to the round-off of all its terms and small against S:
    ``‖R(x)‖ <= F_Γ(x)`` and ``‖R(x)‖ <= FLOOR_LIMIT · S(x)``, with
    ``F_Γ(x) = ROUNDOFF · ‖ B + C ‖`` (``Verdict.floor``). Stiff contact terms (γ0 or the penalty
@@ -46,7 +46,8 @@ not at every iteration of a converging solve: where the residual fell by less th
 over the last iteration, stalls, or is small against S.
 
 A zero-iteration convergence is the same test at the start, with the step's own data (its
-loads, its prescribed values, its time step). A residual above F and above ``FLOOR_LIMIT · S``
+loads, its prescribed values, its time step; the floors there only where the residual is small
+against S). A residual above F and above ``FLOOR_LIMIT · S``
 that stalls at F_Γ cannot be certified: the Γ3 terms hold it there (``Verdict.uncertifiable``);
 the solve fails (``newton.NewtonError``) naming their share in F_Γ. The test never uses the
 initial residual or the size of x: both grow with a bad start or an exploded state.
