@@ -78,6 +78,21 @@ class Opposite(Exact):
         w.FV().NumPy()[:] = -self.correction(matrix, freedofs, r)
 
 
+class Noise(Exact):
+    """Writes random numbers of 1e-20 m at the free DOFs."""
+
+    def solve(self, matrix, freedofs, r, w, **options):
+        free = np.array(list(freedofs), dtype=bool)
+        w.FV().NumPy()[:] = np.where(free, 1e-20 * np.random.default_rng(0).standard_normal(len(free)), 0.0)
+
+
+class Inexact(Exact):
+    """The correction to 10 % (an iterative solver's loose tolerance): slower, not wrong."""
+
+    def solve(self, matrix, freedofs, r, w, **options):
+        w.FV().NumPy()[:] = 0.9 * self.correction(matrix, freedofs, r)
+
+
 class Outside(Exact):
     """The correction, and 1e-3 m at the held DOFs (which would move the supports)."""
 
@@ -231,12 +246,13 @@ def register(h):
         return h._balance(v)
 
     h.case("solvers", "a solver object that keeps the protocol", run(Exact), Right(balanced))
+    h.case("solvers", "a solver object that solves to 10 %", run(Inexact), Right(balanced))
     h.case("solvers", "a solver object that keeps the protocol, P2 condensed", run(Exact, order=2, condense=True),
            Right(balanced))
     for solver, words in ((NaNs, ("NaNs", "NaN")), (Nothing, ("Nothing", "no correction")),
                           (Returns, ("Returns", "no correction", "returned a ndarray")),
                           (Zeros, ("Zeros", "no correction", "returned 0")),
-                          (Opposite, ("Opposite", "opposite sign")), (Outside, ("Outside", "outside the free DOFs")),
+                          (Opposite, ("Opposite", "opposite sign")), (Noise, ("Noise", "does not solve")), (Outside, ("Outside", "outside the free DOFs")),
                           (WrongSize, ("WrongSize", "ValueError")), (Raising, ("Raising", "MemoryError"))):
         doc = solver.__doc__.strip().rstrip(".")
         h.case("solvers", f"{solver.__name__}: {doc[0].lower()}{doc[1:]}", run(solver),

@@ -26,9 +26,11 @@ import numpy as np
 
 from ngcontact import parallel
 
-LINEARISED = 0.5
+LINEARISED = 0.9
 """The largest ‖J w − r‖ / ‖r‖ (scaled dual norms on the solve's free DOFs) of a correction w
-of a user's solver: w = 0 gives 1, the opposite sign 2; a Newton method needs it below 1."""
+of a user's solver: w = 0 gives 1, the opposite sign 2; an inexact Newton method needs it below
+1, and 0.9 is Eisenstat and Walker's largest forcing term (an iterative solver asked for less
+accuracy than that is still taken)."""
 
 
 @runtime_checkable
@@ -163,7 +165,7 @@ class Watched:
         ratio = self.norm.dual(np.where(free, self._values(product) - rhs, 0.0)) / size
         if not ratio <= LINEARISED:
             return (f"returned a correction w that does not solve J w = r: ‖J w − r‖ = {ratio:.3g} ‖r‖ (at most "
-                    f"{LINEARISED:g} is a correction; the opposite sign gives 2)")
+                    f"{LINEARISED:g} is a correction; the opposite sign gives 2), in Newton's scaled norm")
         return None
 
 
