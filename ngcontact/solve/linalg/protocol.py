@@ -115,7 +115,6 @@ class Watched:
 
     def __init__(self, solver, norm):
         self.solver, self.norm, self.name = solver, norm, label(solver)
-        self._masks = {}
 
     def solve(self, matrix, freedofs, r, w, **options):
         """``solver.solve`` with w = 0 before it; raise ``SolverFault`` if it raised or its w is
@@ -133,18 +132,12 @@ class Watched:
                             "argument w)")
             raise SolverFault(f"stopped: the linear solver {self.name} {problem}")
 
-    def _mask(self, freedofs):
-        key = id(freedofs)
-        if key not in self._masks:
-            self._masks[key] = (freedofs, np.array(list(freedofs), dtype=bool))
-        return self._masks[key][1]
-
     def _values(self, v):
         return parallel.cumulated(v) if self.norm.distributed else v.FV().NumPy()
 
     def _problem(self, matrix, freedofs, r, w):
         """What is wrong with the correction w (words), or None."""
-        mesh, free = self.norm.mesh, self._mask(freedofs)
+        mesh, free = self.norm.mesh, np.array(list(freedofs), dtype=bool)
         values = self._values(w)
         bad = int(parallel.sum(mesh, np.count_nonzero(~np.isfinite(values[free]))))
         if bad:
@@ -159,7 +152,7 @@ class Watched:
         if size == 0:
             return None
         if not parallel.any_rank(mesh, np.any(values[free])):
-            return "returned no correction (w is 0 after its solve: nothing was written into it)"
+            return "returned no correction (w is 0 at every free DOF after its solve)"
         product = w.CreateVector()
         product.data = matrix * w
         ratio = self.norm.dual(np.where(free, self._values(product) - rhs, 0.0)) / size
