@@ -252,7 +252,8 @@ def register(h):
     for solver, words in ((NaNs, ("NaNs", "NaN")), (Nothing, ("Nothing", "no correction")),
                           (Returns, ("Returns", "no correction", "returned a ndarray")),
                           (Zeros, ("Zeros", "no correction", "returned 0")),
-                          (Opposite, ("Opposite", "opposite sign")), (Noise, ("Noise", "does not solve")), (Outside, ("Outside", "outside the free DOFs")),
+                          (Opposite, ("Opposite", "opposite sign")), (Noise, ("Noise", "does not solve")),
+                          (Outside, ("Outside", "outside the free DOFs")),
                           (WrongSize, ("WrongSize", "ValueError")), (Raising, ("Raising", "MemoryError"))):
         doc = solver.__doc__.strip().rstrip(".")
         h.case("solvers", f"{solver.__name__}: {doc[0].lower()}{doc[1:]}", run(solver),

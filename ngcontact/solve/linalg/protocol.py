@@ -157,8 +157,8 @@ class Watched:
         product.data = matrix * w
         ratio = self.norm.dual(np.where(free, self._values(product) - rhs, 0.0)) / size
         if not ratio <= LINEARISED:
-            return (f"returned a correction w that does not solve J w = r: ‖J w − r‖ = {ratio:.3g} ‖r‖ (at most "
-                    f"{LINEARISED:g} is a correction; the opposite sign gives 2), in Newton's scaled norm")
+            return (f"returned a correction w that does not solve J w = r: ‖J w − r‖ = {ratio:.3g} ‖r‖ in "
+                    f"Newton's scaled norm (at most {LINEARISED:g} is a correction; the opposite sign gives 2)")
         return None
 
 
