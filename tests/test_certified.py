@@ -12,6 +12,7 @@ from ngcontact.geometries import plate
 from ngcontact.obstacles import Plane
 from ngcontact.scenes import hertz
 from ngcontact.scenes import reference as scene
+from ngcontact.solve import stopping
 from ngcontact.studies.stability import time_step_sweep
 
 DT = 2.5e-3
@@ -172,3 +173,83 @@ def test_a_step_on_which_nothing_acts_converges():
     assert record.contact.contact_area == 0
     uz = np.array([sim.u(sim.body.mesh(*v.point))[2] for v in sim.body.mesh.vertices][:20])
     assert np.allclose(uz, -0.01 * hertz.R, rtol=1e-9)
+
+
+def released(steps=10):
+    """The plate held only by its top, glued to the foundation below (γ_ν = 1e14 Pa/m, L = 10 µm,
+    implicit β) and lifted 0.2 mm by its top over 1 s in steps of 0.1 s: the glue lets go by
+    t = 0.4 s, then β decays by 1e3 a step and the body moves rigidly with its support."""
+    body = ngc.Body(plate(maxh=0.01), ngc.Material.isotropic(6e10, 0.3, 1e-8), supports={"top": "all"},
+                    contact_side="bottom")
+    t = ngs.Parameter(0.0)
+    sim = ngc.Simulation(body, ngc.Loads(displacement={"top": (0, 2e-4 * t)}), time=t,
+                         contact=ngc.Contact(gap=0.0, adhesion=1e14, bond_length=1e-5, beta_update="implicit"))
+    sim.run(0.1, steps * 0.1)
+    return sim
+
+
+@pytest.fixture(scope="module")
+def rigid():
+    return released()
+
+
+def test_a_body_moved_rigidly_after_its_glue_let_go_is_certified(rigid):
+    """Once released the residual is at the round-off of the rigid motion's |K||x| (1e-14 J^½),
+    above 1e-6 of the glue's last force (S down to 1e-12 J^½): certified as at round-off, to the
+    end. The state is the support's motion (u = (0, 2e-4 t) m everywhere), the contact force
+    and the support's reaction are those of β (10⁻³ a step) down to round-off of the peak."""
+    sim = rigid
+    assert sim.history[-1].time == pytest.approx(1.0) and not sim.cutbacks
+    peak = max(abs(r.boundary_reaction["top"][1]) for r in sim.history)
+    assert peak > 1e6                                            # the glue held at first (7.3 MN/m)
+    for record in sim.history[6:]:                               # t >= 0.6 s: β <= 2e-13
+        assert record.contact.beta.max() < 1e-12
+        assert np.abs(record.contact.force).max() <= 1e-12 * peak
+        assert np.abs(record.boundary_reaction["top"]).max() <= 1e-12 * peak
+    mesh = sim.body.mesh
+    u = np.array([sim.u(mesh(*v.point)) for v in mesh.vertices])
+    assert np.allclose(u[:, 1], 2e-4, rtol=1e-12, atol=0) and np.abs(u[:, 0]).max() < 1e-12 * 2e-4
+    verdict = _verdict(sim, sim.gfu.vec.FV().NumPy().copy())
+    assert verdict.converged and verdict.roundoff and verdict.residual > 1e-6 * verdict.scale
+
+
+def _verdict(sim, state):
+    """The test's verdict on ``state`` put into the simulation's current step, as after an
+    iteration that did not reduce the residual (so that the floors are evaluated), with the
+    residual vector (so that each field is tested)."""
+    x = sim.gfu.vec
+    x.FV().NumPy()[:] = state
+    sim.system.Apply(x, sim.newton.r)
+    value = sim.newton.norm.dual(sim.newton.r)
+    return sim.newton.test(x, [value, value], sim.newton.rtol, sim.newton.r)
+
+
+def test_a_perturbed_rigid_motion_is_refused(rigid):
+    """The round-off test certifies the state, not its load: the rigid motion with its free DOFs
+    off by 1e-9 of themselves, by 1e3 or 1e-3 times them, or by random noise of 1e-9 of the
+    motion, has a residual far above its floor and fails, however small S is."""
+    sim = rigid
+    x = sim.gfu.vec.FV().NumPy()
+    solution = x.copy()
+    free = np.array(list(sim.newton.freedofs), dtype=bool)
+    noise = np.random.default_rng(0).standard_normal(len(solution)) * 1e-9 * np.abs(solution).max()
+    try:
+        for wrong in [np.where(free, factor * solution, solution) for factor in (1 + 1e-9, 1 - 1e-9, 1e3, 1e-3)] + \
+                     [np.where(free, solution + noise, solution)]:
+            v = _verdict(sim, wrong)
+            floor = stopping.ROUNDOFF * sim.newton.norm.dual(sim.system.magnitude(sim.gfu.vec))   # Γ3 included
+            assert not v.converged and not v.roundoff and v.residual > 1e3 * floor
+    finally:
+        x[:] = solution
+    assert _verdict(sim, solution).converged
+
+
+def test_an_uncertifiable_residual_names_the_contact_terms_not_the_supports():
+    """A residual stuck above the state's round-off is held there by the Γ3 terms: the advice
+    names them, never the supports or the data's scale (a rigid motion is certified)."""
+    for share in (0.04, 0.9):
+        verdict = stopping.Verdict(False, 1e-3, 1e-12, scale=1e-2, floor=2e-3, contact_share=share,
+                                   uncertifiable=True)
+        reason, hint = verdict.explain()
+        assert "round-off floor 2.000e-03" in reason and f"{100 * share:.3g} % of that floor" in reason
+        assert "gamma0" in hint and "supports" not in hint and "scale" not in hint

@@ -16,6 +16,11 @@ solve fails at once and says so. Such failures, and an uncertifiable residual, a
 ``recoverable``: a smaller time step would fail the same way, so the cut-back policy of
 ``Simulation.advance`` does not retry them.
 
+A solver of the user's (``Simulation(solver=<object>)``) has each correction checked
+(``protocol.Watched``): one that is not finite, not written, or does not solve the linear system,
+and an exception the solver raises, fail at once naming the solver and what it returned, not the
+model.
+
 Every enforcement method runs in this one loop; a method with unknowns of its own (the nodal
 multipliers of the active set method) takes part through an ``enforcement.NewtonHook``, and a
 ``step_length`` callback may shorten a correction (``step_length``). Wall time goes to a ``timer``
@@ -30,6 +35,7 @@ import scipy.sparse as sp
 
 from ngcontact import parallel
 from ngcontact.solve.linalg.linear_solver import DirectSolver, untimed
+from ngcontact.solve.linalg.protocol import SolverFault, Watched, built_in
 from ngcontact.solve.linalg.residual_norm import ResidualNorm
 from ngcontact.solve.stopping import ConvergenceTest
 from ngcontact.solve.cycles import CycleWatch
@@ -120,7 +126,8 @@ class Newton:
         ``force_scale(norm)`` and ``magnitude(x)`` (for ``stopping.ConvergenceTest``).
     gfu : GridFunction on the product space V × W (components u, φ).
     solver : the linear solver of the corrections, ``linear_solver.DirectSolver`` (default:
-        UMFPACK) or ``KeptFactorization``; an iterative one is asked for ``margin`` (its
+        UMFPACK) or ``KeptFactorization``, or a user's object of ``protocol.LinearSolver``, whose
+        corrections are checked (``protocol.Watched``); an iterative one is asked for ``margin`` (its
         attribute, default 0.1) × (the target residual / the current one), inexact Newton,
         and, if it has a ``forcing`` γ, for no more than ``inexact.forcing_term`` (Eisenstat and
         Walker's γ (‖r_k‖ / ‖r_{k−1}‖)² after a correction that made the residual fall; γ
@@ -159,11 +166,13 @@ class Newton:
         self.continuation = None       # ``continuation.Continuation``: the path a solve without progress follows
         self.reduction = None          # stop at this fraction of the first residual (a path's stage)
         self._best = None              # [the iterate of least residual of a first try, that residual]
-        self.solver = solver or DirectSolver("umfpack")
+        self.solver = solver if solver is not None else DirectSolver("umfpack")
         self.rtol, self.maxit = rtol, int(maxit)
         space = gfu.space
         self.freedofs = freedofs if freedofs is not None else space.FreeDofs()
         self.norm = ResidualNorm(space, self.freedofs)
+        # a solver from outside the package: each correction checked (``protocol.Watched``)
+        self._watch = None if built_in(self.solver) else Watched(self.solver, self.norm)
         self.test = ConvergenceTest(system, self.norm)
         self.r = gfu.vec.CreateVector()
         self.w = gfu.vec.CreateVector()
@@ -250,8 +259,8 @@ class Newton:
         if limit and hasattr(self.step_length, "start"):
             self.step_length.start()
 
-        def fail(reason, it, hint, recoverable=True, early=False):
-            if getattr(self.system, "laws", None) is not None:     # a nonlinear law the cause? (``law_terms``)
+        def fail(reason, it, hint, recoverable=True, early=False, laws=True):
+            if laws and getattr(self.system, "laws", None) is not None:   # a nonlinear law the cause? (``law_terms``)
                 reason, hint = self.system.laws.explain(x, reason, hint)
             error = NewtonError(reason, iteration=it, residuals=residuals, step=step, time=time, hint=hint,
                                 recoverable=recoverable)
@@ -318,7 +327,10 @@ class Newton:
             else:
                 before = self._linear_counts()
                 tol = correction_tolerance(self.solver, verdict.target, residuals, self.energy_target, correction)
-                self.linear_solve(x, timer, tol=tol)
+                try:
+                    self.linear_solve(x, timer, tol=tol)
+                except SolverFault as fault:
+                    raise fail(str(fault), it + 1, fault.hint, False, laws=False) from fault.__cause__
                 linear.append(self._linear_counts(since=before))
                 self._check_correction(fail, it)
                 alpha = self.step_length(self.w) if limit else 1.0
@@ -389,11 +401,11 @@ class Newton:
             rc = self.r_condensed
             with timer("solve"):
                 rc.data = r + system.harmonic_extension_trans * r
-            self.solver.solve(system.mat, self.coupling, rc, w, generation=generation, timer=timer,
-                              weights=self.norm.weights, tol=tol, changing=changing)
+            (self._watch or self.solver).solve(system.mat, self.coupling, rc, w, generation=generation,
+                                               timer=timer, weights=self.norm.weights, tol=tol, changing=changing)
             with timer("solve"):
                 w.data += system.harmonic_extension * w
                 w.data += system.inner_solve * r
         else:
-            self.solver.solve(system.mat, self.freedofs, r, w, generation=generation, timer=timer,
-                              weights=self.norm.weights, tol=tol, changing=changing)
+            (self._watch or self.solver).solve(system.mat, self.freedofs, r, w, generation=generation,
+                                               timer=timer, weights=self.norm.weights, tol=tol, changing=changing)

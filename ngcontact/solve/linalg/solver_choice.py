@@ -29,7 +29,7 @@ work, with a DeprecationWarning naming their ``solver=`` (``earlier``).
 import warnings
 from dataclasses import dataclass
 
-from ngcontact.solve.linalg import petsc_options, petsc_solver
+from ngcontact.solve.linalg import petsc_options, petsc_solver, protocol
 from ngcontact.solve.linalg.linear_solver import (NAMES, PARALLEL_NAMES, DirectSolver, KeptFactorization,
                                                   factorization_worth)
 from ngcontact import parallel
@@ -106,8 +106,9 @@ def as_options(spec, inverse, iterative, reuse_factorization):
     solver it names (one of ``names()``); for a dict of PETSc options (``petsc_options.check``:
     "gamg", or a factorisation by ``pc_factor_mat_solver_type``, kept for ``ksp_type`` "gmres",
     made at every iteration for "preonly"), with PETSc installed where it needs it
-    (``petsc_solver.PetscMissing`` naming ``solver=``); an object must have a ``solve`` method and
-    a ``name`` (``protocol.LinearSolver``). For None, the earlier options as given, with a
+    (``petsc_solver.PetscMissing`` naming ``solver=``); an object must have a ``solve`` method that
+    takes Newton's arguments and a ``name`` (``protocol.LinearSolver``; an instance, not its class:
+    ``protocol.check_object``). For None, the earlier options as given, with a
     DeprecationWarning naming the ``solver=`` that replaces them (``earlier``). A solver given with
     the earlier options (``inverse``, ``iterative``, ``reuse_factorization=False``) is refused:
     they would contradict."""
@@ -129,11 +130,14 @@ def as_options(spec, inverse, iterative, reuse_factorization):
         if options.pc_type == "gamg":
             return Choice(None, "gamg", True, options)
         return Choice(options.package, False, options.ksp_type == "gmres", options)
+    if isinstance(spec, type) and hasattr(spec, "solve"):
+        protocol.check_object(spec)                  # a solver's class: an instance is needed
     if not isinstance(spec, str):
         if not (callable(getattr(spec, "solve", None)) and isinstance(getattr(spec, "name", None), str)):
             raise TypeError(f"solver must be None, a name or an object with a solve() method and a name "
                             f"(ngcontact.solve.linalg.protocol.LinearSolver) or a dict of PETSc options, got "
-                            f"{type(spec).__name__}")
+                            f"{'the class ' + spec.__name__ if isinstance(spec, type) else type(spec).__name__}")
+        protocol.check_object(spec)
         return Choice(None, False, True)
     if spec not in names():
         raise ValueError(f"solver must be None, an object with a solve() method (ngcontact.solve.linalg."
