@@ -13,6 +13,7 @@ import subprocess
 import sys
 import xml.etree.ElementTree as ElementTree
 
+import meshio
 import numpy as np
 import pytest
 
@@ -246,13 +247,12 @@ def run_script(*args):
 
 
 def cells(path):
-    """The cells of a Γ3 .vtp (2D: lines) as (midpoints, {name: cell values})."""
-    piece = ElementTree.parse(path).getroot().find("PolyData/Piece")
-    values = {a.get("Name"): np.array(a.text.split(), dtype=float) for a in piece.find("CellData")}
-    points = np.array(piece.find("Points/DataArray").text.split(), dtype=float).reshape(-1, 3)
-    lines = np.array(piece.find("Lines/DataArray[@Name='connectivity']").text.split(), dtype=int).reshape(-1, 2)
-    assert int(piece.get("NumberOfLines")) == len(lines) and all(len(v) == len(lines) for v in values.values())
-    return points[lines].mean(axis=1)[:, :2], values
+    """The cells of a Γ3 .vtu (2D: lines) as (midpoints, {name: cell values}), read by meshio."""
+    mesh = meshio.read(path)
+    lines = mesh.cells_dict["line"]
+    values = {name: arrays[0] for name, arrays in mesh.cell_data.items()}
+    assert list(mesh.cells_dict) == ["line"] and all(len(v) == len(lines) for v in values.values())
+    return mesh.points[lines].mean(axis=1)[:, :2], values
 
 
 def test_streamed_results_resume_distributed(tmp_path):
@@ -261,7 +261,7 @@ def test_streamed_results_resume_distributed(tmp_path):
     resumed by a new Simulation, the contact force of every step equals an uninterrupted
     distributed run (1e-12) and the serial run (1e-8 relative); every step has its archive and
     one part per rank, ``read`` gives the records serially; fields.pvd lists both computing
-    ranks' .vtu of every step; the Γ3 .vtp of the last step has the gathered facets with the
+    ranks' .vtu of every step; the Γ3 .vtu of the last step has the gathered facets with the
     serial run's values in the cells at the same midpoints (the potential differs from facet
     to facet, and the gathered order is not the serial one). Refused with a message naming
     both numbers of ranks, on every rank: a resume on 2 ranks, a serial resume, a stream or
@@ -296,7 +296,7 @@ def test_streamed_results_resume_distributed(tmp_path):
         assert entry.get("file").endswith(f"_proc{entry.get('part')}.vtu")
         assert 'Name="displacement"' in text and 'Name="potential"' in text
     # Γ3: the gathered facets, each cell with the serial run's values at its midpoint
-    midpoints, values = cells(run_dir / "vtk" / "gamma3_000010.vtp")
+    midpoints, values = cells(run_dir / "vtk" / "gamma3_000010.vtu")
     serial_midpoints = np.array(serial["midpoints"])
     distance = np.linalg.norm(midpoints[:, None] - serial_midpoints[None], axis=-1)
     match = distance.argmin(axis=1)
