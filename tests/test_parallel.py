@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 from ngcontact import demo
+from test_output import check_warp
 
 HERE = pathlib.Path(__file__).parent
 DEMO = ["-m", "ngcontact", "demo", "--dim", "3", "--maxh", "0.02", "--steps", "20"]
@@ -263,7 +264,8 @@ def test_streamed_results_resume_distributed(tmp_path):
     one part per rank, ``read`` gives the records serially; fields.pvd lists both computing
     ranks' .vtu of every step; the Γ3 .vtu of the last step has the gathered facets with the
     serial run's values in the cells at the same midpoints (the potential differs from facet
-    to facet, and the gathered order is not the serial one). Refused with a message naming
+    to facet, and the gathered order is not the serial one) and warps onto the ranks' files of
+    the body. Refused with a message naming
     both numbers of ranks, on every rank: a resume on 2 ranks, a serial resume, a stream or
     resume on 3 ranks from a serial run's directory; a missing rank part of the last step
     names the file, another partition in run.json names the rank; another γ0, time scheme or
@@ -308,6 +310,11 @@ def test_streamed_results_resume_distributed(tmp_path):
         field = np.array(serial[name])
         assert np.abs(values[name] - field[match]).max() <= 1e-8 * max(np.abs(field).max(), 1.0), name
     assert np.abs(values["pressure"]).max() > 1e6
+    # ... and warps onto the computing ranks' files of the body (test_output.check_warp)
+    parts = [meshio.read(run_dir / "vtk" / f"fields_000010_proc{r}.vtu") for r in (1, 2)]
+    body = meshio.Mesh(np.vstack([p.points for p in parts]), [],
+                       point_data={"displacement": np.vstack([p.point_data["displacement"] for p in parts])})
+    assert check_warp(body, meshio.read(run_dir / "vtk" / "gamma3_000010.vtu")) > 1e-6
     # refused: another number of ranks, on every rank, naming both; a missing part
     launch(2, script, "resume", run_dir, tmp_path / "resume.json", timeout=300)
     refused = json.loads((tmp_path / "resume.json").read_text())["resume"]

@@ -13,7 +13,7 @@ from ngcontact import parallel
 
 
 class FieldsSeries:
-    """``run(vtk=STEM)``: NGSolve's VTKOutput of u and φ into ``STEM.vtu``,
+    """``run(vtk=STEM)``: NGSolve's VTKOutput of u (3 components) and φ into ``STEM.vtu``,
     ``STEM_step00001.vtu``, ... (distributed: ``STEM_procR.vtu``, ``STEM_procR_step00001.vtu``
     per computing rank R) and ``STEM.pvd``, one file per call ``series(time)``. VTKOutput does
     not report a file it could not write: each rank checks its own, and an OSError on any
@@ -74,8 +74,7 @@ def vertex_displacement(mesh, u, facets):
     """u (m) at the vertices of ``facets`` (facets × dim × dim, this rank's facets of Γ3) as
     (facets · dim) × 3, z = 0 in 2D: the displacement the Γ3 file carries for Warp By Vector.
     Each vertex is looked up on the boundary of this rank's mesh (u is continuous there)."""
-    dim = facets.shape[-1] if facets.ndim == 3 else mesh.dim
-    points = facets.reshape(-1, dim)
+    points = facets.reshape(-1, facets.shape[-1])
     values = np.zeros((len(points), 3))
     if len(points):
         mapped = mesh(*points.T, VOL_or_BND=ngs.BND)
