@@ -107,6 +107,11 @@ def run(t, mesh, dt, T, max_cutbacks, progress, vtk, on_step, out):
     if vtk is not None:
         if not isinstance(vtk, (str, os.PathLike)) or not str(vtk):
             raise TypeError(f"vtk must be a file name stem (str or pathlib.Path) or None, got {vtk!r}")
+        if str(vtk).endswith(("/", os.sep)) or pathlib.Path(vtk).is_dir():
+            stem = pathlib.Path(vtk) / "fields"
+            raise ValueError(f"vtk: {str(vtk)!r} names a directory; vtk is a file name stem (vtk={str(stem)!r} "
+                             f"writes {stem}.pvd and {stem}*.vtu, u and φ); to write u, φ and Γ3 into a "
+                             f"directory pass out={str(vtk)!r} (docs/output.md)")
         writable_directory(pathlib.Path(vtk).parent, "vtk: the directory")
     if out is not None:
         parallel.together(mesh, writable_directory, out, "out: the directory")

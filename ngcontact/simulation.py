@@ -303,13 +303,15 @@ class Simulation:
             nominal step uses dt again).
         progress : show a progress bar (True or False).
         vtk : file name stem for NGSolve's VTKOutput of u and φ (one file per step; under
-            mpiexec one per computing rank and step, collected by ``<vtk>.pvd``), or None.
+            mpiexec one per computing rank and step, collected by ``<vtk>.pvd``), or None; not
+            a directory (``out`` writes u, φ and Γ3 into one: docs/output.md).
         on_step : called with each new StepRecord, right after its step (cut-back steps
             included).
         out : a directory to stream every step into as it is computed (``results``: records,
-            restart state, ParaView series; under mpiexec every rank writes its own part of
-            each step into it, a directory all ranks see); after ``resume(out)``, the same dt
-            and T continue the interrupted run on its own nominal steps.
+            restart state, ParaView series of the body and of Γ3, docs/output.md; under
+            mpiexec every rank writes its own part of each step into it, a directory all ranks
+            see); after ``resume(out)``, the same dt and T continue the interrupted run on its
+            own nominal steps.
         guess : Newton's start (``step``): "nested" or "p1" for every step, another guess for the first.
         If a step fails even at the smallest cut-back, the NewtonError is raised with
         ``error.history`` holding every step computed so far (also in ``history``).

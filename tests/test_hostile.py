@@ -1100,6 +1100,8 @@ output("run(vtk='/proc/self/fields')", run_with(vtk="/proc/self/fields"), "vtk")
 output("run(out='/proc/hostile')", run_with(out="/proc/hostile"), "out")
 output("run(out=a regular file)", lambda ctx: _run_with(dict(dt=0.05, T=0.05, out=__file__)), "out")
 output("run(out='/proc/hostile', vtk='f')", run_with(out="/proc/hostile", vtk="f"), "out")
+output("run(vtk=an existing directory)", run_with(vtk=os.path.dirname(__file__)), "vtk", "names a directory", "out=")
+output("run(vtk='new/')", run_with(vtk="/proc/hostile/new/"), "vtk", "names a directory", "out=")
 output("demo.run(out='/proc/hostile')", demo(out="/proc/hostile"), "/proc/hostile")
 output("demo.run(out=a regular file)", demo(out=__file__), "out|test_hostile\\.py")
 output("bench.run('/proc/hostile')",

@@ -13,10 +13,12 @@ import subprocess
 import sys
 import xml.etree.ElementTree as ElementTree
 
+import meshio
 import numpy as np
 import pytest
 
 from ngcontact import demo
+from test_output import check_warp
 
 HERE = pathlib.Path(__file__).parent
 DEMO = ["-m", "ngcontact", "demo", "--dim", "3", "--maxh", "0.02", "--steps", "20"]
@@ -246,13 +248,12 @@ def run_script(*args):
 
 
 def cells(path):
-    """The cells of a Γ3 .vtp (2D: lines) as (midpoints, {name: cell values})."""
-    piece = ElementTree.parse(path).getroot().find("PolyData/Piece")
-    values = {a.get("Name"): np.array(a.text.split(), dtype=float) for a in piece.find("CellData")}
-    points = np.array(piece.find("Points/DataArray").text.split(), dtype=float).reshape(-1, 3)
-    lines = np.array(piece.find("Lines/DataArray[@Name='connectivity']").text.split(), dtype=int).reshape(-1, 2)
-    assert int(piece.get("NumberOfLines")) == len(lines) and all(len(v) == len(lines) for v in values.values())
-    return points[lines].mean(axis=1)[:, :2], values
+    """The cells of a Γ3 .vtu (2D: lines) as (midpoints, {name: cell values}), read by meshio."""
+    mesh = meshio.read(path)
+    lines = mesh.cells_dict["line"]
+    values = {name: arrays[0] for name, arrays in mesh.cell_data.items()}
+    assert list(mesh.cells_dict) == ["line"] and all(len(v) == len(lines) for v in values.values())
+    return mesh.points[lines].mean(axis=1)[:, :2], values
 
 
 def test_streamed_results_resume_distributed(tmp_path):
@@ -261,9 +262,10 @@ def test_streamed_results_resume_distributed(tmp_path):
     resumed by a new Simulation, the contact force of every step equals an uninterrupted
     distributed run (1e-12) and the serial run (1e-8 relative); every step has its archive and
     one part per rank, ``read`` gives the records serially; fields.pvd lists both computing
-    ranks' .vtu of every step; the Γ3 .vtp of the last step has the gathered facets with the
+    ranks' .vtu of every step; the Γ3 .vtu of the last step has the gathered facets with the
     serial run's values in the cells at the same midpoints (the potential differs from facet
-    to facet, and the gathered order is not the serial one). Refused with a message naming
+    to facet, and the gathered order is not the serial one) and warps onto the ranks' files of
+    the body. Refused with a message naming
     both numbers of ranks, on every rank: a resume on 2 ranks, a serial resume, a stream or
     resume on 3 ranks from a serial run's directory; a missing rank part of the last step
     names the file, another partition in run.json names the rank; another γ0, time scheme or
@@ -296,7 +298,7 @@ def test_streamed_results_resume_distributed(tmp_path):
         assert entry.get("file").endswith(f"_proc{entry.get('part')}.vtu")
         assert 'Name="displacement"' in text and 'Name="potential"' in text
     # Γ3: the gathered facets, each cell with the serial run's values at its midpoint
-    midpoints, values = cells(run_dir / "vtk" / "gamma3_000010.vtp")
+    midpoints, values = cells(run_dir / "vtk" / "gamma3_000010.vtu")
     serial_midpoints = np.array(serial["midpoints"])
     distance = np.linalg.norm(midpoints[:, None] - serial_midpoints[None], axis=-1)
     match = distance.argmin(axis=1)
@@ -308,6 +310,11 @@ def test_streamed_results_resume_distributed(tmp_path):
         field = np.array(serial[name])
         assert np.abs(values[name] - field[match]).max() <= 1e-8 * max(np.abs(field).max(), 1.0), name
     assert np.abs(values["pressure"]).max() > 1e6
+    # ... and warps onto the computing ranks' files of the body (test_output.check_warp)
+    parts = [meshio.read(run_dir / "vtk" / f"fields_000010_proc{r}.vtu") for r in (1, 2)]
+    body = meshio.Mesh(np.vstack([p.points for p in parts]), [],
+                       point_data={"displacement": np.vstack([p.point_data["displacement"] for p in parts])})
+    assert check_warp(body, meshio.read(run_dir / "vtk" / "gamma3_000010.vtu")) > 1e-6
     # refused: another number of ranks, on every rank, naming both; a missing part
     launch(2, script, "resume", run_dir, tmp_path / "resume.json", timeout=300)
     refused = json.loads((tmp_path / "resume.json").read_text())["resume"]

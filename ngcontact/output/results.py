@@ -23,12 +23,14 @@
   (with ``keep_states``), are each rank's own: they go into ``steps/NNNNNN.rankR.npz``, one
   part per rank R = 0 .. N − 1 (rank 0's holds no DOFs), and ``steps/NNNNNN.npz`` holds the
   record (global on every rank; ``wall_s`` and ``timings`` are rank 0's);
-* ``fields.pvd`` with ``vtk/fields_NNNNNN.vtu`` (u and φ, NGSolve's ``VTKOutput``; on a
-  distributed mesh ``vtk/fields_NNNNNN_procR.vtu``, one per computing rank R = 1 .. N − 1,
-  listed as parts of each time step) and ``gamma3.pvd`` with ``vtk/gamma3_NNNNNN.vtp`` (the
-  facets of Γ3 with β, the contact pressure, the multiplier, the charge flux density, the
-  potential and the contact set as cell data; distributed: every rank's facets in rank order,
-  as the records' arrays): ParaView time series.
+* ``fields.pvd`` with ``vtk/fields_NNNNNN.vtu`` (u with 3 components and φ, NGSolve's
+  ``VTKOutput``; on a distributed mesh ``vtk/fields_NNNNNN_procR.vtu``, one per computing rank
+  R = 1 .. N − 1, listed as parts of each time step) and ``gamma3.pvd`` with
+  ``vtk/gamma3_NNNNNN.vtu`` (the facets of Γ3 as lines in 2D, triangles in 3D, with u at their
+  vertices as point data and β, the contact pressure, the multiplier, the charge flux density,
+  the potential and the contact set as cell data; distributed: every rank's facets in rank
+  order, as the records' arrays): binary ParaView time series that meshio reads too
+  (``paraview``, docs/output.md).
 
 The module reads a simulation through a ``Source`` (its mesh, fields, history, the scheme's
 ``save``, ...), never the Simulation itself; the restart state is whatever the time scheme
@@ -77,7 +79,7 @@ import numpy as np
 
 from ngcontact import parallel
 from ngcontact.output.fingerprint import run_options
-from ngcontact.output.paraview import checked_vtk, fields_writer, gamma3_vtp, own_vtu
+from ngcontact.output.paraview import checked_vtk, fields_writer, gamma3_vtu, own_vtu, vertex_displacement
 from ngcontact.output.records import History
 from ngcontact.time.stepping import MIN_DT, RESOLUTION
 from ngcontact.output.run_directory import (check_partition, check_ranks, check_run, check_scene, check_scheme,
@@ -198,7 +200,12 @@ class Stream:
         else:
             arrays.update(own)
         self._together(record.step, self._own_files, record, own, vtk)
-        self._together(record.step, self._lead_files, record, arrays, vtk)
+        displacement = None
+        if vtk and self._facets is not None:         # u at the vertices of Γ3, gathered as the facets
+            mesh = self.source.mesh
+            displacement = parallel.gather(mesh, vertex_displacement(mesh, self.source.fields[0],
+                                                                     self.source.side.facet_vertices))
+        self._together(record.step, self._lead_files, record, arrays, vtk, displacement)
 
     def _together(self, n, write, *args):
         """``write(*args)`` on every rank; an OSError on any rank raised on all (``parallel.together``)."""
@@ -218,37 +225,39 @@ class Stream:
         if self.ranks > 1:
             _atomic_write(part(self.dir, n, mesh.comm.rank), lambda p: _savez(p, own))
 
-    def _lead_files(self, record, arrays, vtk):
-        """Rank 0's files of a step, once every rank's own are on disk."""
+    def _lead_files(self, record, arrays, vtk, displacement):
+        """Rank 0's files of a step, once every rank's own are on disk (``displacement``: u at
+        the vertices of Γ3, for its file)."""
         if self.lead:
             if vtk:
-                self._write_vtk(record)
+                self._write_vtk(record, displacement)
             _atomic_write(self.dir / "steps" / f"{record.step:06d}.npz", lambda p: _savez(p, arrays))
 
-    def _write_vtk(self, record):
-        """The Γ3 file of a step and both .pvd series (after the fields' files of every rank)."""
+    def _write_vtk(self, record, displacement):
+        """The Γ3 file of a step (``displacement``: u at its vertices) and both .pvd series
+        (after the fields' files of every rank)."""
         n, vtk = record.step, self.dir / "vtk"
         (vtk / f"fields_{n:06d}.pvd").unlink(missing_ok=True)      # VTKOutput's own (distributed)
-        if record.contact is not None:
-            _atomic_write(vtk / f"gamma3_{n:06d}.vtp", lambda p: p.write_text(gamma3_vtp(self._facets,
-                                                                                           record.contact)))
+        if record.contact is not None and self._facets is not None:
+            _atomic_write(vtk / f"gamma3_{n:06d}.vtu", lambda p: p.write_bytes(
+                gamma3_vtu(self._facets, displacement, record.contact)))
         self._times = {m: t for m, t in self._times.items() if m < n}     # a redone step replaces
         self._times[n] = record.time
-        for name, ext in (("fields", "vtu"), ("gamma3", "vtp")):
+        for name in ("fields", "gamma3"):
             entries = "".join(f'<DataSet timestep="{t!r}"{piece} file="vtk/{file}"/>\n'
-                              for m, t in sorted(self._times.items()) for piece, file in self._pieces(name, m, ext)
+                              for m, t in sorted(self._times.items()) for piece, file in self._pieces(name, m)
                               if (vtk / file).exists())
             if entries:
                 _atomic_write(self.dir / f"{name}.pvd", lambda p, e=entries: p.write_text(
                     '<?xml version="1.0"?>\n<VTKFile type="Collection" version="1.0" byte_order="LittleEndian">\n'
                     f"<Collection>\n{e}</Collection>\n</VTKFile>\n"))
 
-    def _pieces(self, name, m, ext):
+    def _pieces(self, name, m):
         """[(the part attribute, the file in vtk/)] of series ``name`` at step m: one file, or
         for the fields of a distributed mesh one per computing rank (VTKOutput's names)."""
         if name == "fields" and self.ranks > 1:
             return [(f' part="{r}"', f"fields_{m:06d}_proc{r}.vtu") for r in range(1, self.ranks)]
-        return [("", f"{name}_{m:06d}.{ext}")]
+        return [("", f"{name}_{m:06d}.vtu")]
 
 
 def _savez(path, arrays):
