@@ -114,3 +114,42 @@ def test_a_piezoelectric_column_with_a_hardening_law_meets_its_closed_form(uniax
     assert sim.phi(body.mesh(W / 2, H)) == pytest.approx(E33 * eps * H / EPS33, rel=1e-9)
     assert body.tensors.F_law.scale.Get() == pytest.approx(4 * C33, rel=1e-6)
     assert [entry[0] for entry in sim.system.laws.rescaled] == [1]
+
+
+def _pressed(factor=10.0):
+    """The column of the penalty test pressed by P(t) = t × 0.02 Pa (ε = −0.0125 at t = 1 s):
+    the law's kink is crossed between t = 0.5 and 0.75 s."""
+    material = ngc.Material.isotropic(1.0, 0.0, 1e-8).with_elasticity(clip_hardening(1.0, 3.0, 0.01))
+    body = ngc.Body(plate(L1=W, L2=H, maxh=W), material, supports={"left": "x"}, grounded="top",
+                    contact_side="bottom")
+    t = ngs.Parameter(0.0)
+    sim = ngc.Simulation(body, ngc.Loads(f2={"top": ngs.CF((0, -0.02 * t))}), time=t,
+                         contact=ngc.Contact(gap=0.0, method=ngc.Penalty(factor)))
+    start = ngs.GridFunction(body.V)
+    start.Set(ngs.CF((0, -1e-4)))
+    return sim, start.vec.FV().NumPy().copy()
+
+
+def test_the_raised_scale_is_kept_by_a_resumed_run_and_a_new_simulation_starts_afresh(tmp_path):
+    """The scale raised at the step that crosses the kink is part of a step's restart state: a
+    run resumed after that step repeats the uninterrupted one bitwise (its penalty follows the
+    raised scale, not the samples' L). A second Simulation of the same Body starts from L again
+    and repeats the first run bitwise."""
+    sim, guess = _pressed()
+    sim.step(0.25, guess=guess)                             # touching: then each step starts from the last
+    sim.run(0.25, 1.0, out=tmp_path / "a")
+    assert [entry[0] for entry in sim.system.laws.rescaled] == [3], sim.system.laws.rescaled
+    whole = [r.state.copy() for r in sim.history]
+    again = ngc.Simulation(sim.body, sim.loads, time=sim.time, contact=sim.contact)
+    again.step(0.25, guess=guess)
+    again.run(0.25, 1.0)
+    assert all(np.array_equal(a.state, b) for a, b in zip(again.history, whole))
+    steps = sorted((tmp_path / "a" / "steps").glob("*.npz"))
+    assert len(steps) == 5
+    steps[-1].unlink()                                      # interrupted after step 3
+    resumed, _ = _pressed()
+    resumed.resume(tmp_path / "a")
+    assert resumed.body.tensors.F_law.scale.Get() == pytest.approx(4.0, rel=1e-6)
+    resumed.run(0.25, 1.0, out=tmp_path / "a")
+    assert resumed.system.laws.rescaled == []
+    assert len(resumed.history) == 5 and all(np.array_equal(a.state, b) for a, b in zip(resumed.history, whole))

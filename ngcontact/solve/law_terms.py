@@ -140,6 +140,26 @@ class LawTerms:
                 grown = True
         return grown
 
+    def save(self):
+        """The laws' stiffness scales and (on a serial mesh: the points are a rank's own) the
+        strains and stresses of the last kept step at the watched points, as named arrays for a
+        step's restart state (a resumed run decides as the uninterrupted one: ``solver_restart``)."""
+        arrays, serial = {}, not parallel.is_distributed(self._state.space.mesh)
+        for i, watch in enumerate(self.watches):
+            arrays[f"law{i}_scale"] = np.asarray(watch.bound.scale.Get())
+            if serial:
+                arrays.update({f"law{i}_strain": np.asarray(watch.previous[0]),
+                               f"law{i}_stress": np.asarray(watch.previous[1])})
+        return arrays
+
+    def load(self, arrays):
+        """Put back what ``save`` gave (absent in archives written before: nothing is put back)."""
+        for i, watch in enumerate(self.watches):
+            if f"law{i}_scale" in arrays:
+                watch.bound.scale.Set(float(arrays[f"law{i}_scale"]))
+            if f"law{i}_strain" in arrays and np.shape(arrays[f"law{i}_strain"]) == np.shape(watch.previous[0]):
+                watch.previous = (np.array(arrays[f"law{i}_strain"]), np.array(arrays[f"law{i}_stress"]))
+
     def explain(self, x, reason, hint):
         """(reason, hint) of a Newton failure at the iterate ``x``, with the law named where
         it is the likely cause (``law_watch``); unchanged otherwise."""
