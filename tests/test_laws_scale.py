@@ -153,3 +153,34 @@ def test_the_raised_scale_is_kept_by_a_resumed_run_and_a_new_simulation_starts_a
     resumed.run(0.25, 1.0, out=tmp_path / "a")
     assert resumed.system.laws.rescaled == []
     assert len(resumed.history) == 5 and all(np.array_equal(a.state, b) for a, b in zip(resumed.history, whole))
+
+
+def test_a_viscosity_steeper_beyond_its_samples_follows_backward_euler(uniaxial):
+    """A(ε̇) = τℰε̇ + ζ(ε̇ − P_K ε̇), K = {ε̇_yy ≥ −q}, ζ = 3τc33 (the creep of test_laws, 4 times
+    as steep past the kink) with its samples 100 times below q (strain_scale q/1000): the
+    column creeps faster than q at first, where A is steeper than 2 × its samples' slope;
+    backward Euler's recursion holds to 1e-9, and the viscosity's scale was raised at step 1,
+    to 4τc33 (the yy slope)."""
+    from test_laws import P, TAU, T
+    s_lin = -P / C33
+    q = -0.5 * s_lin / TAU
+    zeta = 3 * TAU * C33
+    material = uniaxial(TAU).with_viscosity(laws.ProjectionLaw(zeta, laws.Slab(1, lower=-q), strain_scale=q / 1000))
+    body = ngc.Body(plate(L1=W, L2=H, maxh=0.01), material, clamped="bottom", grounded="bottom|top")
+    sim = ngc.Simulation(body, ngc.Loads(f2={"top": (0, -P)}))
+    n = 20
+    k = T / n
+    sim.run(dt=k, T=T)
+    strains = [sim.state(i).components[0](body.mesh(W / 2, H))[1] / H for i in range(n + 1)]
+    expected = [0.0]
+    for _ in range(n):
+        prev, a = expected[-1], TAU * C33 / k
+        s = (a * prev - P) / (C33 + a)
+        if (s - prev) / k < -q:
+            b = zeta / k
+            s = (a * prev + b * prev - P - zeta * q) / (C33 + a + b)
+        expected.append(s)
+    assert sum((b - a) / k < -q for a, b in zip(expected, expected[1:])) >= 2
+    assert np.allclose(strains, expected, rtol=1e-9, atol=1e-9 * P / C33)
+    assert [entry[0] for entry in sim.system.laws.rescaled] == [1], sim.system.laws.rescaled
+    assert body.tensors.A_law.scale.Get() == pytest.approx(4 * TAU * C33, rel=1e-6)
