@@ -138,6 +138,9 @@ class LawTerms:
             if watch.check(step, time, attempt):
                 self.rescaled.append((step, watch.name(), *watch.rescaled))
                 grown = True
+        if not grown:
+            for watch in self.watches:
+                watch.keep()
         return grown
 
     def save(self):

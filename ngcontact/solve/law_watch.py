@@ -15,7 +15,8 @@ its samples is not wrong: where its L was estimated and a confirmed slope exceed
 ``LIPSCHITZ_MARGIN`` times its stiffness ``scale`` (``laws.BoundLaw``), the scale is raised to
 that slope and the step is redone with the Nitsche γ and penalty that follow it
 (``MaterialTensors.contact_stiffness``; ``LawTerms.check_step`` returns True, ``Step.take``
-solves the step again, at most ``REDOS`` times). Deterministic: the decision reads the law and
+solves the step again, at most ``REDOS`` times; the γ of weak normal supports keeps the scale
+of the Simulation's build, their matrix being assembled once). Deterministic: the decision reads the law and
 the state only. Refused, by ``LawViolation`` (a ``NewtonError``, not recoverable: the cut-back
 policy does not retry it), naming the law, what was measured, the strain, the point and the
 step, is evidence against the hypotheses only: a slope ≤ 0 (or below a given monotonicity), a
@@ -149,7 +150,8 @@ class LawWatch:
     def check(self, step, time, attempt=0):
         """Raise ``LawViolation`` where the law breaks (2.16)-(2.17) at the state's strains;
         True if its stiffness scale grew (the step is to be solved again: ``attempt`` times
-        already), False if the state is kept (module docstring)."""
+        already), else False: ``keep`` then remembers the strains if the state is kept
+        (module docstring)."""
         bound, name = self.bound, self.name()
         where = f" (the run's strain at step {step})"
         hint = (f"a law that is strongly monotone and Lipschitz at every strain ((2.16)-(2.17)); the check "
@@ -174,14 +176,21 @@ class LawWatch:
                      f"{attempt + 1} times, each with the scale raised to the slope measured", None)
         if found is not None:
             message, strain = found
+            if message.startswith("not Lipschitz"):
+                hint = ("a law whose slope has one bound L at every strain ((2.16)-(2.17): |F(a) − F(b)| ≤ L |a − b|), "
+                        "a stiffening that levels off (the slope may be any constant, it is followed)")
             raise LawViolation(name, f"{name} breaks (2.16)-(2.17) at the run's strains: {message}", step=step,
                                time=time, hint=hint, strain=strain)
+        self._pending = (eps, sigma)
         if grown:
             self.rescaled = (bound.scale.Get(), slope)
             bound.scale.Set(slope)
             return True
-        self.previous = (eps, sigma)
         return False
+
+    def keep(self):
+        """The strains of the step just checked become the step before (once every law passed)."""
+        self.previous = self._pending
 
     def _violation(self, eps, sigma, J, steeper=None):
         """(message, strain) of the first violation at the points, or None. With ``steeper`` (a
