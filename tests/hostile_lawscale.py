@@ -95,14 +95,16 @@ def register(h):
     h.case("lawscale", "ℰε (1 + |ε|²/(2e-5)²): slope without bound", plate_run(lambda: laws.StrainLaw(
         lambda eps, hooke: hooke(eps) * (1 + ngs.InnerProduct(eps, eps) / 2e-5 ** 2), "cubic", strain_scale=1e-6)),
         h.NewtonFailure("cubic", "without bound", "per decade"))
-    h.case("lawscale", "ℰε (1 + (|ε|² + s²)^½/s), s = 2e-5: slope growing linearly", plate_run(lambda: laws.StrainLaw(
-        lambda eps, hooke: hooke(eps) * (1 + ngs.sqrt(ngs.InnerProduct(eps, eps) + 4e-10) / 2e-5), "growing",
-        strain_scale=1e-6)),
-        h.NewtonFailure("growing", "without bound"))
+    h.case("lawscale", "ℰε (1 + (|ε|² + s²)^½/s), s = 2e-5: slope growing linearly",
+           plate_run(lambda: laws.StrainLaw(
+               lambda eps, hooke: hooke(eps) * (1 + ngs.sqrt(ngs.InnerProduct(eps, eps) + 4e-10) / 2e-5), "growing",
+               strain_scale=1e-6)),
+           h.NewtonFailure("growing", "without bound"))
     h.case("lawscale", "clip hardening given lipschitz=2 (its slope 4 beyond the samples)",
            column(lambda: clip_hardening(E, zeta, r, lipschitz=2.0), 0.02, 0.0125),
            h.NewtonFailure("given Lipschitz"))
     h.case("lawscale", "ℰε − 1.5e11 (ε_yy − clip(ε_yy, ±1e-4)): reversing beyond the samples",
-           plate_run(lambda: laws.StrainLaw(lambda eps, hooke: hooke(eps) - 1.5e11 * laws.Slab(1, -1e-4, 1e-4).excess(eps, 2),
-                                            "reversing", strain_scale=1e-5)),
+           plate_run(lambda: laws.StrainLaw(
+               lambda eps, hooke: hooke(eps) - 1.5e11 * laws.Slab(1, -1e-4, 1e-4).excess(eps, 2), "reversing",
+               strain_scale=1e-5)),
            h.NewtonFailure("reversing", "monotone"))

@@ -177,8 +177,8 @@ class LawWatch:
         if found is not None:
             message, strain = found
             if message.startswith("not Lipschitz"):
-                hint = ("a law whose slope has one bound L at every strain ((2.16)-(2.17): |F(a) − F(b)| ≤ L |a − b|), "
-                        "a stiffening that levels off (the slope may be any constant, it is followed)")
+                hint = ("a law whose slope has one bound L at every strain ((2.16)-(2.17): |F(a) − F(b)| ≤ "
+                        "L |a − b|), a stiffening that levels off (the slope may be any constant, it is followed)")
             raise LawViolation(name, f"{name} breaks (2.16)-(2.17) at the run's strains: {message}", step=step,
                                time=time, hint=hint, strain=strain)
         self._pending = (eps, sigma)
@@ -277,8 +277,9 @@ class LawWatch:
         law = self.bound.law
         if law.lipschitz is not None:
             return "the given Lipschitz constant"
-        return (f"{LIPSCHITZ_MARGIN:g} × the Lipschitz constant {self.bound.lipschitz:.4g} Pa estimated from the "
-                "samples, which sets the run's Nitsche γ and penalty")
+        return (f"{LIPSCHITZ_MARGIN:g} × the stiffness scale {self.bound.scale.Get():.4g} Pa (the Lipschitz constant "
+                f"{self.bound.lipschitz:.4g} Pa estimated from the samples, or the slope measured since), which "
+                "sets the run's Nitsche γ and penalty")
 
     def _confirm(self, strain, direction, broken):
         """(slope, steepness) of an exact chord of the checked law at ``strain`` along the unit
@@ -348,8 +349,8 @@ class LawWatch:
                                              ("small", slopes[2::-1], factors[2::-1])):
             if b >= GROWTH * a and c >= GROWTH * b:
                 return (f"not Lipschitz: its slope grows without bound towards {end} strains along the direction "
-                        f"{_fmt(direction)} through the strain {_fmt(strain)}{where}: |σ(sε + h d) − σ(sε)|/h = {a:.4g}, "
-                        f"{b:.4g}, {c:.4g} Pa at s = {sa:g}, {sb:g}, {sc:g} ({(c / a) ** 0.5:.3g} × per decade, "
+                        f"{_fmt(direction)} through the strain {_fmt(strain)}{where}: |σ(sε + h d) − σ(sε)|/h = "
+                        f"{a:.4g}, {b:.4g}, {c:.4g} Pa at s = {sa:g}, {sb:g}, {sc:g} ({(c / a) ** 0.5:.3g} × per decade, "
                         f"≥ {GROWTH:g} is taken as unbounded; the tangent was {estimated})", strain)
         return None
 
