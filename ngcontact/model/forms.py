@@ -90,8 +90,9 @@ def boundary_stiffness(body, rate):
     displacement at a facet of height h = ``specialcf.mesh_size``, p the order of u, c the
     scheme's rate coefficient ``rate`` (1/s; 1/dt for backward Euler). The factor p² follows
     the inverse inequality of degree-p polynomials. Nitsche's γ and the penalty's ε are
-    multiples of it (``Contact.gamma0``, ``Contact.penalty``)."""
-    return body.order ** 2 * body.tensors.stiffness(rate) / ngs.specialcf.mesh_size
+    multiples of it (``Contact.gamma0``, ``Contact.penalty``). With laws it follows their
+    stiffness scales through the run (``MaterialTensors.contact_stiffness``)."""
+    return body.order ** 2 * body.tensors.contact_stiffness(rate) / ngs.specialcf.mesh_size
 
 
 # ------------------------------------------------------------------------ the bulk forms on Ω

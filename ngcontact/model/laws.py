@@ -15,9 +15,16 @@ strains of sizes between 1e-3 and 1e1 times ``strain_scale`` and
     (F(a) − F(b)) : (a − b) ≥ m |a − b|²,   |F(a) − F(b)| ≤ L |a − b|     (Frobenius norms)
 
 give the estimated monotonicity m and Lipschitz constant L (or the user's, checked against
-the samples); m ≤ 0 at a sampled pair is an error naming the law and the pair. L sets the
-scale of Nitsche's γ and of the penalty (``MaterialTensors.stiffness``); the tangent at
-ε = 0 (``linear``) is the bulk the preconditioners of iterative solvers use.
+the samples); m ≤ 0 at a sampled pair is an error naming the law and the pair. L starts the
+law's stiffness ``scale`` (a Parameter), which sets Nitsche's γ and the penalty
+(``MaterialTensors.contact_stiffness``); the tangent at ε = 0 (``linear``) is the bulk the
+preconditioners of iterative solvers use.
+
+The hypotheses allow any constants, and a law may be steeper at the run's strains than at
+the samples: an estimated L is then raised to the slope measured there, and the step redone
+with the new γ (``law_watch``). Only evidence against (2.16)-(2.17) is refused: a slope ≤ 0
+(or below a given m), one above a given L, a non-finite stress, or a slope that grows without
+bound along a ray of strains.
 
 The law solved with is the law checked (``BoundLaw.verify``: a law reading a global variable
 or a Parameter changed since its check is refused by name), and the run's own strains, which
@@ -187,7 +194,9 @@ class BoundLaw:
     first compares the checked stress CF and a fresh call with it (``verify``). The run's
     strains are checked with ``jacobian``, ``chord`` and ``hypotheses`` (``law_watch``);
     ``checked_range``: the largest strain sampled so far; ``tangent_bound``: the largest norm
-    of the tangent at the samples."""
+    of the tangent at the samples; ``scale`` (a Parameter, Pa or Pa·s): the slope that sets
+    the contact stiffness (``MaterialTensors.contact_stiffness``), L at first, raised by the
+    law watch to the steepest slope measured at the run's strains where L was estimated."""
 
     def __init__(self, law, linear, dim, what):
         self.law, self.dim, self.what, self.name = law, dim, what, law.name
@@ -285,6 +294,7 @@ class BoundLaw:
                              f"is below the sampled {L:.4g}")
         self.monotonicity = self.law.monotonicity or m
         self.lipschitz = self.law.lipschitz or L
+        self.scale = ngs.Parameter(self.lipschitz)
         self.checked_range = max(float(np.linalg.norm(a)) for a in strains)
         picked = strains[::max(1, len(strains) // FINGERPRINT)][:FINGERPRINT - 1] + [max(strains, key=np.linalg.norm)]
         self._prints = [(a, self.evaluate(a)) for a in picked]
@@ -332,6 +342,10 @@ class BoundLaw:
             m, L = min(m, slope), max(L, math.sqrt(float(np.sum(ds * ds)) / norm2))
             strains.append(a)
         return m, L, strains
+
+    def reset_scale(self):
+        """The stiffness ``scale`` back to L (a new Simulation starts from the law as checked)."""
+        self.scale.Set(self.lipschitz)
 
     def jacobian(self, strain, h=None):
         """The tangent dσ/dε at ``strain`` (numpy) in the orthonormal ``basis`` of symmetric

@@ -154,14 +154,32 @@ class MaterialTensors:
         the coupled stiffness; c A is the viscous stiffness of the step. With a law, each part
         is scaled by L / |F'(0)| where the law's Lipschitz constant L exceeds the norm of its
         tangent at 0 (both as maps of the strain matrix, Frobenius norms): the contact stiffness
-        scale follows the law, and a law that is linear gives the linear scale exactly."""
+        scale follows the law, and a law that is linear gives the linear scale exactly. L is
+        the law's stiffness ``scale`` now (``laws.BoundLaw``: raised where the run's strains
+        found the law steeper); ``contact_stiffness`` follows its later changes."""
         elastic = np.linalg.eigvalsh(self.F + self.E.T @ np.linalg.solve(self.C, self.E)).max()
         if self.F_law is not None:
-            elastic *= max(1.0, self.F_law.lipschitz / frobenius_norm(self.F))
+            elastic *= max(1.0, self.F_law.scale.Get() / frobenius_norm(self.F))
         viscous = np.linalg.eigvalsh(self.A).max() if np.any(self.A) else 0.0
         if self.A_law is not None:
-            viscous *= max(1.0, self.A_law.lipschitz / frobenius_norm(self.A))
+            viscous *= max(1.0, self.A_law.scale.Get() / frobenius_norm(self.A))
         return elastic + rate * viscous
+
+    def contact_stiffness(self, rate=0.0):
+        """``stiffness`` as a CoefficientFunction that follows the laws' stiffness ``scale``
+        Parameters through the run (Nitsche's γ, the penalty: ``forms.boundary_stiffness``); the
+        number itself without laws."""
+        if self.linear:
+            return self.stiffness(rate)
+
+        def factor(law, tensor):
+            if law is None:
+                return 1.0
+            norm = frobenius_norm(tensor)
+            return ngs.IfPos(law.scale - norm, law.scale / norm, 1.0)
+        elastic = np.linalg.eigvalsh(self.F + self.E.T @ np.linalg.solve(self.C, self.E)).max()
+        viscous = np.linalg.eigvalsh(self.A).max() if np.any(self.A) else 0.0
+        return elastic * factor(self.F_law, self.F) + rate * (viscous * factor(self.A_law, self.A))
 
 
 @dataclass(frozen=True)

@@ -9,7 +9,9 @@ N(x) to the residual and N'(x) to the Jacobian at its positions in the bulk's pa
 scales come from the laws' tangents at 0 (``scales``), not from the state.
 
 After each step, and when Newton fails, the laws are held to their hypotheses at the run's own
-strains (``law_watch``).
+strains (``law_watch``); where a law is steeper there than its stiffness scale allows, the
+scale (Nitsche's γ, the penalty) is raised and the step solved again (``check_step``,
+``rescaled``).
 
 Quadrature: a law's stress is not a polynomial of the strain, so NGSolve's default rule for
 ε(u):ε(v), of order 2(p − 1) (exact for the linear bulk), is not enough before h is far
@@ -75,6 +77,10 @@ class LawTerms:
             rate = strain_matrix(coefficients.rate * (forms.strain(u) - forms.strain(coefficients.anchor)), dim)
             self.watches.append(LawWatch(T.A_law, state, rate, quadrature_order(order)))
         self._state, self._time, self._verified_at = state, coefficients.time, None
+        for watch in self.watches:                     # this run's scales start from the laws as checked
+            watch.bound.reset_scale()
+        self.rescaled = []
+        """(step, law, scale before, after) of each raised stiffness scale (Pa; Pa·s for A)."""
 
     def assemble_scales(self):
         """The tangents at 0 for the step's rate coefficient c (with each new c), and their
@@ -120,13 +126,42 @@ class LawTerms:
         return abs(csr(tangent)) @ np.abs(x) + np.abs(self.residual.FV().NumPy())
 
     # ---------------------------------------------------------------- the laws at the run's strains
-    def check_step(self, x, step, time):
+    def check_step(self, x, step, time, attempt=0):
         """Raise ``LawViolation`` if a law breaks (2.16)-(2.17) at the strains of the state
-        ``x`` Newton accepted for ``step`` (at ``time``, s), or has changed since its check;
-        else remember the strains (``law_watch``)."""
+        ``x`` Newton accepted for ``step`` (at ``time``, s), or has changed since its check.
+        True if a law's stiffness scale grew: the step is to be solved again with it (it has
+        been ``attempt`` times); False: the strains are remembered, the state is kept
+        (``law_watch``)."""
         self._state.vec.data = x
+        grown = False
         for watch in self.watches:
-            watch.check(step, time)
+            if watch.check(step, time, attempt):
+                self.rescaled.append((step, watch.name(), *watch.rescaled))
+                grown = True
+        if not grown:
+            for watch in self.watches:
+                watch.keep()
+        return grown
+
+    def save(self):
+        """The laws' stiffness scales and (on a serial mesh: the points are a rank's own) the
+        strains and stresses of the last kept step at the watched points, as named arrays for a
+        step's restart state (a resumed run decides as the uninterrupted one: ``solver_restart``)."""
+        arrays, serial = {}, not parallel.is_distributed(self._state.space.mesh)
+        for i, watch in enumerate(self.watches):
+            arrays[f"law{i}_scale"] = np.asarray(watch.bound.scale.Get())
+            if serial:
+                arrays.update({f"law{i}_strain": np.asarray(watch.previous[0]),
+                               f"law{i}_stress": np.asarray(watch.previous[1])})
+        return arrays
+
+    def load(self, arrays):
+        """Put back what ``save`` gave (absent in archives written before: nothing is put back)."""
+        for i, watch in enumerate(self.watches):
+            if f"law{i}_scale" in arrays:
+                watch.bound.scale.Set(float(arrays[f"law{i}_scale"]))
+            if f"law{i}_strain" in arrays and np.shape(arrays[f"law{i}_strain"]) == np.shape(watch.previous[0]):
+                watch.previous = (np.array(arrays[f"law{i}_strain"]), np.array(arrays[f"law{i}_stress"]))
 
     def explain(self, x, reason, hint):
         """(reason, hint) of a Newton failure at the iterate ``x``, with the law named where

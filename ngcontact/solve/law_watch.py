@@ -7,13 +7,25 @@ strains, at the quadrature points of N (``LawWatch``): its tangent there (forwar
 dim(dim+1)/2 + 1 evaluations of the law at every point), the chord from the point's strain at
 the step before (at the first step, from 0), and, when the strains grow beyond the sampled
 ones, samples up to twice the largest. A tangent that is not positive in some direction, or
-steeper than the law's Lipschitz bound, is confirmed by an exact chord of the checked law (a
-point within the difference step of a kink mixes the sides' columns); a confirmed violation of
-(2.16)-(2.17), a non-finite stress, or a law changed since its check (a Parameter it reads)
-raises ``LawViolation`` (a ``NewtonError``, not recoverable: the cut-back policy does not retry
-it), naming the law, the strain, the point and the step; the step is not kept, the steps before
-are (``NewtonError.history``). Before each step's first residual, each law is verified to be
-the one checked (``LawTerms.apply``).
+steeper than the law's bound, is confirmed by an exact chord of the checked law (a point
+within the difference step of a kink mixes the sides' columns).
+
+(2.16)-(2.17) allow any constants m > 0 and L, so a law steeper at the run's strains than at
+its samples is not wrong: where its L was estimated and a confirmed slope exceeds
+``LIPSCHITZ_MARGIN`` times its stiffness ``scale`` (``laws.BoundLaw``), the scale is raised to
+that slope and the step is redone with the Nitsche γ and penalty that follow it
+(``MaterialTensors.contact_stiffness``; ``LawTerms.check_step`` returns True, ``Step.take``
+solves the step again, at most ``REDOS`` times; the γ of weak normal supports keeps the scale
+of the Simulation's build, their matrix being assembled once). Deterministic: the decision reads the law and
+the state only. Refused, by ``LawViolation`` (a ``NewtonError``, not recoverable: the cut-back
+policy does not retry it), naming the law, what was measured, the strain, the point and the
+step, is evidence against the hypotheses only: a slope ≤ 0 (or below a given monotonicity), a
+slope above a given ``lipschitz``, a non-finite stress or tangent, a slope that grows without
+bound (``unbounded``: along the ray of strains through the steep point, from 1e-``DECADES`` to
+1e``DECADES`` times it, by ``GROWTH`` or more per decade over the last two decades at either
+end), and a law changed since its check (a Parameter it reads). The step is not kept, the steps
+before are (``NewtonError.history``). Before each step's first residual, each law is verified
+to be the one checked (``LawTerms.apply``).
 
 Cost: runs without laws pay nothing. With a projection law on the reference plate the check
 took 1.4 % of the run's CPU time (P1, 576 DOFs: 0.027 s of 1.9 s over 10 steps) and 1.3 % (P2,
@@ -36,9 +48,18 @@ from ngcontact.model.voigt import matrix_cf
 
 LIPSCHITZ_MARGIN = 2.0
 """A law whose Lipschitz constant was estimated from samples may be steeper at the run's strains
-than the samples showed by up to this factor (on ``BoundLaw.tangent_bound``, the steepest tangent
-at the samples): its Nitsche γ and penalty follow L (``MaterialTensors.stiffness``), whose
-margins absorb that. A given ``lipschitz`` is held to exactly."""
+than its stiffness ``scale`` (or ``BoundLaw.tangent_bound``, the steepest tangent at the
+samples) by up to this factor, which the margins of γ0 and the penalty absorb; beyond it the
+scale is raised to the measured slope and the step redone. A given ``lipschitz`` is held to
+exactly."""
+REDOS = 6
+"""Times a step is solved again because a law's stiffness scale grew (each time by more than
+``LIPSCHITZ_MARGIN``); a scale still growing after them is refused as not Lipschitz."""
+DECADES = 6
+"""The ray of strains probed for an unbounded slope: 1e-DECADES to 1e+DECADES times the strain."""
+GROWTH = 2.0
+"""A slope growing by this factor or more per decade over the last two decades at an end of the
+probed ray (a power |ε|^q of the strain, q ≥ 0.3) is evidence that it has no bound."""
 FAR_BEYOND = 10.0
 """A tangent this many times the Lipschitz bound at Newton's last iterate names the law as the
 cause of a failure (``LawTerms.explain``)."""
@@ -116,17 +137,21 @@ class LawWatch:
         return "(" + ", ".join(f"{c:.4g}" for c in at) + ") m"
 
     def bounds(self):
-        """(the smallest slope, the largest) the law must keep: its given monotonicity (0 for
-        an estimated one: strong monotonicity, m > 0) and its given Lipschitz constant (or
-        ``LIPSCHITZ_MARGIN`` times the estimated one, or the steepest tangent at the samples)."""
+        """(the smallest slope, the largest) the law must keep, or beyond which its stiffness
+        scale is raised: its given monotonicity (0 for an estimated one: strong monotonicity,
+        m > 0) and its given Lipschitz constant (or ``LIPSCHITZ_MARGIN`` times its stiffness
+        ``scale``, or the steepest tangent at the samples)."""
         law, bound = self.bound.law, self.bound
         low = 0.0 if law.monotonicity is None else law.monotonicity * (1 - 1e-6)
         high = law.lipschitz * (1 + 1e-6) if law.lipschitz is not None else \
-            LIPSCHITZ_MARGIN * max(bound.lipschitz, bound.tangent_bound)
+            LIPSCHITZ_MARGIN * max(bound.scale.Get(), bound.tangent_bound)
         return low, high
 
-    def check(self, step, time):
-        """Raise ``LawViolation`` where the law breaks (2.16)-(2.17) at the state's strains."""
+    def check(self, step, time, attempt=0):
+        """Raise ``LawViolation`` where the law breaks (2.16)-(2.17) at the state's strains;
+        True if its stiffness scale grew (the step is to be solved again: ``attempt`` times
+        already), else False: ``keep`` then remembers the strains if the state is kept
+        (module docstring)."""
         bound, name = self.bound, self.name()
         where = f" (the run's strain at step {step})"
         hint = (f"a law that is strongly monotone and Lipschitz at every strain ((2.16)-(2.17)); the check "
@@ -137,18 +162,43 @@ class LawWatch:
         except ValueError as error:
             raise LawViolation(name, str(error), step=step, time=time, hint=CHANGED_HINT) from None
         eps, sigma, J = self.evaluate()
-        found = _first(self.mesh, self._violation(eps, sigma, J))
+        steeper = []
+        found = _first(self.mesh, self._violation(eps, sigma, J, steeper))
         if found is None and parallel.maximum(self.mesh, np.linalg.norm(eps, axis=(1, 2)), 0.0) > bound.checked_range:
-            found = _first(self.mesh, self._resample(eps, where))
+            found = _first(self.mesh, self._resample(eps, where, steeper))
+        grown = parallel.any_rank(self.mesh, bool(steeper))
+        if found is None and grown:
+            found = _first(self.mesh, self._unbounded(eps, steeper))
+        slope = parallel.maximum(self.mesh, [entry[0] for entry in steeper], 0.0) if grown else 0.0
+        if found is None and grown and attempt >= REDOS:
+            found = (f"not Lipschitz: its slope at the run's strains grew past {LIPSCHITZ_MARGIN:g} × its stiffness "
+                     f"scale {bound.scale.Get():.4g} Pa again (to {slope:.4g} Pa) after the step was solved "
+                     f"{attempt + 1} times, each with the scale raised to the slope measured", None)
         if found is not None:
             message, strain = found
+            if message.startswith("not Lipschitz"):
+                hint = ("a law whose slope has one bound L at every strain ((2.16)-(2.17): |F(a) − F(b)| ≤ "
+                        "L |a − b|), a stiffening that levels off (the slope may be any constant, it is followed)")
             raise LawViolation(name, f"{name} breaks (2.16)-(2.17) at the run's strains: {message}", step=step,
                                time=time, hint=hint, strain=strain)
-        self.previous = (eps, sigma)
+        self._pending = (eps, sigma)
+        if grown:
+            self.rescaled = (bound.scale.Get(), slope)
+            bound.scale.Set(slope)
+            return True
+        return False
 
-    def _violation(self, eps, sigma, J):
-        """(message, strain) of the first violation at the points, or None."""
+    def keep(self):
+        """The strains of the step just checked become the step before (once every law passed)."""
+        self.previous = self._pending
+
+    def _violation(self, eps, sigma, J, steeper=None):
+        """(message, strain) of the first violation at the points, or None. With ``steeper`` (a
+        list) and an estimated Lipschitz constant, a confirmed slope above the bound is no
+        violation: (slope, strain, unit direction, where) of the steepest chord and tangent are
+        appended to it."""
         name = self.name()
+        estimated = steeper is not None and self.bound.law.lipschitz is None
         finite = np.all(np.isfinite(sigma), axis=(1, 2)) & np.all(np.isfinite(J), axis=(1, 2))
         if not finite.all():
             p = int(np.argmin(finite))
@@ -173,7 +223,11 @@ class LawWatch:
                         f"{_fmt(eps[p])} at {self._where(p)}: (σ(a) − σ(b)):(a − b)/|a − b|² = {slope[p]:.4g} Pa"
                         + (f" < the given monotonicity {self.bound.law.monotonicity:.4g}" if low > 0 else " ≤ 0"),
                         eps[p])
-            if above.any():
+            if above.any() and estimated:
+                p = int(np.argmax(np.where(above, steep, -np.inf)))
+                unit = np.einsum("b,bij->ij", d_eps[p] / size[p], np.array(self.bound.basis))
+                steeper.append((float(steep[p]), eps[p], unit, f" at {self._where(p)}"))
+            elif above.any():
                 p = int(np.argmax(above))
                 return (f"not Lipschitz with its bound between the strain {_fmt(self.previous[0][p])} of the step "
                         f"before and {_fmt(eps[p])} at {self._where(p)}: |σ(a) − σ(b)|/|a − b| = {steep[p]:.4g} Pa "
@@ -209,6 +263,9 @@ class LawWatch:
                 p = steep[k]
                 direction = np.einsum("b,bij->ij", right[k][0], np.array(self.bound.basis))
                 found = self._confirm(eps[p], direction, lambda s, g: g > high)
+                if found is not None and estimated:
+                    steeper.append((found[1], eps[p], direction, f" at {self._where(p)}"))
+                    break
                 if found is not None:
                     _, slope = found
                     return (f"steeper than its Lipschitz bound at the strain {_fmt(eps[p])} at {self._where(p)}: "
@@ -220,8 +277,9 @@ class LawWatch:
         law = self.bound.law
         if law.lipschitz is not None:
             return "the given Lipschitz constant"
-        return (f"{LIPSCHITZ_MARGIN:g} × the Lipschitz constant {self.bound.lipschitz:.4g} Pa estimated from the "
-                "samples, which sets the run's Nitsche γ and penalty")
+        return (f"{LIPSCHITZ_MARGIN:g} × the stiffness scale {self.bound.scale.Get():.4g} Pa (the Lipschitz constant "
+                f"{self.bound.lipschitz:.4g} Pa estimated from the samples, or the slope measured since), which "
+                "sets the run's Nitsche γ and penalty")
 
     def _confirm(self, strain, direction, broken):
         """(slope, steepness) of an exact chord of the checked law at ``strain`` along the unit
@@ -234,9 +292,10 @@ class LawWatch:
                 return slope, steepness
         return None
 
-    def _resample(self, eps, where):
+    def _resample(self, eps, where, steeper=None):
         """Samples of the hypotheses up to twice the run's largest strain (``BoundLaw.hypotheses``):
-        (message, strain) of a violation, or None; the sampled range grows."""
+        (message, strain) of a violation, or None; the sampled range grows. Slopes above the
+        bound of an estimated L go to ``steeper`` as in ``_violation``, at the largest strain."""
         bound = self.bound
         largest = 2 * parallel.maximum(self.mesh, np.linalg.norm(eps, axis=(1, 2)), 0.0)
         rng = np.random.default_rng([self.rng_seed, int(largest / bound.law.strain_scale * 1e6) % (2 ** 32)])
@@ -249,10 +308,50 @@ class LawWatch:
         if m < low:
             return (f"its monotonicity at samples up to twice the run's largest strain ({largest / 2:.4g}) is {m:.4g} "
                     f"Pa, below the given {bound.law.monotonicity:.4g}", None)
-        if L > high:
+        if L > high and steeper is not None and bound.law.lipschitz is None:
+            norms = np.linalg.norm(eps, axis=(1, 2))
+            if norms.size:
+                p = int(np.argmax(norms))
+                steeper.append((L, eps[p], eps[p] / norms[p], f" (the run's largest, at {self._where(p)})"))
+        elif L > high:
             return (f"its slopes at samples up to twice the run's largest strain ({largest / 2:.4g}) reach {L:.4g} Pa "
                     f"> {high:.4g} Pa ({self._bound_words()})", None)
         bound.checked_range = largest
+        return None
+
+    def _unbounded(self, eps, steeper):
+        """(message, strain) if the slope of the law grows without bound along the ray of
+        strains s ε through the steepest point of ``steeper`` (s = 10^k, |k| ≤ ``DECADES``;
+        slopes |σ(s ε + h d) − σ(s ε)|/h along its direction d, h = 1e-6 s |ε|): by ``GROWTH``
+        or more per decade over the last two decades at either end, or non-finite; else None."""
+        if not steeper:
+            return None
+        slope, strain, direction, where = max(steeper, key=lambda entry: entry[0])
+        size = float(np.linalg.norm(strain))
+        if not size > 0:                                   # at ε = 0: the ray of the direction
+            strain, size = direction * self.bound.law.strain_scale, self.bound.law.strain_scale
+        factors = 10.0 ** np.arange(-DECADES, DECADES + 1)
+        slopes = []
+        for s in factors:
+            try:
+                _, steepness = self.bound.chord(s * strain, direction, 1e-6 * s * size)
+            except (ValueError, FloatingPointError, OverflowError):
+                steepness = math.nan
+            slopes.append(steepness)
+        slopes = np.array(slopes)
+        estimated = f"{slope:.4g} Pa at the run's strain, {slope / self.bound.lipschitz:.3g} × the Lipschitz " \
+                    f"constant {self.bound.lipschitz:.4g} Pa estimated from the samples"
+        if not np.all(np.isfinite(slopes)):
+            k = int(np.argmin(np.isfinite(slopes)))
+            return (f"not Lipschitz: its slope along the direction {_fmt(direction)} is {slopes[k]} at "
+                    f"{factors[k]:g} × the strain {_fmt(strain)}{where} (the tangent was {estimated})", strain)
+        for end, (a, b, c), (sa, sb, sc) in (("large", slopes[-3:], factors[-3:]),
+                                             ("small", slopes[2::-1], factors[2::-1])):
+            if b >= GROWTH * a and c >= GROWTH * b:
+                return (f"not Lipschitz: its slope grows without bound towards {end} strains along the direction "
+                        f"{_fmt(direction)} through the strain {_fmt(strain)}{where}: |σ(sε + h d) − σ(sε)|/h = "
+                        f"{a:.4g}, {b:.4g}, {c:.4g} Pa at s = {sa:g}, {sb:g}, {sc:g} ({(c / a) ** 0.5:.3g} × per decade, "
+                        f"≥ {GROWTH:g} is taken as unbounded; the tangent was {estimated})", strain)
         return None
 
     def diagnose(self, matrix):

@@ -75,16 +75,21 @@ class Step:
         n, start = len(self.history), wallclock.perf_counter()
         saved, timings = self.scheme.checkpoint(), Timings()
         try:
-            if self.contact is not None:                    # the data at t_n, before the solve
-                at = self.scheme.coefficients.at
-                gamma3_data(self.contact, self.gamma3, self.body.mesh, at, target)
-                if self.contact.obstacle is None and isinstance(self.contact.gap, ngs.CoefficientFunction):
-                    with at(target):
-                        self.gap_check(target)
-            result = self.scheme.advance(dt, step=n, timer=timings, start=partial(self.starts.apply, guessed),
-                                         target=target)
-            if self.system.laws is not None:        # (2.16)-(2.17) at the step's strains (``law_terms``)
-                self.system.laws.check_step(self.gfu.vec, n, self.t)
+            attempt = 0
+            while True:
+                if self.contact is not None:                    # the data at t_n, before the solve
+                    at = self.scheme.coefficients.at
+                    gamma3_data(self.contact, self.gamma3, self.body.mesh, at, target)
+                    if self.contact.obstacle is None and isinstance(self.contact.gap, ngs.CoefficientFunction):
+                        with at(target):
+                            self.gap_check(target)
+                result = self.scheme.advance(dt, step=n, timer=timings, start=partial(self.starts.apply, guessed),
+                                             target=target)
+                # (2.16)-(2.17) at the step's strains; a law's stiffness scale grew: the step again
+                if self.system.laws is None or not self.system.laws.check_step(self.gfu.vec, n, self.t, attempt):
+                    break
+                self.scheme.restore(saved)
+                attempt += 1
             record = self.record(n, result, start, timings)
         except BaseException:
             self.scheme.restore(saved)

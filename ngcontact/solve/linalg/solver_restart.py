@@ -19,6 +19,8 @@ def restart_state(newton):
         kept = save(getattr(system, "generation", None), whole=getattr(system, "laws", None) is not None)
         if kept:
             arrays.update(kept, solver_rate=np.asarray(rate.Get()))
+    if getattr(system, "laws", None) is not None:         # the laws' stiffness scales (``law_terms``)
+        arrays.update(system.laws.save())
     return arrays
 
 
@@ -34,3 +36,5 @@ def load_restart_state(newton, arrays):
     load = getattr(newton.solver, "load", None)
     if load is not None:
         load(arrays, getattr(system, "generation", None))
+    if getattr(system, "laws", None) is not None:
+        system.laws.load(arrays)
