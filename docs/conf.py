@@ -27,10 +27,6 @@ exclude_patterns = ["_build", "**/.ipynb_checkpoints",
 nb_execution_mode = "off"                            # rendered as stored (no outputs), never run at build
 myst_heading_anchors = 3                             # links like model.md#sign-conventions resolve
 myst_enable_extensions = ["dollarmath"]
-suppress_warnings = [
-    "myst.xref_missing",     # the pages link source files and data (../ngcontact/..., speed/*.csv): not pages
-    "myst.header",           # a few topic pages go from # to ### as their tables need
-]
 
 autodoc_default_options = {"member-order": "bysource"}       # members listed where a page wants them
 autodoc_typehints = "description"
@@ -123,5 +119,13 @@ def _docstring(app, what, name, obj, options, lines):
     lines[:] = _as_rst(lines)
 
 
+def _tutorial_links(app, docname, source):
+    """A topic page's link to ``../tutorials/NN.ipynb`` (right on the repository) is the rendered
+    tutorial in the site (``docs/tutorials`` links to the folder; a path through the link would
+    resolve outside docs/, so the link becomes a reference to the document)."""
+    source[0] = re.sub(r"\[([^\]]+)\]\(\.\./tutorials/(\w+)\.ipynb\)", r"{doc}`\1 <tutorials/\2>`", source[0])
+
+
 def setup(app):
     app.connect("autodoc-process-docstring", _docstring, priority=100)     # before napoleon (500)
+    app.connect("source-read", _tutorial_links)
