@@ -56,6 +56,7 @@ SECTION = re.compile(r"^\s*(Parameters|Returns|Yields|Raises|Warns|Attributes|Ot
 FIELD = re.compile(r"^[\w*, ]+ :( |$)")
 FIELD_TEXT = re.compile(r"^([\w*, ]+) : (.+)$")
 DESCRIBED = ("Parameters", "Other Parameters", "Attributes")
+ENTRY = re.compile(r"^([A-Za-z_]\w*(?:, [A-Za-z_]\w*)*) : (.+)$")
 BULLET = re.compile(r"^(\s*)([-*+•]|\d+[.)])\s+")
 
 
@@ -76,11 +77,11 @@ def _indent(line):
 
 def _as_rst(lines):
     """The docstring's lines with the blank lines RST needs and the escapes above."""
-    out, previous, literal, in_section, bullets = [], None, None, False, []
+    out, previous, literal, in_section, bullets, entry = [], None, None, False, [], False
     for index, line in enumerate(lines):
         if not line.strip():
             out.append(line)
-            previous, bullets = None, []
+            previous, bullets, entry = None, [], False
             continue
         indent = _indent(line)
         if literal is not None and indent > literal:                      # inside a literal block: as is
@@ -93,6 +94,20 @@ def _as_rst(lines):
         elif in_section and indent == 0 and previous is None and not FIELD.match(line):
             out += ["Notes", "-----"]          # prose after a numpy section: napoleon ends it at a header only
             in_section = False
+        if not in_section:                     # "name : text" lines with indented continuations: a list
+            item = ENTRY.match(line) if indent == 0 else None
+            if item:
+                if previous is not None and not entry:
+                    out.append("")
+                out.append(f"- ``{item.group(1)}`` : " + _escape(item.group(2)))
+                entry, previous, bullets = True, (0, 2), [0]
+                continue
+            if entry and indent > 0:
+                out.append("  " + _escape(line.strip()))
+                continue
+            if entry:
+                out.append("")
+                entry, previous, bullets = False, None, []
         bullet = BULLET.match(line)
         if previous is not None and not in_section and not re.match(r"^\s*-{3,}\s*$", line):
             text_column = previous[1]
