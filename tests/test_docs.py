@@ -57,7 +57,8 @@ def test_tutorials_and_topic_pages_are_in_the_site(site):
     tutorials = sorted(p.stem for p in (ROOT / "tutorials").glob("*.ipynb"))
     assert tutorials and all((site / "tutorials" / f"{name}.html").exists() for name in tutorials)
     pages = sorted(p.stem for p in (ROOT / "docs").glob("*.md") if p.stem != "index")
-    assert all((site / f"{name}.html").exists() for name in pages), [p for p in pages if not (site / f"{p}.html").exists()]
+    missing = [name for name in pages if not (site / f"{name}.html").exists()]
+    assert pages and not missing, missing
     index = (site / "index.html").read_text()
     assert "api/index.html" in index and "tutorials/01_quick_start.html" in index
 
