@@ -77,11 +77,11 @@ def _indent(line):
 
 def _as_rst(lines):
     """The docstring's lines with the blank lines RST needs and the escapes above."""
-    out, previous, literal, in_section, bullets, entry = [], None, None, False, [], False
+    out, previous, literal, in_section, bullets, entry = [], None, None, False, [], None    # entry: a list's indent
     for index, line in enumerate(lines):
         if not line.strip():
             out.append(line)
-            previous, bullets, entry = None, [], False
+            previous, bullets, entry = None, [], None
             continue
         indent = _indent(line)
         if literal is not None and indent > literal:                      # inside a literal block: as is
@@ -95,19 +95,19 @@ def _as_rst(lines):
             out += ["Notes", "-----"]          # prose after a numpy section: napoleon ends it at a header only
             in_section = False
         if not in_section:                     # "name : text" lines with indented continuations: a list
-            item = ENTRY.match(line) if indent == 0 else None
+            item = ENTRY.match(line.strip())
+            if entry is not None and indent > entry:
+                out.append(" " * (entry + 2) + _escape(line.strip()))          # an entry's continuation
+                continue
             if item:
-                if previous is not None and not entry:
+                if previous is not None and entry != indent:
                     out.append("")
-                out.append(f"- ``{item.group(1)}`` : " + _escape(item.group(2)))
-                entry, previous, bullets = True, (0, 2), [0]
+                out.append(" " * indent + f"- ``{item.group(1)}`` : " + _escape(item.group(2)))
+                entry, previous, bullets = indent, (indent, indent + 2), [indent]
                 continue
-            if entry and indent > 0:
-                out.append("  " + _escape(line.strip()))
-                continue
-            if entry:
+            if entry is not None:
                 out.append("")
-                entry, previous, bullets = False, None, []
+                entry, previous, bullets = None, None, []
         bullet = BULLET.match(line)
         if previous is not None and not in_section and not re.match(r"^\s*-{3,}\s*$", line):
             text_column = previous[1]
