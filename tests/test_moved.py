@@ -281,7 +281,7 @@ def test_the_package_and_the_tests_use_no_old_path(folder):
     assert not found, "\n".join(found)
 
 
-def test_the_release_named_in_the_readme_is_the_constant():
-    readme = (ROOT / "README.md").read_text()
-    line = next(line for line in readme.splitlines() if line.startswith("| `ngcontact/moved.py`"))
+def test_the_release_named_in_the_layout_page_is_the_constant():
+    layout = (ROOT / "docs" / "layout.md").read_text()
+    line = next(line for line in layout.splitlines() if line.startswith("| `ngcontact/moved.py`"))
     assert f"removed in {REMOVED_IN})" in line, line
