@@ -14,7 +14,7 @@ from ngcontact.geometries import plate
 
 CLASSES = ("lawscale",)
 W, H = 0.01, 0.03                              # m: the column
-C33, E33, EPS33 = 111e9, 15.8, 830 * ngc.materials.EPS0
+C33, E33, EPS33 = 111e9, 15.8, 830 * ngc.EPS0
 
 
 def clip_hardening(E, zeta, r, name="clip hardening", linear=False, **options):
