@@ -108,3 +108,9 @@ def register(h):
                lambda eps, hooke: hooke(eps) - 1.5e11 * laws.Slab(1, -1e-4, 1e-4).excess(eps, 2), "reversing",
                strain_scale=1e-5)),
            h.NewtonFailure("reversing", "monotone"))
+    # ------------------------------------------------------------------ a tangent NGSolve cannot evaluate
+    h.case("lawscale", "ℰε (1 + |ε|/s) written with sqrt(ε:ε): a Jacobian of NaN at ε = 0",
+           column(lambda: laws.StrainLaw(
+               lambda eps, hooke: hooke(eps) * (1 + ngs.sqrt(ngs.InnerProduct(eps, eps)) / 0.01), "sqrt law"),
+               0.01, 0.0),
+           h.NewtonFailure("not finite"))

@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
+from netgen.libngpy._meshing import NgException
 
 from ngcontact import parallel
 from ngcontact.solve.linalg.linear_solver import DirectSolver, untimed
@@ -49,6 +50,11 @@ SINGULAR_RATIO = 1e-12
 value of the scaled Jacobian it reveals, 5e-5 to 6e-2 on the meshes of the test suite) comes
 from a singular Jacobian: the factorisation divided by a pivot at round-off."""
 SINGULAR = "stopped: the system is singular (the Jacobian has no unique solution)"
+NOT_FINITE = "stopped: the Jacobian has entries that are not finite (NaN or inf)"
+NOT_FINITE_HINT = ("a law or datum whose derivative is not finite at the state: NGSolve differentiates a "
+                   "CoefficientFunction as written, so e.g. sqrt(InnerProduct(eps, eps)) has an infinite "
+                   "derivative at eps = 0 (write |eps| as sqrt(InnerProduct(eps, eps) + s**2) with a small s, "
+                   "or use a form that is differentiable there), and NaN in the data propagates")
 SINGULAR_HINT = ("supports that hold the body: a body held only by the contact has no unique displacement "
                  "while the contact is open; or a start u0 that touches the obstacle")
 
@@ -331,6 +337,11 @@ class Newton:
                     self.linear_solve(x, timer, tol=tol)
                 except SolverFault as fault:
                     raise fail(str(fault), it + 1, fault.hint, False, laws=False) from fault.__cause__
+                except NgException as err:           # a factorisation that failed (a pivot of 0 or NaN)
+                    if not self._jacobian_finite():
+                        raise fail(NOT_FINITE, it + 1, NOT_FINITE_HINT, False) from err
+                    raise fail(f"{SINGULAR} (the factorisation failed: {err})", it + 1, SINGULAR_HINT,
+                               False) from err
                 linear.append(self._linear_counts(since=before))
                 self._check_correction(fail, it)
                 alpha = self.step_length(self.w) if limit else 1.0
@@ -370,11 +381,23 @@ class Newton:
         residual it answers: the Jacobian is singular."""
         w = parallel.cumulated(self.w) if self.norm.distributed else self.w.FV().NumPy()
         if parallel.any_rank(self.norm.mesh, not np.all(np.isfinite(w))):
+            if not self._jacobian_finite():
+                raise fail(NOT_FINITE, it + 1, NOT_FINITE_HINT, False)
             raise fail(SINGULAR + " (the correction is not finite)", it + 1, SINGULAR_HINT, False)
         size = self.norm.primal(w)
         if size > 0 and self.norm.dual(self.r) < SINGULAR_RATIO * size:
             raise fail(f"{SINGULAR}: the correction is {size / self.norm.dual(self.r):.3g} times larger than the "
                        "residual it answers (scaled norms)", it + 1, SINGULAR_HINT, False)
+
+    def _jacobian_finite(self):
+        """Whether the assembled Jacobian's entries are all finite, on every rank (True for a
+        matrix that does not show its entries)."""
+        matrix = getattr(self.system, "mat", None)
+        try:
+            values = getattr(matrix, "local_mat", matrix).AsVector().FV().NumPy()
+        except (AttributeError, TypeError, NgException):
+            values = np.zeros(0)
+        return not parallel.any_rank(self.norm.mesh, not np.all(np.isfinite(values)))
 
     def _linear_counts(self, since=None):
         """The linear solver's counters (``LINEAR_COUNTS``), minus ``since``."""
