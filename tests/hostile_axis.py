@@ -96,6 +96,14 @@ def register(h):
          "displacement", "axis")
     axis("Loads(u_r 1e-3 on the top, meeting the axis)", lambda ctx: h.built(simulation(
         lambda t: dict(displacement={"top": (1e-3, -0.01 * t)}))), "displacement", "axis")
+    def stepped(sim):
+        sim.step(0.5)
+        sim.step(0.5)
+        return dict(t=sim.t)
+
+    h.case("axis", "Loads(u_r = 1e-3 t on the top, meeting the axis: 0 when built)",
+           lambda ctx: stepped(simulation(lambda t: dict(displacement={"top": (1e-3 * t, -0.01 * t)}))),
+           h.Error(VE, "displacement", "axis", "t"))
     axis("indenter with the tip's electrode on the axis", lambda ctx: repr(ngc.Body(
         section(), ngc.pzt5a(), supports={"top": "all"}, grounded="axis", axisymmetric=True)), "grounded", "axis")
 

@@ -219,6 +219,26 @@ class StepSystem:
                 self._set_on_boundary(("u", axis, key), u.components[axis],
                                       support.sign * (cf[j] if support.size > 1 else cf), key)
         values[self._clamped] = 0.0
+        if self.body.axis:
+            self._check_axis(u)
+
+    def _check_axis(self, u):
+        """A ValueError if a prescribed displacement moved u_r on the axis of a body of revolution
+        off 0 at this step (where another support meets the axis: ``axisymmetric.check_loads``
+        checks the data at the start, a value of time only here)."""
+        radial = u.components[0]
+        on = self._boundary_dofs.get("axis")
+        if on is None:
+            on = self._boundary_dofs["axis"] = np.array(
+                list(radial.space.GetDofs(self.body.mesh.Boundaries("|".join(self.body.axis)))), dtype=bool)
+        values = radial.vec.FV().NumPy()
+        moved = np.abs(values[on]).max(initial=0.0)
+        if parallel.any_rank(self.body.mesh, moved > 1e-12 * np.abs(values).max(initial=0.0) + 1e-300):
+            keys = [key for key in self.loads.displacement if 0 in self.body.support_of(key).axes]
+            raise ValueError(f"Loads.displacement{keys}: u_r = {moved:.6g} m on the axis r = 0 of the body of "
+                             f"revolution at t = {self.coefficients.t:.6g} s, where u_r = 0 (the body would be torn "
+                             "open along its axis); the radial value of a support that meets the axis must vanish "
+                             "there at every time (e.g. proportional to x)")
 
     def _set_on_boundary(self, key, gf, cf, names):
         """gf = cf at the DOFs of the boundaries ``names`` (interpolated as ``GridFunction.Set``),
