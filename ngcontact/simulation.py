@@ -294,6 +294,9 @@ class Simulation:
             on_step: Callable | None = None, out: str | os.PathLike | None = None, guess: Guess = None,
             rtol: float | None = None, dt_min: float | None = None, event_dt: float | None = None) -> History:
         """Step from the current time to T (s) with nominal steps dt (s); returns the History.
+        The nominal steps are equal and reach T exactly: when dt does not divide T − t, they
+        are (T − t)/⌈(T − t)/dt⌉, shorter than dt, and a ``TimeStepWarning`` names dt asked
+        and dt used (``run(dt=0.3, T=1)`` takes 4 steps of 0.25 s).
         With ``rtol`` (a relative local error per step, for a scheme with an error estimate:
         "bdf2") the steps are chosen by it instead, dt the first (``stepping``): rejected tries
         in ``rejections``, events located to ``event_dt`` (default 1e-3 dt), no step below
@@ -326,7 +329,7 @@ class Simulation:
         resumed = self._resumed
         start = resumed["start"] if resumed and (resumed["dt"], resumed["T"], resumed.get("rtol")) == (dt, T, rtol) \
             else self.t
-        steps = max(1, int(np.ceil((T - start) / dt - 1e-9)))        # dt > T − t: one step to T
+        steps = stepping.equal_steps(start, T, dt) if control is None else max(1, int(np.ceil((T - start) / dt - 1e-9)))
         if self._machine_code is not None:
             self._machine_code.expect(steps * ITERATIONS_PER_STEP)
         callbacks = [on_step] if on_step else []
