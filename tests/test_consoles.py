@@ -28,3 +28,52 @@ def test_run_warns_when_it_shortens_dt():
         warnings.simplefilter("error", ngc.TimeStepWarning)
         history = sim.run(dt=0.1, T=1.5)
     assert len(history) == 10 and history[-1].time == pytest.approx(1.5)
+
+
+def test_plane_and_signed_distance_take_one_direction():
+    """Plane(point, outward) and SignedDistance(distance, outward=...) take the normal pointing
+    out of the obstacle towards the body: the plane y = 0 under the plate as both gives the same
+    gap and n_o = (0, −1). The old ``normal`` keyword still works with a DeprecationWarning
+    (SignedDistance's: pointing into the obstacle); errors name the argument passed."""
+    import ngsolve as ngs
+    from ngcontact import obstacles
+    mesh = plate(L1=1, L2=1, maxh=1)
+    point = mesh(0.3, 0.7)
+    plane = obstacles.Plane((0.0, 0.0), (0.0, 2.0)).fields(2)
+    signed = obstacles.SignedDistance(ngs.y, outward=(0.0, 1.0)).fields(2)
+    with pytest.warns(DeprecationWarning, match=r"SignedDistance: normal is deprecated .* pass outward=-normal"):
+        old = obstacles.SignedDistance(ngs.y, (0.0, -1.0)).fields(2)
+    with pytest.warns(DeprecationWarning, match=r"Plane: normal is deprecated .* pass outward="):
+        old_plane = obstacles.Plane((0.0, 0.0), normal=(0.0, 1.0)).fields(2)
+    for gap, n_o in (plane, signed, old, old_plane):
+        assert gap(point) == pytest.approx(0.7) and n_o(point) == pytest.approx((0.0, -1.0))
+    with pytest.raises(ValueError, match=r"Plane: outward \(the normal pointing out of the obstacle towards the "
+                                         r"body\) must be a nonzero finite vector, got \[0.0, 0.0\]"):
+        obstacles.Plane((0, 0), outward=(0, 0))
+    with pytest.warns(DeprecationWarning), pytest.raises(ValueError, match=r"Plane: normal \(the normal"):
+        obstacles.Plane((0, 0), normal=(0, 0))
+    with pytest.raises(TypeError, match=r"SignedDistance: give outward, .* \(got both outward and normal\)"):
+        obstacles.SignedDistance(ngs.y, (0, -1), outward=(0, 1))
+    with pytest.raises(ValueError, match=r"SignedDistance: outward must have 2 components in 2D, got 3"):
+        obstacles.SignedDistance(ngs.y, outward=(0.0, 0.0, 1.0)).fields(2)
+
+
+@pytest.mark.parametrize("make, words", [
+    (lambda o, ngs: o.SignedDistance(ngs.y, outward=(0.0, -1.0)),
+     r"SignedDistance's outward must point out of the obstacle towards the body \(outward·ν < 0 .* outward·ν "
+     r"ranges over \[1, 1\] on Γ3: is outward reversed\?"),
+    (lambda o, ngs: o.SignedDistance(ngs.y, outward=(0.0, 2.0)),
+     r"SignedDistance's outward must be a unit vector field on Γ3; \|outward\| ranges over \[2, 2\]"),
+    (lambda o, ngs: o.SignedDistance(ngs.y, (0.0, 1.0)),
+     r"SignedDistance's normal must point from the body into the obstacle \(normal·ν > 0 .* is normal reversed")])
+def test_a_reversed_obstacle_direction_is_named_as_passed(make, words):
+    """The check of the direction at t = 0 names ``outward`` or ``normal`` as the user passed it."""
+    import ngsolve as ngs
+    from ngcontact import obstacles
+    body = ngc.Body(plate(L1=0.01, L2=0.003, maxh=0.003), ngc.pzt5a(), clamped="left", grounded="top",
+                    contact_side="bottom")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        obstacle = make(obstacles, ngs)
+    with pytest.raises(ValueError, match=words):
+        ngc.Simulation(body, ngc.Loads(), time=ngs.Parameter(0.0), contact=ngc.Contact(obstacle=obstacle))
