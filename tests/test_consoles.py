@@ -77,3 +77,32 @@ def test_a_reversed_obstacle_direction_is_named_as_passed(make, words):
         obstacle = make(obstacles, ngs)
     with pytest.raises(ValueError, match=words):
         ngc.Simulation(body, ngc.Loads(), time=ngs.Parameter(0.0), contact=ngc.Contact(obstacle=obstacle))
+
+
+def punch(point_y):
+    """A PZT-5A cylinder (radius 5 mm, 3 mm high, on its meridian section) on the plane
+    y = ``point_y``, pressed by 1 MPa × t on its top."""
+    import netgen.occ as occ
+    import ngsolve as ngs
+    from ngcontact.obstacles import Plane
+    face = occ.Rectangle(0.005, 0.003).Face()
+    face.edges.Min(occ.X).name, face.edges.Max(occ.X).name = "axis", "right"
+    face.edges.Min(occ.Y).name, face.edges.Max(occ.Y).name = "bottom", "top"
+    body = ngc.Body(ngs.Mesh(occ.OCCGeometry(face, dim=2).GenerateMesh(maxh=0.001)), ngc.pzt5a(),
+                    supports={"axis": "normal"}, grounded="top", contact_side="bottom", axisymmetric=True)
+    t = ngs.Parameter(0.0)
+    return ngc.Simulation(body, ngc.Loads(f2={"top": (0, -1e6 * t)}), time=t,
+                          contact=ngc.Contact(obstacle=Plane((0.0, point_y), (0.0, 1.0))))
+
+
+def test_a_round_off_pressure_is_no_contact():
+    """The plane at y = 0.1 + 0.2 − 0.3 = 5.6e-17 m: unloaded, the punch's pressure is 0.15 Pa
+    of round-off (1e-12 of PZT's stiffness), and its contact area and set are 0; loaded, the
+    whole base π r² is in contact at t = 0.5 and 1, as on the plane y = 0."""
+    sim = punch(0.1 + 0.2 - 0.3)
+    sim.run(0.5, 1.0)
+    first = sim.history[0].contact
+    assert 0 < first.pressure.max() < 1.0 and first.contact_area == 0 and not first.contact_set.any()
+    for record in sim.history[1:]:
+        assert record.contact.contact_area == pytest.approx(np.pi * 0.005 ** 2, rel=1e-12)
+        assert record.contact.contact_set == pytest.approx(1.0, rel=1e-12)
