@@ -106,3 +106,43 @@ def test_a_round_off_pressure_is_no_contact():
     for record in sim.history[1:]:
         assert record.contact.contact_area == pytest.approx(np.pi * 0.005 ** 2, rel=1e-12)
         assert record.contact.contact_set == pytest.approx(1.0, rel=1e-12)
+
+
+def _states_default(text, default):
+    """Whether an option's help ``text`` names its ``default`` (each item of a list; numbers by
+    value: "10" states 10.0, "1e6" states 1000000.0)."""
+    import re
+    numbers = {float(n) for n in re.findall(r"(?<![\w.])-?\d+(?:\.\d*)?(?:e[+-]?\d+)?", text.replace("^", "**"))}
+    items = default if isinstance(default, (list, tuple)) else [default]
+    return "default" in text and all(
+        float(item) in numbers if isinstance(item, (int, float)) else str(item) in text for item in items)
+
+
+def test_every_help_line_shows_its_default():
+    """``python -m ngcontact <command> --help``: every option has a meaning, and every option
+    with a default (not a flag, not None) names that default in its help as printed."""
+    import argparse
+    import re
+    import textwrap
+    from ngcontact import cli
+    main = cli.parser()
+    (commands,) = [a for a in main._actions if isinstance(a, argparse._SubParsersAction)]
+    assert set(commands.choices) >= {"demo", "convergence", "stability", "hertz", "bench", "cluster", "timesteps",
+                                     "timeorder", "adapt", "axisymmetric"}
+    missing = []
+    for name, sub in commands.choices.items():
+        printed = sub.format_help()
+        options = printed[printed.index("options:"):]
+        for action in sub._actions:
+            if not action.option_strings or action.help == argparse.SUPPRESS or action.dest == "help":
+                continue
+            flag = action.option_strings[-1]
+            block = re.search(rf"^  {re.escape(', '.join(action.option_strings))}\b.*?(?=^  -|\Z)", options,
+                              re.M | re.S)
+            assert block, (name, flag)
+            text = " ".join(block.group(0).split())
+            if not action.help:
+                missing.append(f"{name} {flag}: no meaning")
+            elif action.default not in (None, False) and not _states_default(text, action.default):
+                missing.append(f"{name} {flag}: default {action.default!r} not shown in {textwrap.shorten(text, 200)}")
+    assert not missing, "\n".join(missing)
