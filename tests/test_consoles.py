@@ -146,3 +146,19 @@ def test_every_help_line_shows_its_default():
             elif action.default not in (None, False) and not _states_default(text, action.default):
                 missing.append(f"{name} {flag}: default {action.default!r} not shown in {textwrap.shorten(text, 200)}")
     assert not missing, "\n".join(missing)
+
+
+def test_the_demo_prints_twenty_lines_and_a_bar(tmp_path, capsys):
+    """40 steps: a line each 0.025 s (20 lines, every 2nd step), the last at t = 0.5 s; after
+    lift-off (contact 0) the charge flux, ±1e-23 C/m of round-off, prints as 0, in contact as
+    a number; the progress bar counts the 40 steps on stderr."""
+    from ngcontact import demo
+    summary = demo.run(out=tmp_path, maxh=0.01, steps=40, progress=True)
+    printed = capsys.readouterr()
+    lines = [line.split() for line in printed.out.splitlines() if line[:5].strip().isdigit()]
+    assert [int(line[0]) for line in lines] == list(range(2, 41, 2))
+    opened = [line for line in lines if float(line[3]) == 0]
+    assert opened and all(line[-1] == "0" for line in opened)
+    assert all(abs(float(line[-1])) > 1e-7 for line in lines if float(line[3]) > 0)
+    assert 0 < max(abs(q) for q, a in zip(summary["charge_flux"], summary["contact_length"]) if a == 0) < 1e-18
+    assert "charge flux [C/m]" in printed.out and "40/40" in printed.err
