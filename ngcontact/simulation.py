@@ -292,7 +292,8 @@ class Simulation:
 
     def run(self, dt: float, T: float, *, max_cutbacks: int = 6, progress: bool = False, vtk: str | None = None,
             on_step: Callable | None = None, out: str | os.PathLike | None = None, guess: Guess = None,
-            rtol: float | None = None, dt_min: float | None = None, event_dt: float | None = None) -> History:
+            rtol: float | None = None, dt_min: float | None = None, event_dt: float | None = None,
+            restart_data: bool = True) -> History:
         """Step from the current time to T (s) with nominal steps dt (s); returns the History.
         The nominal steps are equal and reach T exactly: when dt does not divide T − t, they
         are (T − t)/⌈(T − t)/dt⌉, shorter than dt, and a ``TimeStepWarning`` names dt asked
@@ -316,6 +317,10 @@ class Simulation:
             see); after ``resume(out)``, the same dt and T continue the interrupted run on its
             own nominal steps.
         guess : Newton's start (``step``): "nested" or "p1" for every step, another guess for the first.
+        restart_data : with ``out``, False leaves the solver's kept factorisation out of the step
+            archives (its values are most of an archive: records, states and the scheme's restart
+            state stay); ``resume`` then factorises anew from the state and continues the run to
+            Newton's tolerance, not bitwise. True (the default) keeps it: a resume is bitwise.
         If a step fails even at the smallest cut-back, the NewtonError is raised with
         ``error.history`` holding every step computed so far (also in ``history``).
         The arguments are checked before the first step (``arguments.run``: the directories
@@ -325,6 +330,8 @@ class Simulation:
         dt, T, max_cutbacks, progress = arguments.run(self.t, self.body.mesh, dt, T, max_cutbacks, progress, vtk,
                                                       on_step, out)
         control = arguments.controlled(self.newton.rtol, self.scheme, dt, rtol, dt_min, event_dt, T)
+        if not arguments.flag("restart_data", restart_data) and out is None:
+            raise ValueError("run: restart_data=False is for the step archives of out=DIR: give out too")
         self.starts.resolve(guess)
         resumed = self._resumed
         start = resumed["start"] if resumed and (resumed["dt"], resumed["T"], resumed.get("rtol")) == (dt, T, rtol) \
@@ -336,7 +343,8 @@ class Simulation:
         if out is not None:                      # checks the directory, writes the history so far
             dt_min, event_dt = control or (None, None)
             callbacks.insert(0, results.Stream(self.results_source(), out, dt, T, start, resumed, rtol, dt_min=dt_min,
-                                               event_dt=event_dt, max_cutbacks=max_cutbacks, guess=guess))
+                                               event_dt=event_dt, max_cutbacks=max_cutbacks, guess=guess,
+                                               restart_data=restart_data))
         if vtk is not None:                      # distributed: one .vtu per computing rank and step, one .pvd
             series = paraview.FieldsSeries(self.results_source(), vtk)
             series(self.t)

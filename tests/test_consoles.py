@@ -162,3 +162,38 @@ def test_the_demo_prints_twenty_lines_and_a_bar(tmp_path, capsys):
     assert all(abs(float(line[-1])) > 1e-7 for line in lines if float(line[3]) > 0)
     assert 0 < max(abs(q) for q, a in zip(summary["charge_flux"], summary["contact_length"]) if a == 0) < 1e-18
     assert "charge flux [C/m]" in printed.out and "40/40" in printed.err
+
+
+def test_archives_without_the_solver_restart_data(tmp_path):
+    """``run(out=, restart_data=False)``: the step archives lose the kept factorisation (half the
+    size on this coarse plate), keep the records and the scheme's state; resumed after its later archives are
+    deleted, the run factorises anew and ends where the uninterrupted one does, to Newton's
+    tolerance; ``restart_data=False`` without ``out`` is refused by name."""
+    import shutil
+    from ngcontact.output.results import read
+    from ngcontact.scenes import reference
+    sizes = {}
+    for kept in (True, False):
+        sim = reference.simulation(1, 0.02)
+        sim.run(2.5e-3, 0.02, out=tmp_path / str(kept), restart_data=kept)
+        archives = sorted((tmp_path / str(kept) / "steps").glob("*.npz"))
+        sizes[kept] = archives[-1].stat().st_size
+        with np.load(archives[-1]) as last:
+            assert ("restart/kept_values" in last) is kept and "restart/state" in last and "contact/beta" in last
+            factorization = last["restart/kept_values"].nbytes if kept else 0
+        whole = sim.gfu.vec.FV().NumPy().copy()
+        if kept:
+            dropped = factorization
+    assert sizes[True] - sizes[False] >= dropped and sizes[False] < 0.6 * sizes[True], sizes
+    shutil.copytree(tmp_path / "False", tmp_path / "cut")
+    for path in sorted((tmp_path / "cut" / "steps").glob("*.npz"))[5:]:
+        path.unlink()
+    resumed = reference.simulation(1, 0.02).resume(tmp_path / "cut")
+    resumed.run(2.5e-3, 0.02, out=tmp_path / "cut", restart_data=False)
+    final = resumed.gfu.vec.FV().NumPy()
+    assert np.abs(final - whole).max() <= 1e-7 * np.abs(whole).max()
+    assert len(read(tmp_path / "cut")[1]) == len(read(tmp_path / "False")[1]) == 9
+    with pytest.raises(ValueError, match=r"restart_data=False is for the step archives of out=DIR"):
+        reference.simulation(1, 0.02).run(2.5e-3, 0.01, restart_data=False)
+    with pytest.raises(TypeError, match=r"restart_data must be True or False, got 'no'"):
+        reference.simulation(1, 0.02).run(2.5e-3, 0.01, out=tmp_path / "x", restart_data="no")
