@@ -127,8 +127,8 @@ def parser():
     stab.add_argument("--quick", action="store_true", help="fewer runs per study (about a third)")
     stab.add_argument("--resume", action="store_true", help="skip the studies whose <study>.csv is in OUT")
     stab.add_argument("--study", metavar="NAME", nargs="+", default=None,
-                      help="run only these studies (default: all of nitsche_map, time_step_sweep, incompressibility, strong_coupling, "
-                           "debonding, load_cycles, penalty_sweep, nonlinear_laws, electrode_map)")
+                      help="run only these studies (default: all of nitsche_map, time_step_sweep, incompressibility, "
+                           "strong_coupling, debonding, load_cycles, penalty_sweep, nonlinear_laws, electrode_map)")
 
     hertz = commands.add_parser("hertz", parents=[common], help="contact on a curved side against Hertz (half-disk "
                                 "on a plane), obstacle normal and body normal: hertz.csv, hertz.md, a chart")
@@ -142,7 +142,8 @@ def parser():
                                 "linear solve, orders x sizes: bench.csv and a chart")
     bench.add_argument("--out", metavar="DIR", type=_directory, default="bench", help="output directory")
     bench.add_argument("--dim", type=int, choices=(2, 3), default=2, help="2D plate or 3D block")
-    bench.add_argument("--orders", metavar="P", type=int, nargs="+", default=[1, 2, 3, 4], help="polynomial orders")
+    bench.add_argument("--orders", metavar="P", type=int, nargs="+", default=[1, 2, 3, 4],
+                       help="polynomial orders")
     bench.add_argument("--max-ndof", metavar="N", type=float, default=1e6,
                        help="largest problem size (default 1e6)")
     bench.add_argument("--steps", metavar="N", type=int, default=10,

@@ -166,8 +166,8 @@ def test_the_demo_prints_twenty_lines_and_a_bar(tmp_path, capsys):
 
 def test_archives_without_the_solver_restart_data(tmp_path):
     """``run(out=, restart_data=False)``: the step archives lose the kept factorisation (half the
-    size on this coarse plate), keep the records and the scheme's state; resumed after its later archives are
-    deleted, the run factorises anew and ends where the uninterrupted one does, to Newton's
+    size on this coarse plate), keep the records and the scheme's state; resumed after its later
+    archives are deleted, the run factorises anew and ends where the uninterrupted one does, to Newton's
     tolerance; ``restart_data=False`` without ``out`` is refused by name."""
     import shutil
     from ngcontact.output.results import read
