@@ -212,7 +212,8 @@ def parser():
     adapt.add_argument("--tol", metavar="TOL", type=float, default=None,
                        help="instead of the study: solve each scene's step to the relative estimate TOL "
                             "(1e-6 <= TOL < 1; adapt.solve: averaging marking, the bound certifies the last level) "
-                            "and print its levels and certificate; exit status 1 if a scene's limit comes first")
+                            "and print its levels and certificate, written into OUT as each scene ends (tolerance.csv, "
+                            "tolerance.json, each level's mesh as .vol); exit status 1 if a scene's limit comes first")
     axi = commands.add_parser("axisymmetric", parents=[common], help="the half-ball on a plane solved on its "
                               "meridian section (a body of revolution) against the 3D quarter-ball: pressure error "
                               "against wall time, axisymmetric.csv, axisymmetric.md and a chart")
@@ -365,7 +366,7 @@ def _dispatch(args):
         if args.tol is not None:
             results = adaptivity.to_tolerance(args.tol, scenes=tuple(args.scene), orders=tuple(args.orders),
                                               fraction=args.fraction, marking=args.marking,
-                                              stop_newton=args.stop_newton)
+                                              stop_newton=args.stop_newton, out=args.out)
             missed = [f"{name} P{order} ({result.reason}: relative estimate {result.last.relative:.3g})"
                       for (name, order), result in results.items() if not result.reached]
             if missed:       # a run that did not certify its tol is not a success

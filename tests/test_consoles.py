@@ -197,3 +197,35 @@ def test_archives_without_the_solver_restart_data(tmp_path):
         reference.simulation(1, 0.02).run(2.5e-3, 0.01, restart_data=False)
     with pytest.raises(TypeError, match=r"restart_data must be True or False, got 'no'"):
         reference.simulation(1, 0.02).run(2.5e-3, 0.01, out=tmp_path / "x", restart_data="no")
+
+
+def test_adapt_to_tolerance_writes_its_table_and_levels(tmp_path, monkeypatch):
+    """``python -m ngcontact adapt --tol 0.5 --out DIR`` on the coarse Hertz disk: DIR holds
+    tolerance.csv and tolerance.json with the levels printed (the last one certified within
+    0.5) and each level's mesh, which Netgen reads back."""
+    import csv
+    import json
+    import ngsolve as ngs
+    from ngcontact import cli
+    from ngcontact.scenes import hertz
+    from ngcontact.studies import adaptivity
+
+    def small():
+        scene = adaptivity.SCENES["hertz3d"]()
+        scene.name, scene.max_ndof = "hertz", 400
+        scene.mesh = lambda order: hertz.mesh(2, h_contact=0.2, curve=order)
+        scene.scene = lambda order: (lambda mesh: hertz.simulation(order, mesh=mesh, keep_states=False))
+        return scene
+    monkeypatch.setitem(adaptivity.SCENES, "hertz", small)
+    cli.main(["adapt", "--tol", "0.5", "--scene", "hertz", "--orders", "1", "--out", str(tmp_path)])
+    (run,) = json.loads((tmp_path / "tolerance.json").read_text())
+    assert (run["scene"], run["order"], run["tol"], run["reached"]) == ("hertz", 1, 0.5, True)
+    assert 0 < run["relative"] <= 0.5 and run["levels"][-1]["ndof"] == run["ndof"]
+    with open(tmp_path / "tolerance.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert [int(r["level"]) for r in rows] == list(range(len(run["levels"])))
+    assert [int(r["ndof"]) for r in rows] == [level["ndof"] for level in run["levels"]]
+    assert float(rows[-1]["relative"]) == pytest.approx(run["relative"], rel=1e-11)
+    for k, level in enumerate(run["levels"]):
+        mesh = ngs.Mesh(str(tmp_path / f"hertz_P1_level{k}.vol"))
+        assert mesh.ne > 0
