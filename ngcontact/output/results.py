@@ -57,7 +57,8 @@ simulation's history, and ``resume(DIR)`` continues from the last step on disk.
 and scheme (its history, and the scheme's restart state through its ``load``; distributed:
 each rank its own parts), and ``run(dt, T, out=DIR)`` with the same options then computes only
 the steps not yet reached, to the results of the run never interrupted, bitwise (serially; under
-mpiexec MUMPS adds in the order messages arrive); a run that had reached T is complete, and
+mpiexec MUMPS adds in the order messages arrive; written with ``run(restart_data=False)``, the
+first solve factorises anew and the run continues to Newton's tolerance); a run that had reached T is complete, and
 ``run`` says so (``check_incomplete``). Both check first, on every rank, that DIR was written by
 as many MPI ranks (a run is resumed under the ``mpiexec -n N`` that wrote it, a serial one
 serially) with the mesh distributed alike, and that it holds this scene (the fingerprints
