@@ -153,7 +153,7 @@ def test_the_demo_prints_twenty_lines_and_a_bar(tmp_path, capsys):
     lift-off (contact 0) the charge flux, ±1e-23 C/m of round-off, prints as 0, in contact as
     a number; the progress bar counts the 40 steps on stderr."""
     from ngcontact import demo
-    summary = demo.run(out=tmp_path, maxh=0.01, steps=40, progress=True)
+    summary = demo.run(out=tmp_path, maxh=0.02, steps=40, progress=True)
     printed = capsys.readouterr()
     lines = [line.split() for line in printed.out.splitlines() if line[:5].strip().isdigit()]
     assert [int(line[0]) for line in lines] == list(range(2, 41, 2))
