@@ -53,12 +53,12 @@ from ngcontact.simulation import Simulation  # noqa: E402
 from ngcontact.solve.linalg import petsc_solver  # noqa: E402
 from ngcontact.solve.newton import NewtonError  # noqa: E402
 from ngcontact.time import schemes  # noqa: E402
-from ngcontact.time.stepping import AccuracyWarning, MIN_DT  # noqa: E402
+from ngcontact.time.stepping import AccuracyWarning, MIN_DT, TimeStepWarning  # noqa: E402
 
 _moved.install()                                # the public modules' and the old import paths (``moved``)
 __getattr__ = _moved.attribute
 
 __all__ = ["Body", "Contact", "Nitsche", "Penalty", "NodalConstraint", "Loads", "Material", "Simulation", "History",
-           "StepRecord", "ContactRecord", "NewtonError", "PhysicsWarning", "AccuracyWarning", "METHODS", "EPS0",
-           "MIN_DT", "academic", "pzt5a", "batio3", "save_html", "contact_laws", "parallel", "checks", "meshes",
+           "StepRecord", "ContactRecord", "NewtonError", "PhysicsWarning", "AccuracyWarning", "TimeStepWarning",
+           "METHODS", "EPS0", "MIN_DT", "academic", "pzt5a", "batio3", "save_html", "contact_laws", "parallel", "checks", "meshes",
            "schemes", "adapt", "estimators", "laws", "petsc_solver", "obstacles", "results"]

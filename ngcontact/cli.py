@@ -21,8 +21,28 @@ KEPT = dict(demo="{out}/run (continue with --resume)", convergence="{out}/cases 
 """Where each command keeps what it computed before an error."""
 
 
+class _Help(argparse.HelpFormatter):
+    """argparse's help, each option's default appended where its text does not give it (a
+    flag's default is off; an option whose default is None says in its text what it does
+    when not given)."""
+
+    def _get_help_string(self, action):
+        text = action.help or ""
+        shown = action.default
+        if (action.option_strings and "default" not in text and shown is not None and shown is not False
+                and shown is not argparse.SUPPRESS):
+            value = " ".join(map(str, shown)) if isinstance(shown, (list, tuple)) else str(shown)
+            text += f" (default: {value.replace('%', '%%')})"
+        return text
+
+
 class _Parser(argparse.ArgumentParser):
-    """argparse's parser, whose errors are one line on stderr (exit status 2), like ours."""
+    """argparse's parser, whose errors are one line on stderr (exit status 2), like ours, and
+    whose help shows every option's default (``_Help``)."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("formatter_class", _Help)
+        super().__init__(*args, **kwargs)
 
     def error(self, message):
         print(f"{self.prog}: error: {message} (see: {self.prog} --help)", file=sys.stderr)
@@ -64,13 +84,14 @@ def parser():
                       help="refine the mesh K times (nested meshes; default 0)")
     demo.add_argument("--steps", metavar="N", type=int, default=200,
                       help="number of time steps over the load history, 0 to 0.5 s (default 200)")
-    demo.add_argument("--theta", type=int, default=1, choices=(1, 0, -1), help="Nitsche variant")
+    demo.add_argument("--theta", type=int, default=1, choices=(1, 0, -1),
+                      help="Nitsche variant θ: 1 symmetric (default), 0 incomplete, -1 skew-symmetric")
     demo.add_argument("--gamma0", type=float, default=10.0, help="Nitsche parameter γ0 (default 10)")
     demo.add_argument("--scheme", choices=tuple(ngcontact.schemes.SCHEMES), default="backward_euler",
                       help="time scheme (default backward_euler, the paper's; bdf2 is second order)")
     demo.add_argument("--rtol", type=float, default=None,
                       help="choose the time steps by this local error target (with --scheme bdf2; the first step "
-                           "0.5 s / STEPS)")
+                           "0.5 s / STEPS; default: STEPS equal steps)")
     demo.add_argument("--resume", action="store_true",
                       help="continue the run interrupted in OUT/run (same settings, under mpiexec the same "
                            "number of ranks) instead of starting again")
@@ -106,13 +127,13 @@ def parser():
     stab.add_argument("--quick", action="store_true", help="fewer runs per study (about a third)")
     stab.add_argument("--resume", action="store_true", help="skip the studies whose <study>.csv is in OUT")
     stab.add_argument("--study", metavar="NAME", nargs="+", default=None,
-                      help="run only these studies (nitsche_map, time_step_sweep, incompressibility, strong_coupling, "
-                           "debonding, load_cycles, penalty_sweep, nonlinear_laws, electrode_map)")
+                      help="run only these studies (default: all of nitsche_map, time_step_sweep, incompressibility, "
+                           "strong_coupling, debonding, load_cycles, penalty_sweep, nonlinear_laws, electrode_map)")
 
     hertz = commands.add_parser("hertz", parents=[common], help="contact on a curved side against Hertz (half-disk "
                                 "on a plane), obstacle normal and body normal: hertz.csv, hertz.md, a chart")
     hertz.add_argument("--out", metavar="DIR", type=_directory, default="hertz", help="output directory")
-    hertz.add_argument("--orders", metavar="P", type=int, nargs="+", default=[1, 2])
+    hertz.add_argument("--orders", metavar="P", type=int, nargs="+", default=[1, 2], help="polynomial orders")
     hertz.add_argument("--levels", metavar="N", type=int, default=4, help="nested meshes, h halving (default 4)")
     hertz.add_argument("--dim", type=int, choices=(2, 3), default=2, help="half-disk (2D) or half-ball (3D)")
     hertz.add_argument("--resume", action="store_true", help="skip the cases already in OUT/cases.json")
@@ -121,7 +142,8 @@ def parser():
                                 "linear solve, orders x sizes: bench.csv and a chart")
     bench.add_argument("--out", metavar="DIR", type=_directory, default="bench", help="output directory")
     bench.add_argument("--dim", type=int, choices=(2, 3), default=2, help="2D plate or 3D block")
-    bench.add_argument("--orders", metavar="P", type=int, nargs="+", default=[1, 2, 3, 4])
+    bench.add_argument("--orders", metavar="P", type=int, nargs="+", default=[1, 2, 3, 4],
+                       help="polynomial orders")
     bench.add_argument("--max-ndof", metavar="N", type=float, default=1e6,
                        help="largest problem size (default 1e6)")
     bench.add_argument("--steps", metavar="N", type=int, default=10,
@@ -140,7 +162,7 @@ def parser():
     bench.add_argument("--bare", action="store_true",
                        help="no glue, insulating foundation: symmetric Jacobian (θ = 1)")
     bench.add_argument("--path", choices=("new", "old"), default="new",
-                       help="new: kept factorisation and limited Newton steps (the defaults); old: a "
+                       help="new (default): kept factorisation and limited Newton steps; old: a "
                             "factorisation at every Newton iteration, full steps")
     bench.add_argument("--solver", choices=("auto", "iterative", "multigrid", "gamg", "direct"), default="auto",
                        help="linear solver: GMRES with multigrid (iterative: NGSolve's multigrid serially, PETSc's "
@@ -190,7 +212,8 @@ def parser():
     adapt.add_argument("--tol", metavar="TOL", type=float, default=None,
                        help="instead of the study: solve each scene's step to the relative estimate TOL "
                             "(1e-6 <= TOL < 1; adapt.solve: averaging marking, the bound certifies the last level) "
-                            "and print its levels and certificate; exit status 1 if a scene's limit comes first")
+                            "and print its levels and certificate, written into OUT as each scene ends (tolerance.csv, "
+                            "tolerance.json, each level's mesh as .vol); exit status 1 if a scene's limit comes first")
     axi = commands.add_parser("axisymmetric", parents=[common], help="the half-ball on a plane solved on its "
                               "meridian section (a body of revolution) against the 3D quarter-ball: pressure error "
                               "against wall time, axisymmetric.csv, axisymmetric.md and a chart")
@@ -343,7 +366,7 @@ def _dispatch(args):
         if args.tol is not None:
             results = adaptivity.to_tolerance(args.tol, scenes=tuple(args.scene), orders=tuple(args.orders),
                                               fraction=args.fraction, marking=args.marking,
-                                              stop_newton=args.stop_newton)
+                                              stop_newton=args.stop_newton, out=args.out)
             missed = [f"{name} P{order} ({result.reason}: relative estimate {result.last.relative:.3g})"
                       for (name, order), result in results.items() if not result.reached]
             if missed:       # a run that did not certify its tol is not a success

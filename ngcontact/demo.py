@@ -1,7 +1,9 @@
-"""The demo: the reference scene run through its whole load history, a line per step, then
-summary.json and charts (``python -m ngcontact demo``)."""
+"""The demo: the reference scene run through its whole load history, a progress bar and about
+``LINES`` lines of the steps, then summary.json (every step) and charts
+(``python -m ngcontact demo``)."""
 import json
 import shutil
+import sys
 import time as wallclock
 from contextlib import nullcontext
 
@@ -16,6 +18,26 @@ from ngcontact.output.progress import write
 from ngcontact.scenes import reference
 from ngcontact.studies.bench import THREADS_FROM
 
+LINES = 20
+"""About this many lines of steps print: one each time the time passes a multiple of T/LINES."""
+CHARGE_NOISE = 1e-9
+"""A charge flux within this fraction of the largest charge the run has held up to the step
+(its electrode charges and Γ3's flux) is round-off of the residual (±1e-23 C/m after lift-off,
+against 3e-5 C/m in contact) and prints as 0."""
+
+
+def noise_floor(record, largest=0.0):
+    """The noise floor of a step's charges (C; C/m in 2D): ``CHARGE_NOISE`` × the largest of
+    ``largest`` (the run's so far) and the step's |electrode charges| and |Γ3's charge flux|."""
+    charges = [abs(q) for q in record.electrode_charge.values()]
+    if record.contact is not None:
+        charges.append(abs(record.contact.charge_flux))
+    return CHARGE_NOISE * max([largest, *charges])
+
+
+def shown(value, floor, width, form):
+    """``value`` formatted as ``form`` in ``width`` columns, or 0 where |value| <= floor."""
+    return f"{'0':>{width}}" if abs(value) <= floor else format(value, form).rjust(width)
 
 
 def header(dim):
@@ -26,9 +48,10 @@ def header(dim):
 
 
 def run(order=1, out="results", maxh=None, steps=200, theta=1, gamma0=10.0, resume=False, dim=2, refine=0,
-        scheme="backward_euler", rtol=None):
+        scheme="backward_euler", rtol=None, progress=None):
     """Run the reference scene (``scenes.reference``) over its load history in ``steps``
-    time steps, print a line per step, write summary.json and charts into ``out``. Every
+    time steps, print about ``LINES`` lines of them (charge fluxes below the step's
+    ``noise_floor`` as 0), write summary.json and charts into ``out``. Every
     step is streamed into ``out/run`` as it is computed (``ngcontact.output.results``; under mpiexec
     each rank writes its part), with these settings in ``out/run/demo.json``; ``resume``
     continues a run interrupted there instead of starting again: other settings, and another
@@ -51,6 +74,7 @@ def run(order=1, out="results", maxh=None, steps=200, theta=1, gamma0=10.0, resu
     scheme : the time scheme ("backward_euler", the paper's; "bdf2").
     rtol : steps chosen by this error target (``Simulation.run``; needs "bdf2"), the first of
         length 0.5 s / ``steps``; the chart history.png shows the steps taken.
+    progress : a progress bar of the steps on stderr (default: when stderr is a terminal).
 
     Returns
     -------
@@ -65,6 +89,7 @@ def run(order=1, out="results", maxh=None, steps=200, theta=1, gamma0=10.0, resu
     dim = checks.choice("dim", dim, (2, 3))
     order, steps = checks.order("order", order), checks.integer("steps", steps, 1, checks.MAX_STEPS)
     refine, resume = checks.integer("refine", refine, 0, checks.MAX_REFINE), checks.flag("resume", resume)
+    progress = sys.stderr.isatty() if progress is None else checks.flag("progress", progress)
     maxh = (0.005 if dim == 2 else 0.01) if maxh is None else \
         checks.number("maxh", maxh, 0, reference.L2, low_open=True, unit="m (the plate's thickness L2)")
     contact = reference.contact(theta, gamma0)       # θ and γ0 checked before the mesh is made
@@ -84,7 +109,10 @@ def run(order=1, out="results", maxh=None, steps=200, theta=1, gamma0=10.0, resu
     distributed = parallel.is_distributed(mesh)
     tip = [(reference.L1, 0.0) if dim == 2 else (reference.L1, reference.WIDTH / 2, 0.0)]
     deflection = {}                                  # step -> vertical displacement at the tip
-    say(f"{body}, solver {sim.solver}" + "".join(f"\n{note}" for note in sim.parallel_notes) + f"\n{header(dim)}")
+    T = reference.LOAD_HISTORY[-1][0]
+    say(f"{body}, solver {sim.solver}" + "".join(f"\n{note}" for note in sim.parallel_notes)
+        + f"\na line each {T / LINES:g} s of the load history (all steps in summary.json; charge fluxes within "
+        f"{CHARGE_NOISE:g} of the largest charge so far print as 0)\n{header(dim)}")
     if resume:
         sim.resume(out / "run")
         say(f"resumed at step {len(sim.history) - 1}, t = {sim.t:.4f} s")
@@ -97,22 +125,27 @@ def run(order=1, out="results", maxh=None, steps=200, theta=1, gamma0=10.0, resu
         parallel.barrier(mesh)
 
     area = 1e3 if dim == 2 else 1e6                  # m -> mm, m² -> mm²
+    printed = dict(next=sim.t + T / LINES, largest=0.0)
 
     def report(rec):
         c = rec.contact
         deflection[rec.step] = parallel.point_values(mesh, sim.u, tip)[0, dim - 1]
-        if lead:
+        floor = noise_floor(rec, printed["largest"])
+        printed["largest"] = floor / CHARGE_NOISE
+        if lead and (rec.time >= printed["next"] - 1e-9 * T or rec.time >= T * (1 - 1e-12)):
+            printed["next"] = T / LINES * (np.floor(rec.time / (T / LINES) + 1e-6) + 1)
             write(f"{rec.step:5d} {rec.time:7.4f} {rec.newton_iterations:6d} {area * c.contact_area:13.3f} "
-              f"{1e-6 * max(c.pressure.max(), 0.0):11.3f} {c.beta.min():8.4f} {c.charge_flux:+17.4e}")
+                  f"{1e-6 * max(c.pressure.max(), 0.0):11.3f} {c.beta.min():8.4f} "
+                  f"{shown(c.charge_flux, floor, 17, '+.4e')}")
     start = wallclock.perf_counter()
-    T = reference.LOAD_HISTORY[-1][0]
     complete = resume and results.complete(run_directory.run_info(out / "run"), sim.t)
     if complete:                                     # killed after its last step: its summary from the steps
         say(f"the run in {str(out / 'run')!r} is already complete: it reached T = {T:g} s at step "
             f"{len(sim.history) - 1}; nothing is left to compute, the summary and charts are written from its "
             "steps (run without --resume to compute it again)")
     with ngs.TaskManager() if body.ndof >= THREADS_FROM else nullcontext():
-        history = sim.history if complete else sim.run(T / steps, T, on_step=report, out=out / "run", rtol=rtol)
+        history = sim.history if complete else sim.run(T / steps, T, on_step=report, out=out / "run", rtol=rtol,
+                                                       progress=bool(progress and lead))
     wall = wallclock.perf_counter() - start
     for n in range(1, len(history)):                 # steps of a resumed run: from their kept states
         if n not in deflection and sim.keep_states:

@@ -292,8 +292,12 @@ class Simulation:
 
     def run(self, dt: float, T: float, *, max_cutbacks: int = 6, progress: bool = False, vtk: str | None = None,
             on_step: Callable | None = None, out: str | os.PathLike | None = None, guess: Guess = None,
-            rtol: float | None = None, dt_min: float | None = None, event_dt: float | None = None) -> History:
+            rtol: float | None = None, dt_min: float | None = None, event_dt: float | None = None,
+            restart_data: bool = True) -> History:
         """Step from the current time to T (s) with nominal steps dt (s); returns the History.
+        The nominal steps are equal and reach T exactly: when dt does not divide T − t, they
+        are (T − t)/⌈(T − t)/dt⌉, shorter than dt, and a ``TimeStepWarning`` names dt asked
+        and dt used (``run(dt=0.3, T=1)`` takes 4 steps of 0.25 s).
         With ``rtol`` (a relative local error per step, for a scheme with an error estimate:
         "bdf2") the steps are chosen by it instead, dt the first (``stepping``): rejected tries
         in ``rejections``, events located to ``event_dt`` (default 1e-3 dt), no step below
@@ -313,6 +317,10 @@ class Simulation:
             see); after ``resume(out)``, the same dt and T continue the interrupted run on its
             own nominal steps.
         guess : Newton's start (``step``): "nested" or "p1" for every step, another guess for the first.
+        restart_data : with ``out``, False leaves the solver's kept factorisation out of the step
+            archives (its values are most of an archive: records, states and the scheme's restart
+            state stay); ``resume`` then factorises anew from the state and continues the run to
+            Newton's tolerance, not bitwise. True (the default) keeps it: a resume is bitwise.
         If a step fails even at the smallest cut-back, the NewtonError is raised with
         ``error.history`` holding every step computed so far (also in ``history``).
         The arguments are checked before the first step (``arguments.run``: the directories
@@ -322,18 +330,21 @@ class Simulation:
         dt, T, max_cutbacks, progress = arguments.run(self.t, self.body.mesh, dt, T, max_cutbacks, progress, vtk,
                                                       on_step, out)
         control = arguments.controlled(self.newton.rtol, self.scheme, dt, rtol, dt_min, event_dt, T)
+        if not arguments.flag("restart_data", restart_data) and out is None:
+            raise ValueError("run: restart_data=False is for the step archives of out=DIR: give out too")
         self.starts.resolve(guess)
         resumed = self._resumed
         start = resumed["start"] if resumed and (resumed["dt"], resumed["T"], resumed.get("rtol")) == (dt, T, rtol) \
             else self.t
-        steps = max(1, int(np.ceil((T - start) / dt - 1e-9)))        # dt > T − t: one step to T
+        steps = stepping.equal_steps(start, T, dt) if control is None else max(1, int(np.ceil((T - start) / dt - 1e-9)))
         if self._machine_code is not None:
             self._machine_code.expect(steps * ITERATIONS_PER_STEP)
         callbacks = [on_step] if on_step else []
         if out is not None:                      # checks the directory, writes the history so far
             dt_min, event_dt = control or (None, None)
             callbacks.insert(0, results.Stream(self.results_source(), out, dt, T, start, resumed, rtol, dt_min=dt_min,
-                                               event_dt=event_dt, max_cutbacks=max_cutbacks, guess=guess))
+                                               event_dt=event_dt, max_cutbacks=max_cutbacks, guess=guess,
+                                               restart_data=restart_data))
         if vtk is not None:                      # distributed: one .vtu per computing rank and step, one .pvd
             series = paraview.FieldsSeries(self.results_source(), vtk)
             series(self.t)

@@ -77,7 +77,7 @@ def build(body, contact, system, realcompile=False):
     with coefficients.at(0.0):
         gap_check(0.0)
         if sampled_normal is not None:
-            check_normal(side, gap, normal, body.size)
+            check_normal(side, gap, normal, body.size, getattr(contact.obstacle, "_given", None))
     beta = BondingField(side, contact)
     enforcement = built(contact.enforcement_method, body, contact, side, gap=gap, coefficients=coefficients,
                         normal=normal)                    # checked: the Enforcement protocol

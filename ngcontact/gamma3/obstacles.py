@@ -14,14 +14,19 @@ Points, centres and distances may be CoefficientFunctions of the time Parameter 
 indenter driven into the body: g < 0 ahead of it is then the prescribed approach). At t = 0
 the obstacle must not intersect the body beyond a tolerance, and n_o must be a unit field
 pointing into the obstacle where the body is closest to it (``Simulation`` checks both,
-``check_normal``).
+``check_normal``). ``Plane`` and ``SignedDistance`` take the direction as ``outward``, the
+normal pointing out of the obstacle towards the body (n_o = −outward); errors name it as
+the user passed it.
 """
+import warnings
+
 import ngsolve as ngs
 import numpy as np
 
 from ngcontact import parallel
 from ngcontact.checks import number
 from ngcontact.model.loads import as_cf
+from ngcontact.moved import REMOVED_IN
 
 NEAR = 0.05
 """``check_normal`` looks at the points of Γ3 whose gap is within this fraction of the
@@ -39,37 +44,56 @@ def _vector(value, dim, name):
     return cf
 
 
+def _which(owner, outward, normal, advice):
+    """(value, name) of the direction given to ``owner`` as ``outward`` or as the deprecated
+    ``normal`` (with ``advice``, what to pass instead); a TypeError if both or none."""
+    if (outward is None) == (normal is None):
+        raise TypeError(f"{owner}: give outward, the normal pointing out of the obstacle towards the body "
+                        f"(got {'both outward and normal' if outward is not None else 'neither'})")
+    if normal is None:
+        return outward, "outward"
+    warnings.warn(f"{owner}: normal is deprecated and will be removed in ngcontact {REMOVED_IN}: "
+                  f"{advice}", DeprecationWarning, stacklevel=3)
+    return normal, "normal"
+
+
 class Plane:
-    """The half-space obstacle {(x − point)·normal <= 0}.
+    """The half-space obstacle {(x − point)·outward <= 0}.
 
     point : a point of the plane (m), a tuple or a CoefficientFunction (may move in time).
-    normal : the plane's normal pointing out of the obstacle towards the body (any length,
-        constant, normalised here).
-    Gap g = (x − point)·normal/|normal|, obstacle normal n_o = −normal/|normal|.
+    outward : the plane's normal pointing out of the obstacle towards the body (any length,
+        constant, normalised here), as for ``SignedDistance``; ``normal=`` is its deprecated
+        name (the same direction).
+    Gap g = (x − point)·outward/|outward|, obstacle normal n_o = −outward/|outward|.
     """
 
-    def __init__(self, point, normal):
+    def __init__(self, point, outward=None, *, normal=None):
+        value, self._name = _which("Plane", outward, normal, "pass outward= (the same direction: out of the "
+                                  "obstacle towards the body)")
+        label = f"Plane: {self._name} (the normal pointing out of the obstacle towards the body)"
         as_cf(point, None, "Plane: point")
         self.point = point
-        if not isinstance(normal, (tuple, list, np.ndarray)):
-            raise TypeError(f"Plane: normal must be a vector of numbers, got {normal!r}")
+        if not isinstance(value, (tuple, list, np.ndarray)):
+            raise TypeError(f"{label} must be a vector of numbers, got {value!r}")
         try:
-            normal = np.asarray(normal, dtype=float)
+            value = np.asarray(value, dtype=float)
         except (TypeError, ValueError):
-            raise TypeError(f"Plane: normal must be a vector of numbers, got {normal!r}") from None
-        if normal.ndim != 1 or not np.all(np.isfinite(normal)) or not np.linalg.norm(normal) > 0:
-            raise ValueError(f"Plane: normal must be a nonzero finite vector, got {normal.tolist()}")
-        self.unit = normal / np.linalg.norm(normal)
+            raise TypeError(f"{label} must be a vector of numbers, got {value!r}") from None
+        if value.ndim != 1 or not np.all(np.isfinite(value)) or not np.linalg.norm(value) > 0:
+            raise ValueError(f"{label} must be a nonzero finite vector, got {value.tolist()}")
+        self.unit = value / np.linalg.norm(value)
+        self._given = (f"Plane's {self._name}", -1)
 
     def fields(self, dim):
         """(gap g, obstacle normal n_o) as CoefficientFunctions in ``dim`` D."""
         if len(self.unit) != dim:
-            raise ValueError(f"Plane: normal must have {dim} components in {dim}D, got {len(self.unit)}")
+            raise ValueError(f"Plane: {self._name} (the normal pointing out of the obstacle) must have {dim} "
+                             f"components in {dim}D, got {len(self.unit)}")
         m = ngs.CF(tuple(self.unit))
         return (_position(dim) - _vector(self.point, dim, "Plane: point")) * m, -m
 
     def __repr__(self):
-        return f"Plane(point={self.point}, normal={self.unit.tolist()})"
+        return f"Plane(point={self.point}, outward={self.unit.tolist()})"
 
 
 class Ball:
@@ -101,17 +125,27 @@ class Sphere(Ball):
 
 class SignedDistance:
     """An obstacle given by the user: ``distance`` g(x) (m, a scalar CoefficientFunction of
-    position and time, >= 0 outside the obstacle) and ``normal`` n_o(x), a unit vector field
-    pointing into the obstacle (checked on Γ3 by ``Simulation``, ``check_normal``)."""
+    position and time, >= 0 outside the obstacle) and ``outward``, a unit vector field pointing
+    out of the obstacle towards the body (∇g where g is a distance; the direction of
+    ``Plane``'s), so n_o = −outward (checked on Γ3 by ``Simulation``, ``check_normal``).
+    ``normal`` (also the second positional argument) is deprecated: n_o itself, pointing into
+    the obstacle, the opposite of ``outward``."""
 
-    def __init__(self, distance, normal):
+    def __init__(self, distance, normal=None, *, outward=None):
+        value, name = _which("SignedDistance", outward, normal, "normal points into the obstacle, the opposite "
+                             "of Plane's; pass outward=-normal (out of the obstacle towards the body, as Plane's)")
         as_cf(distance, 1, "SignedDistance: distance")
-        as_cf(normal, None, "SignedDistance: normal")
-        self.distance, self.normal = distance, normal
+        as_cf(value, None, f"SignedDistance: {name}")
+        if name == "outward":        # n_o = −outward, numbers kept as numbers (``fingerprint``)
+            plain = isinstance(value, (tuple, list)) and not any(isinstance(v, ngs.CoefficientFunction) for v in value)
+            value = tuple(-float(v) for v in value) if plain else -as_cf(value, None, "SignedDistance: outward")
+        self.distance, self.normal = distance, value            # self.normal: n_o
+        self._given = (f"SignedDistance's {name}", -1 if name == "outward" else 1)
 
     def fields(self, dim):
-        return as_cf(self.distance, 1, "SignedDistance: distance"), _vector(self.normal, dim,
-                                                                            "SignedDistance: normal")
+        """(gap g, obstacle normal n_o) as CoefficientFunctions in ``dim`` D."""
+        return as_cf(self.distance, 1, "SignedDistance: distance"), _vector(
+            self.normal, dim, f"SignedDistance: {self._given[0].split()[-1]}")
 
     def __repr__(self):
         return "SignedDistance(...)"
@@ -120,25 +154,34 @@ class SignedDistance:
 OBSTACLES = (Plane, Ball, SignedDistance)
 
 
-def check_normal(side, gap, normal, size):
+def check_normal(side, gap, normal, size, given=None):
     """The obstacle normal n_o (a CoefficientFunction) sampled on Γ3 (``side``, a
     ContactSide) at the time Parameter's value, with the gap (both finite,
     ``build.gamma3_data``): n_o must be a unit vector, and it must point from the body
     into the obstacle where the body is closest to it: n_o·ν > 0 somewhere and n_o·ν >= 0
     everywhere among the points whose gap is within ``NEAR`` × ``size`` (m, the body's size)
     of the smallest gap (ν the body's outward normal; a reversed n_o lets the body pass
-    through the obstacle). A ValueError naming the obstacle's normal otherwise."""
+    through the obstacle). ``given``: (the argument the user passed, e.g. "SignedDistance's
+    outward", and s = ±1 with n_o = s × it), or None (the obstacle computes n_o). A ValueError
+    naming that argument otherwise."""
     mesh = side.mesh
+    name, sign = given or ("its normal n_o", 1)
+    symbol = name.split()[-1]
     g, n = side.sample(gap), side.sample(normal)
     length = np.linalg.norm(n, axis=-1)
     if parallel.maximum(mesh, np.abs(length - 1)) > 1e-8:
-        raise ValueError("Contact.obstacle: its normal must be a unit vector field on Γ3; |n_o| ranges "
+        raise ValueError(f"Contact.obstacle: {name} must be a unit vector field on Γ3; |{symbol}| ranges "
                          f"over [{parallel.minimum(mesh, length):.6g}, {parallel.maximum(mesh, length):.6g}]")
-    along = np.einsum("fsd,fd->fs", n, side.normals)
+    along = sign * np.einsum("fsd,fd->fs", n, side.normals)
     near = g <= parallel.minimum(mesh, g) + NEAR * size
     low, high = parallel.minimum(mesh, along[near]), parallel.maximum(mesh, along[near])
-    if low < -1e-8 or high <= 1e-8:
-        raise ValueError("Contact.obstacle: its normal n_o must point from the body into the obstacle (n_o·ν > 0 "
+    if sign > 0 and (low < -1e-8 or high <= 1e-8):
+        raise ValueError(f"Contact.obstacle: {name} must point from the body into the obstacle ({symbol}·ν > 0 "
                          f"where the body is closest to it, ν the body's outward normal); where the gap is within "
-                         f"{NEAR:g} of the body's size of its smallest value, n_o·ν ranges over [{low:.3g}, "
-                         f"{high:.3g}] on Γ3: is the normal reversed?")
+                         f"{NEAR:g} of the body's size of its smallest value, {symbol}·ν ranges over [{low:.3g}, "
+                         f"{high:.3g}] on Γ3: is {symbol} reversed?")
+    if sign < 0 and (high > 1e-8 or low >= -1e-8):
+        raise ValueError(f"Contact.obstacle: {name} must point out of the obstacle towards the body "
+                         f"({symbol}·ν < 0 where the body is closest to it, ν the body's outward normal); where the "
+                         f"gap is within {NEAR:g} of the body's size of its smallest value, {symbol}·ν ranges over "
+                         f"[{low:.3g}, {high:.3g}] on Γ3: is {symbol} reversed?")

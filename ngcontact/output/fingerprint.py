@@ -208,7 +208,8 @@ def _contact(contact, body, sample):
         elif f.name == "obstacle":
             found["contact.obstacle"] = None if value is None else type(value).__name__
             if value is not None:
-                found.update({f"contact.obstacle.{k}": sample(v, gamma3) for k, v in vars(value).items()})
+                found.update({f"contact.obstacle.{k}": sample(v, gamma3) for k, v in vars(value).items()
+                              if not k.startswith("_")})
         elif callable(value) and not isinstance(value, ngs.CoefficientFunction):
             found[f"contact.{f.name}"] = sample.law(value, gamma3, body.size)
         else:

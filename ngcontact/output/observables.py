@@ -16,6 +16,13 @@ from ngcontact.gamma3.contact_side import element_boundary_layer
 from ngcontact.output.records import ContactRecord, StepRecord
 from ngcontact.model.supports import SLIP_GAMMA0
 
+CONTACT_RELATIVE, CONTACT_NOISE = 1e-10, 1e-11
+"""The contact zone is {pressure > threshold}, threshold = max(CONTACT_RELATIVE × the step's
+largest |pressure| on Γ3, CONTACT_NOISE × the body's stiffness (Pa per unit strain,
+``Tensors.stiffness``)): a pressure of round-off (a gap of 1e-17 m under a mm-sized body
+gives 0.1 Pa on PZT, 1e-12 of its stiffness) is not contact, and the edge of a loaded zone
+moves by at most where p falls below 1e-10 of its peak."""
+
 
 class Recorder:
     """Builds the records of a simulation's steps; the forms are built once.
@@ -110,10 +117,12 @@ class Recorder:
         lam = g.enforcement.multiplier(u, phi, traction)
         pressure = lam + traction                               # −σ_ν = λ_h + p − γ_ν β² R_ν
         opening = u * n - g.gap
+        self._threshold, self._pressure = ngs.Parameter(0.0), pressure.Compile()
+        self._noise = CONTACT_NOISE * self.body.tensors.stiffness()
         fields = dict(pressure=pressure, multiplier=lam, potential=phi,
                       charge_flux_density=forms.charge_flux_density(g.contact, u, phi, g.gap, g.foundation_potential,
                                                                     n, g.enforcement, traction),
-                      contact_area=ngs.IfPos(pressure, 1, 0),
+                      contact_area=ngs.IfPos(pressure - self._threshold, 1, 0),
                       complementarity=ngs.IfPos(lam * opening, lam * opening, -lam * opening))
         residual = ("pressure", "multiplier", "contact_area", "complementarity")   # as R_Γ3 integrates
         self._multiplier = lam.Compile()                       # evaluated at Gauss points per record
@@ -138,13 +147,15 @@ class Recorder:
     def _contact_record(self):
         g = self.gamma3
         side = g.side
+        mesh = self.body.mesh
+        scale = parallel.maximum(mesh, np.abs(side.at_gauss_points(self._pressure)), initial=0.0)
+        self._threshold.Set(max(CONTACT_RELATIVE * scale, self._noise))
         integrals = {name: assemble() for name, assemble in self._facet_fields.items()}
         residual = self.system.boundary_residual.FV().NumPy()
         hook = g.enforcement.newton_hook
         if hook is not None:                         # the constraint forces Bᵀλ are Γ3 terms too
             residual = residual + hook.forces.FV().NumPy()
         # a distributed residual times cumulated rigid modes: the ranks' dot products sum up
-        mesh = self.body.mesh
         flux = [-float(f) for f in parallel.sum(mesh, np.array([np.dot(residual, w.FV().NumPy())
                                                                 for w in self._rigid_modes]))]
         facets = {name: integrals[name] / side.weighted_measure for name in

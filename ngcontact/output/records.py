@@ -30,10 +30,11 @@ class ContactRecord:
     potential : φ_h on Γ3 (V).
     charge_flux_density : D·ν = ψ(u_ν − g) φ_L(φ − φ_Γ) (C/m²): positive where charge leaves
         the body into the foundation.
-    contact_set : the fraction of each facet in the contact zone {pressure > 0} (0 to 1).
+    contact_set : the fraction of each facet in the contact zone {pressure > threshold} (0 to 1;
+        the threshold, of round-off, ``observables.CONTACT_RELATIVE``).
     charge_flux : ∫_Γ3 D·ν da, the charge flux out of the body into the foundation (C; C/m
         in 2D), from the residual's Γ3 terms.
-    contact_area : the measure of the contact zone (m²; in 2D per metre of depth: m).
+    contact_area : the measure of the contact zone (m²; in 2D per metre of depth: m), as contact_set.
     max_penetration : max (u_ν − g) at the sample points of Γ3 (m; > 0 means penetration).
     complementarity : ∫_Γ3 |λ_h (u_ν − g)| da (N·m; N·m/m in 2D), 0 for an exact solution.
     force : ∫_Γ3 σν da, the force of the foundation on the body (N; N/m in 2D), from the

@@ -17,8 +17,9 @@
   ``ngcontact.schemes``; backward Euler: the (u, φ) vector, β before and after clipping, the
   enforcement's own unknowns, the predictor's memory, t, and what Newton's next solve decides
   by, ``solver_restart.restart_state``: the rate c of the step system, Newton's norm scales, the
-  values the kept factorisation factorised where they differ from the bulk; with the rule
-  that compiles the Γ3 integrand, how far it has counted); run.json names the scheme;
+  values the kept factorisation factorised where they differ from the bulk, left out with
+  ``run(restart_data=False)``; with the rule that compiles the Γ3 integrand, how far it has
+  counted); run.json names the scheme;
 * on a distributed mesh (``mpiexec -n N``) the restart state, and the record's ``state``
   (with ``keep_states``), are each rank's own: they go into ``steps/NNNNNN.rankR.npz``, one
   part per rank R = 0 .. N − 1 (rank 0's holds no DOFs), and ``steps/NNNNNN.npz`` holds the
@@ -56,7 +57,8 @@ simulation's history, and ``resume(DIR)`` continues from the last step on disk.
 and scheme (its history, and the scheme's restart state through its ``load``; distributed:
 each rank its own parts), and ``run(dt, T, out=DIR)`` with the same options then computes only
 the steps not yet reached, to the results of the run never interrupted, bitwise (serially; under
-mpiexec MUMPS adds in the order messages arrive); a run that had reached T is complete, and
+mpiexec MUMPS adds in the order messages arrive; written with ``run(restart_data=False)``, the
+first solve factorises anew and the run continues to Newton's tolerance); a run that had reached T is complete, and
 ``run`` says so (``check_incomplete``). Both check first, on every rank, that DIR was written by
 as many MPI ranks (a run is resumed under the ``mpiexec -n N`` that wrote it, a serial one
 serially) with the mesh distributed alike, and that it holds this scene (the fingerprints
@@ -81,6 +83,7 @@ from ngcontact import parallel
 from ngcontact.output.fingerprint import run_options
 from ngcontact.output.paraview import checked_vtk, fields_writer, gamma3_vtu, own_vtu, vertex_displacement
 from ngcontact.output.records import History
+from ngcontact.solve.linalg.solver_restart import without_factorization
 from ngcontact.time.stepping import MIN_DT, RESOLUTION
 from ngcontact.output.run_directory import (check_partition, check_ranks, check_run, check_scene, check_scheme,
                                             check_start, load, load_part, part, read_steps, record_arrays, run_info)
@@ -133,6 +136,8 @@ class Stream:
     rtol, dt_min, event_dt, max_cutbacks, guess : the other options of ``Simulation.run`` that
         change its results (dt_min and event_dt as used), stored with the fingerprint and
         compared with a run in ``directory`` (``fingerprint.run_options``).
+    restart_data : False: the restart states leave out the solver's kept factorisation
+        (``solver_restart.without_factorization``; run.json says ``solver_restart: false``).
     resumed : the run info ``restore`` returned if the simulation was resumed, else None.
         Resumed from ``directory``, the stream continues the steps on disk; otherwise it
         starts the directory afresh with the simulation's history so far (the records of
@@ -142,12 +147,13 @@ class Stream:
         before anything is written."""
 
     def __init__(self, source, directory, dt, T, start, resumed=None, rtol=None, *, dt_min=None, event_dt=None,
-                 max_cutbacks=None, guess=None):
-        self.source, self.dir = source, pathlib.Path(directory)
+                 max_cutbacks=None, guess=None, restart_data=True):
+        self.source, self.dir, self.restart_data = source, pathlib.Path(directory), restart_data
         mesh = source.mesh
         self.lead = mesh.comm.rank == 0               # writes the archives and the series (rank 0)
         options = run_options(dt, T, rtol, dt_min, event_dt, max_cutbacks, guess)
-        info = dict(dt=dt, T=T, start=start, rtol=rtol, **source.description, ngcontact=_version(),
+        info = dict(dt=dt, T=T, start=start, rtol=rtol, **source.description, solver_restart=restart_data,
+                    ngcontact=_version(),
                     format="one numpy archive per step, see ngcontact.output.results",
                     fingerprint=dict(source.fingerprint(T), **options), **_layout(source))
         self.ranks = info["ranks"]
@@ -193,7 +199,9 @@ class Stream:
         write that fails on any rank raises an OSError on every rank, naming the step, the rank
         and the file, before any rank goes on (the steps before it stay on disk)."""
         arrays = record_arrays(record)
-        own = {f"restart/{k}": np.asarray(v) for k, v in self.source.save().items()} if restart else {}
+        saved = (self.source.save() if self.restart_data else without_factorization(self.source.save())) \
+            if restart else {}
+        own = {f"restart/{k}": np.asarray(v) for k, v in saved.items()}
         if self.ranks > 1:
             if "state" in arrays:
                 own["state"] = arrays.pop("state")

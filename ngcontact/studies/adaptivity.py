@@ -349,13 +349,19 @@ of 1e-10. A smaller tol could not be met on any machine; one between it and what
 limit reaches ends "NOT reached" (exit status 1 on the command line)."""
 
 
-def to_tolerance(tol, scenes=("hertz",), orders=(2,), fraction=None, progress=True, marking=None, stop_newton=None):
+def to_tolerance(tol, scenes=("hertz",), orders=(2,), fraction=None, progress=True, marking=None, stop_newton=None,
+                 out=None):
     """``adapt.solve`` on each step scene's initial mesh to the relative estimate ``tol`` (in
     [``TOL_FLOOR``, 1)): print every level (DOFs, averaging indicator, the bound where
     certified, times) and the certificate reached, or that it was not and why (a limit came
     first); returns {(scene, order): Adaptation}. ``marking``, ``stop_newton`` and ``fraction``
     go to ``adapt.solve`` (None: its defaults, averaging marking and Newton stopped at 0.1 of
-    the expected estimate). Checked before any work; hertz3d runs P1 only, and scenes and
+    the expected estimate). ``out``: a directory (or None) that receives, as each adaptation
+    ends, ``tolerance.csv`` (every level of every adaptation so far: scene, order, level, ndof,
+    indicator, estimate and relative where certified (J^½; (J/m)^½ in 2D), wall times in s),
+    ``tolerance.json`` (per adaptation: tol, reached, reason, the last level's ndof and
+    relative estimate, and the levels) and each level's mesh, ``<scene>_P<order>_level<k>.vol``
+    (Netgen's format). Checked before any work; hertz3d runs P1 only, and scenes and
     orders that leave nothing to run are refused."""
     from ngcontact import checks, parallel
     from .common import orders as checked_orders
@@ -381,7 +387,9 @@ def to_tolerance(tol, scenes=("hertz",), orders=(2,), fraction=None, progress=Tr
         if marking not in adapt.MARKINGS:
             raise ValueError(f"--marking must be one of {', '.join(adapt.MARKINGS)}, got {marking!r}")
         options["marking"] = marking
-    results = {}
+    if out is not None:
+        out = checks.writable_directory(out)
+    results, written = {}, []
     for name in scenes:
         scene = SCENES[name]()
         for order in orders:
@@ -406,7 +414,28 @@ def to_tolerance(tol, scenes=("hertz",), orders=(2,), fraction=None, progress=Tr
                 print(f"NOT reached ({result.reason}{limit(result, scene)}): relative estimate {last.relative:.3g} "
                       f"> {tol:g} at {last.ndof} DOFs in {last.elapsed_s:.2f} s{pressure}")
             results[(name, order)] = result
+            if out is not None:
+                written.append(dict(scene=name, order=order, tol=tol, reached=result.reached, reason=result.reason,
+                                    ndof=last.ndof, relative=last.relative, levels=rows))
+                _write_tolerance(out, written, result)
     return results
+
+
+def _write_tolerance(out, written, result):
+    """The files of ``to_tolerance`` in the directory ``out`` after an adaptation (``result``,
+    the last of ``written``: its meshes; the tables of all so far)."""
+    import json
+    last = written[-1]
+    for k, level in enumerate(result.levels):
+        level.mesh.ngmesh.Save(str(out / f"{last['scene']}_P{last['order']}_level{k}.vol"))
+    rows = [dict(scene=w["scene"], order=w["order"], **row) for w in written for row in w["levels"]]
+    write_csv(rows, out / "tolerance.csv")
+
+    def plain(value):
+        return None if isinstance(value, float) and not math.isfinite(value) else value
+    tables = [{k: ([{c: plain(v) for c, v in row.items()} for row in w[k]] if k == "levels" else plain(w[k]))
+               for k in w} for w in written]
+    (out / "tolerance.json").write_text(json.dumps(tables, indent=1))
 
 
 def limit(result, scene):

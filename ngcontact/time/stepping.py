@@ -40,6 +40,24 @@ RESOLUTION = 1e-13
 13 digits."""
 
 
+class TimeStepWarning(UserWarning):
+    """``run(dt, T)`` made its nominal steps shorter than the dt asked, so that equal steps
+    reach T (equal steps share one rate coefficient, so one factorisation); the message names
+    dt asked and dt used."""
+
+
+def equal_steps(start, T, dt):
+    """The number of equal nominal steps from ``start`` to T (s) no longer than dt (s), at
+    least one; a TimeStepWarning naming both values when their length differs from dt."""
+    count = max(1, int(np.ceil((T - start) / dt - 1e-9)))        # dt > T − t: one step to T
+    used = (T - start) / count
+    if abs(used - dt) > 1e-9 * dt:
+        warnings.warn(f"run: dt = {dt:.6g} s asked, dt = {used:.6g} s used: {count} equal step"
+                      f"{'s' if count > 1 else ''} from t = {start:.6g} s reach T = {T:.6g} s "
+                      f"(pass a dt that divides T − t to step by it)", TimeStepWarning, stacklevel=3)
+    return count
+
+
 class AccuracyWarning(UserWarning):
     """An error-controlled run accepted a step whose error estimate it could not bring within
     rtol (``FLOOR_SHRINK``); the message is also in ``Simulation.flags``."""

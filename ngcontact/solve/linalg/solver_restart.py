@@ -3,6 +3,18 @@ a kept factorisation and the rate c it was made at), saved with a step's restart
 back at a resume, so that a resumed run repeats the uninterrupted one bitwise (``results``)."""
 import numpy as np
 
+FACTORIZATION = ("kept_baseline", "kept_values", "kept_positions")
+"""The arrays of a kept factorisation in a restart state (``KeptFactorization.save``): the bulk
+of a step archive (the values factorised, about 12 times the state on the demo's plate)."""
+
+
+def without_factorization(arrays):
+    """``arrays`` (a restart state) without the kept factorisation's (``FACTORIZATION``): a run
+    resumed from them factorises anew at its first solve, from the state (``load_restart_state``
+    finds no factorisation to put back), and continues the run to Newton's tolerance rather
+    than bitwise."""
+    return {k: v for k, v in arrays.items() if k not in FACTORIZATION}
+
 
 def restart_state(newton):
     """What ``newton``'s next solve decides by besides the state, as named arrays for a time
