@@ -22,6 +22,7 @@ def read(path):
         return list(csv.DictReader(f))
 
 
+@pytest.mark.slow      # mpiexec runs of the study (CI's PETSc leg runs this module whole)
 def test_the_command_compares_serial_and_distributed_runs(tmp_path, capsys):
     """``python -m ngcontact cluster``: the plate P1 at levels 0 and 1 (576 and 2 088 DOFs),
     serial and on ``mpiexec -n 2``, the default solver and masterinverse (skipped serially,
@@ -179,6 +180,7 @@ def test_runs_of_another_window_are_not_mixed(tmp_path):
         cluster.run(tmp_path, steps=4, dt=5e-3)
 
 
+@pytest.mark.slow      # mpiexec runs of the study (CI's PETSc leg runs this module whole)
 def test_factorisations_compare_umfpack_and_mumps(tmp_path, capsys):
     """``--factorisations``: the 3D block P1 at level 0, 2 rounds: positive times, MUMPS's
     solutions equal UMFPACK's to 1e-10; a P2 case measured after it joins its tables; without

@@ -290,6 +290,7 @@ def test_every_contact_method_takes_a_law():
     assert max(forces.values()) / min(forces.values()) - 1 < 1e-3, forces
 
 
+@pytest.mark.slow      # multigrid on the 3D block with a law (test_multigrid checks the iterative steps without)
 def test_the_iterative_3d_solver_with_a_law_equals_the_direct_one():
     """GMRES with multigrid (its hierarchy built from the law's tangent at 0) on the 3D
     reference block (P1, nested, refine 1) with the projection law, 3 steps (in contact from the

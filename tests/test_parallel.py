@@ -21,6 +21,11 @@ from ngcontact import demo
 from test_output import check_warp
 
 HERE = pathlib.Path(__file__).parent
+MPI_SLOW = pytest.mark.slow
+"""The runs of whole scenes on 2 and 3 ranks against the serial run (minutes in all): ``-m slow``,
+and every one of them in CI's PETSc leg, which runs this module whole. The default run keeps the
+distributed smoke checks below that are not so marked (a failed write stops every rank, the
+serial commands refused under mpiexec)."""
 DEMO = ["-m", "ngcontact", "demo", "--dim", "3", "--maxh", "0.02", "--steps", "20"]
 
 
@@ -64,6 +69,7 @@ def serial(tmp_path_factory):
     return json.loads((out / "summary.json").read_text())
 
 
+@MPI_SLOW
 @pytest.mark.parametrize("ranks", [2, 3])
 def test_distributed_demo_equals_the_serial_run(serial, tmp_path, ranks):
     """``mpiexec -n N python -m ngcontact demo --dim 3``: per step the contact force, the tip
@@ -86,6 +92,7 @@ def test_distributed_demo_equals_the_serial_run(serial, tmp_path, ranks):
     assert len(list(tmp_path.glob("run/steps/000001.rank*.npz"))) == ranks
 
 
+@MPI_SLOW
 def test_the_demo_resumes_distributed(tmp_path):
     """``mpiexec -n 3 python -m ngcontact demo --resume`` (2D, 10 steps) continues a run whose
     steps 6 to 10 were lost (their archives deleted, their rank parts
@@ -134,6 +141,7 @@ LONG = {("reference-p3", 3), ("indenter3d", 3), ("axisymmetric", 3)}
 """The cases on 3 ranks whose 2-rank runs check the same code (20–26 s each): ``-m slow``."""
 
 
+@MPI_SLOW
 @pytest.mark.parametrize("scene, ranks", [pytest.param(scene, ranks, marks=pytest.mark.slow) if (scene, ranks) in LONG
                                           else (scene, ranks) for scene in SCENES for ranks in (2, 3)])
 def test_distributed_scenes_equal_the_serial_run(serial_scenes, tmp_path, scene, ranks):
@@ -184,6 +192,7 @@ def serial_loops(tmp_path_factory):
     return json.loads(out.read_text())
 
 
+@MPI_SLOW
 @pytest.mark.parametrize("ranks", [2, 3])
 def test_loops_that_stop_on_data_stop_alike_on_every_rank(serial_loops, tmp_path, ranks):
     """``mpiexec -n 2|3 tests/distributed_loops.py`` (the 2D reference plate, P1, maxh 20 mm): BDF2
@@ -223,6 +232,7 @@ def test_loops_that_stop_on_data_stop_alike_on_every_rank(serial_loops, tmp_path
                            "use 'nitsche' or 'penalty'")
 
 
+@MPI_SLOW
 def test_the_bdf2_demo_ends_distributed(serial_loops, tmp_path):
     """``mpiexec -n 2 python -m ngcontact demo --steps 4 --scheme bdf2`` (maxh 20 mm) ends within
     120 s with the serial run's steps, contact force, charge flux and final β (the same scene as
@@ -256,6 +266,7 @@ def cells(path):
     return mesh.points[lines].mean(axis=1)[:, :2], values
 
 
+@MPI_SLOW
 def test_streamed_results_resume_distributed(tmp_path):
     """``run(dt, T, out=DIR)`` and ``resume(DIR)`` under ``mpiexec -n 3`` (2D reference plate,
     P1, 10 steps, ``tests/distributed_streaming.py``): interrupted after step 6 (on disk) and
@@ -381,6 +392,7 @@ def test_a_failed_write_on_one_rank_stops_every_rank(tmp_path):
     assert force.shape == (11, 2) and np.abs(force - uninterrupted).max() <= 1e-12 * np.abs(uninterrupted).max()
 
 
+@MPI_SLOW
 def test_what_does_not_run_distributed_says_so(tmp_path):
     """A serial mesh given to Body, more computing ranks than elements, the nodal active set,
     GMRES with NGSolve's multigrid, a serial factorisation, the Jacobian as a scipy matrix, the

@@ -118,6 +118,7 @@ def test_bad_directories_are_named(tmp_path):
         reference.simulation(1).resume(tmp_path / "nothing")
 
 
+@pytest.mark.slow      # the CLI killed and resumed (the in-process interruptions below check the same bitwise)
 def test_the_demo_resumes(tmp_path):
     """``python -m ngcontact demo --resume`` after a SIGKILL gives the run that was never
     interrupted, bitwise (every stored array of every step, and the summary), with the kept

@@ -195,6 +195,7 @@ def test_the_pull_off_takes_about_an_iteration_per_point_the_release_front_cross
 
 # ------------------------------------------------------------------------------- nonlinear laws
 
+@pytest.mark.slow      # a study of six runs (python -m ngcontact stability)
 def test_newton_fails_where_a_law_becomes_a_constraint_and_cutbacks_recover_the_projection():
     """ζ = 0 gives the linear force (1e-9); the force falls monotonically as ζ grows (a
     stiffer plate presses less); the projection law at ζ = 1e16 Pa (κ ≈ 2.4e5) fails without
