@@ -24,9 +24,9 @@ MAX_REFINE = 10
 MAX_STEPS = 1_000_000
 """Nominal time steps of one run: more is a mistyped dt, not a plan."""
 MEMORY_PER_DOF = 2048
-"""Bytes per DOF a simulation needs at least: half the smallest peak measured per DOF (3.8
-kB, the 2D reference plate at P1 with 1.2e5 DOFs; 5.0 kB at P2, 8.8 kB at P4, 7.7-17 kB in
-3D, docs/scale.md)."""
+"""Bytes per DOF a simulation needs at least: half the smallest peak memory per DOF of the
+reference scenes (fitted to measurements on the reference scenes, docs/measurements.md, section
+ngcontact/checks.py; docs/scale.md)."""
 VERTICES_PER_CELL = {2: 1.15, 3: 0.8}
 """Vertices of a Netgen mesh per maxh^dim of the domain's area (volume), on fine meshes of
 the plate and the block (coarse meshes have more, from their boundary)."""

@@ -254,7 +254,7 @@ def _plot_overview(path, columns, history):
 def steps_vary(dt, relative=1e-9):
     """Whether the time steps ``dt`` (s; NaN entries ignored) vary by more than ``relative`` of
     the largest: by the error control or by cut-backs, not by the round-off of t_n − t_{n−1}
-    (a fixed step of 2.5 ms varies by ~1e-16 s)."""
+    (a fixed step varies only at the level of round-off, far below ``relative``)."""
     finite = np.asarray(dt, dtype=float)
     finite = finite[np.isfinite(finite)]
     return finite.size > 1 and finite.max() - finite.min() > relative * finite.max()

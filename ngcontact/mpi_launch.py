@@ -2,9 +2,9 @@
 rank, and MPI waits that yield the core when there are more ranks than cores. Read from the
 environment only (no NGSolve, no mpi4py), so that ``ngcontact`` can set the variables before
 NGSolve and MPI load: the runtimes read them once, when they load. With their defaults (a
-thread per core on every rank) 2 ranks on 2 cores spent 8× longer per Newton iteration; with
-3 ranks on 2 cores MPICH's busy waits took the cores from the ranks that compute
-(docs/cluster.md)."""
+thread per core on every rank) 2 ranks on 2 cores fought over the cores and each Newton iteration
+took far longer; with 3 ranks on 2 cores MPICH's busy waits took the cores from the ranks that
+compute (docs/cluster.md; docs/measurements.md, section ngcontact/mpi_launch.py)."""
 import os
 
 SIZE_VARIABLES = ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE", "MPI_LOCALNRANKS")
@@ -13,13 +13,12 @@ THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS")
 """The thread counts of OpenMP and OpenBLAS."""
 YIELDING = {"MPIR_CVAR_CH4_PROGRESS_THROTTLE": "1", "MPIR_CVAR_CH4_PROGRESS_THROTTLE_NO_PROGRESS_COUNT": "16"}
 """MPICH's waits sleep (usleep(1)) after 16 polls without progress instead of spinning: with 3
-ranks on 2 cores (2D reference plate P2, 30 879 DOFs, 59 Newton iterations, MUMPS) 21.1 -> 16.3 s
-with the kept factorisation and GMRES, 13.0 -> 11.7 s factorising at every iteration; on rank 0
-alone (which computes nothing) no gain (21.5 s). Other MPI libraries ignore the variables.
-Not used: MPIR_CVAR_ENABLE_HEAVY_YIELD=1 (waits sleep in nanosleep): rank 0's CPU time fell
-(25.7 -> 14.2 s per step) but GMRES waited on the sleeps (3D block P1, 142 404 DOFs, GAMG, 3
-ranks on 2 cores: 38.2 -> 53.8 s per step, GMRES 9.6 -> 29.0 s, also with 10⁵ polls before a
-sleep)."""
+ranks on 2 cores the ranks that compute get the cores back and a run takes less time, with the
+kept factorisation and GMRES as with a factorisation at every iteration; set on rank 0 alone
+(which computes nothing) they gain nothing. Other MPI libraries ignore the variables.
+Not used: MPIR_CVAR_ENABLE_HEAVY_YIELD=1 (waits sleep in nanosleep): rank 0's CPU time fell but
+GMRES waited on the sleeps and the steps took longer, also with 10⁵ polls before a sleep
+(docs/measurements.md, section ngcontact/mpi_launch.py)."""
 
 
 def launched():

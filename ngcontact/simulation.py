@@ -91,16 +91,17 @@ class Simulation:
     rtol, maxit : Newton tolerance (relative) and iteration limit per step.
     keep_states : keep a copy of (u, φ) of every step in the history.
     predictor : start Newton from the linear extrapolation of the last two states instead of
-        the last state. It saves 3-8 % of the iterations of the reference run at dt = 2.5 ms,
+        the last state. It saves a few of the iterations of the reference run on fine steps,
         but on coarse steps the extrapolated state penetrates deep and Newton may fail where
         the warm start converges (docs/speed.md).
     condense : static condensation of the element-interior DOFs (those of the elements at Γ3
         are kept); default: when the space has such DOFs (order >= 3 in 2D, >= 4 in 3D).
     realcompile : compile the Γ3 Jacobian's integrand to machine code (needs a C++ compiler,
-        takes 6–9 s once, assembles the Γ3 Jacobian 6–12× faster): True at once, False never,
-        None (default) when the Newton iterations a run expects pay for it (``machine_code``);
-        ``realcompile`` says whether it is. With ``solver="gamg"`` the same choice for the
-        preconditioner forms' integrand (None: from ``machine_code.BULK_COMPILED_FROM`` elements).
+        takes seconds once, then assembles the Γ3 Jacobian several times faster;
+        docs/measurements.md): True at once, False never, None (default) when the Newton
+        iterations a run expects pay for it (``machine_code``); ``realcompile`` says whether it
+        is. With ``solver="gamg"`` the same choice for the preconditioner forms' integrand
+        (None: from ``machine_code.BULK_COMPILED_FROM`` elements).
     limit_steps : shorten Newton corrections that would carry open points of Γ3 deep into
         the foundation (``step_length``): Newton's iterations at first contact then no longer
         grow with the mesh. Nitsche and penalty (the nodal constraint makes its own
@@ -297,7 +298,7 @@ class Simulation:
         """Step from the current time to T (s) with nominal steps dt (s); returns the History.
         The nominal steps are equal and reach T exactly: when dt does not divide T − t, they
         are (T − t)/⌈(T − t)/dt⌉, shorter than dt, and a ``TimeStepWarning`` names dt asked
-        and dt used (``run(dt=0.3, T=1)`` takes 4 steps of 0.25 s).
+        and dt used (``run(dt=0.3, T=1)`` steps by 0.25 s, four times).
         With ``rtol`` (a relative local error per step, for a scheme with an error estimate:
         "bdf2") the steps are chosen by it instead, dt the first (``stepping``): rejected tries
         in ``rejections``, events located to ``event_dt`` (default 1e-3 dt), no step below

@@ -303,3 +303,29 @@ def test_no_module_below_simulation_takes_the_simulation():
 
 PUBLIC_ENTRY = ("__init__", "check")
 """The estimator's documented entry ``EquilibratedEstimator(sim)``: it takes the simulation's ``steps``."""
+
+
+MEASURED_UNIT = r"\d(?:[.,]\d+)?\s?(?:%|ms|µs|s|DOFs?|×)(?!\w)"
+MEASURED_VERB = r"\b(?:took|takes?|saves?|saved|faster|slower|cheaper|gave|measured|speed-?ups?)\b"
+MEASUREMENT = re.compile(rf"{MEASURED_VERB}[^.;:]{{0,80}}?{MEASURED_UNIT}|{MEASURED_UNIT}[^.;:]{{0,80}}?{MEASURED_VERB}"
+                         rf"|{MEASURED_UNIT}\s*(?:against|instead of|->|→)\s*~?\d"     # a before and an after
+                         r"|\d{1,3}(?:[  ]\d{3})+\s?DOFs"                              # a run's DOFs: 30 879 DOFs
+                         r"|\d(?:\.\d+)?\s?µs\b", re.IGNORECASE)
+"""A number with a unit near a verb of measuring, a before-and-after, a run's DOF count or a
+timing in µs: what a run measured, which belongs in docs/ (docs/measurements.md), not a docstring."""
+
+
+def test_docstrings_say_what_and_why_not_what_a_run_measured():
+    """No docstring of the package quotes a measurement (the check fails on 57 passages of the
+    docstrings before they moved to docs/measurements.md, e.g. "It saves 3-8 % of the
+    iterations of the reference run", "0.30 s against 0.28–0.39 s", "30 879 DOFs")."""
+    found = []
+    for name, path in modules():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Expr) and isinstance(node.value, ast.Constant) and isinstance(node.value.value, str):
+                found += [f"{name}:{node.lineno}: ...{m.group(0)}..."
+                          for m in MEASUREMENT.finditer(" ".join(node.value.value.split()))]
+    assert not found, "\n".join(found)
+    assert MEASUREMENT.search("It saves 3-8 % of the iterations of the reference run at dt = 2.5 ms")
+    assert MEASUREMENT.search("(Hertz P2, 14 298 DOFs, 28 iterations: 0.30 s against 0.28–0.39 s)")
+    assert not MEASUREMENT.search("dt : nominal time step, s; at most 0.5 s / steps (free DOFs only)")

@@ -53,16 +53,14 @@ from .equilibration import Equilibration, Patches
 
 RAISE = 0
 """σ* and D* are sought in RT_{p+RAISE}. One order more (RT_{p+1}) made the data oscillation of
-one order higher and the estimate sharper (static glued manufactured case, scaled PZT-5A without
-viscosity, three levels: effectivities 1.65–1.80 for P1, P2 and 2.6–2.8 for P3 against
-1.78–2.07 and 3.1–3.9 in RT_p), but its local problems are twice as large: ten times the
-factorisation work (P1 on 1 761 vertices: 1.05 s against about 0.1 s). Scenes without a body
-force have no oscillation at all."""
+one order higher and the estimate sharper, but its local problems are twice as large
+and far costlier to factorise (docs/measurements.md, section ngcontact/estimators/equilibrated.py).
+Scenes without a body force have no oscillation at all."""
 SKEW_WEIGHT = 10.0
 """The weight of σ*'s skew part in its local problems, in units of λ_min(C_c)^{−1}: the
-least-squares weak symmetry. Measured on a manufactured elastic square (P1–P3, three levels):
-weight 1 gives η_skew 12–24 % of the error and effectivities 1.12–1.28; weight 10, 3–12 % and
-1.04–1.15; weight 100, the same skew part and a larger symmetric one."""
+least-squares weak symmetry. Fitted to measurements on a manufactured elastic square
+(docs/measurements.md, section ngcontact/estimators/equilibrated.py): a smaller weight leaves a
+larger skew part and a looser estimate, a larger one the same skew part and a larger symmetric one."""
 
 
 @dataclass
@@ -297,7 +295,7 @@ def _element_integrals(cfs, mesh, order):
     """[∫_K cf for every volume element K] for each scalar CF of ``cfs`` by a quadrature of order
     ``order``, each clipped at 0 (they are squares).
     Every CF is compiled first: its tree (the compliance times the Voigt differences) evaluated
-    uncompiled costs 50 times more in 3D."""
+    uncompiled costs far more in 3D (docs/measurements.md, section ngcontact/estimators/equilibrated.py)."""
     return [np.maximum(ngs.Integrate(cf.Compile(), mesh, ngs.VOL, order=order, element_wise=True).NumPy(), 0.0)
             for cf in cfs]
 

@@ -43,7 +43,7 @@ class BondingField:
     def _integrals(self, u_normal):
         """Facet integrals of the explicit rate and of γ_ν R², built once per u_ν expression
         (a scheme may use several: BDF2 takes R² at an extrapolated u and at u_n, and compiled
-        the forms anew at every switch, 4.0 of 12.0 s of a controlled run)."""
+        the forms anew at every switch, a large part of a controlled run's time)."""
         found = self._forms.get(id(u_normal))
         if found is None:
             c, R2 = self.contact, self.contact.R(u_normal) ** 2

@@ -5,17 +5,17 @@ the test functions) on the ContactSide Γ3, R_Γ3 is a LinearForm in a copy of t
 R_Γ3' a BilinearForm in the trial functions (NGSolve linearises it). Two ways to integrate:
 
 * interpreted (``Compile()``) on ``side.ds`` (``ds(skeleton=True)`` on Γ3): NGSolve visits every
-  facet of the mesh (~2 µs each) and evaluates the integrand on Γ3's only;
+  facet of the mesh and evaluates the integrand on Γ3's only;
 * compiled to machine code on the element boundaries of the volume elements at Γ3 only
   (``side.dx_at``, the integrand times the Γ3 indicator): the integrand is evaluated on every
   facet of those elements, which interpreted costs more than the visit of the whole mesh
-  (``machine_code`` has the measurements), compiled far less.
+  (docs/measurements.md, sections ngcontact/gamma3/terms.py and ngcontact/model/machine_code.py),
+  compiled far less.
 
 The Jacobian is compiled once a simulation's Newton iterations pay for it
 (``machine_code.MachineCode``, ``use_machine_code``); the residual too where the mesh has at
-least ``COMPILED_RESIDUAL_FACETS`` facets. Measured on the 3D reference block (P1, 142 404
-DOFs, 432 865 facets, one thread): the residual 0.67–0.69 s on ``ds``, 1.9–2.4 s interpreted on
-``dx_at``, 0.25–0.31 s compiled there (8.2 s to compile; the same vector to 2.4e-16).
+least ``COMPILED_RESIDUAL_FACETS`` facets; compiled on ``dx_at`` it gives the same vector as
+on ``ds`` to round-off.
 """
 import ngsolve as ngs
 import numpy as np
@@ -24,8 +24,8 @@ from ngcontact.model.machine_code import compiled
 
 COMPILED_RESIDUAL_FACETS = 200_000
 """Facets of the mesh (the rank's part) from which the residual is compiled with the Jacobian:
-each residual then saves ~1 µs per facet (0.4 s at 432 865), the compile (~8 s) pays within a
-few steps."""
+the time each residual then saves repays the compile within a few steps (fitted to measurements
+on the 3D reference block, docs/measurements.md, section ngcontact/gamma3/terms.py)."""
 
 
 class Gamma3Terms:
@@ -67,8 +67,8 @@ class Gamma3Terms:
 
     def use_machine_code(self):
         """From now on, assemble R_Γ3' (and, on meshes of ``COMPILED_RESIDUAL_FACETS`` facets,
-        R_Γ3) with the integrand compiled to machine code: 6–9 s once each, the same values to
-        round-off. Returns whether anything changed."""
+        R_Γ3) with the integrand compiled to machine code: a compile once each (``machine_code.COMPILE_S``),
+        the same values to round-off. Returns whether anything changed."""
         if self.machine_code:
             return False
         self.form = self._jacobian_form(True)

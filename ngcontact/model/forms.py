@@ -80,8 +80,9 @@ def step_normal_stress_variation(T, v, xi, rate, direction=None):
     linear tensors, with a law its tangent at ε = 0 (``MaterialTensors.tangent``). Any linear
     map of (v, ξ) keeps Nitsche's method consistent (the exact solution makes the terms it
     multiplies cancel); with a law, the Jacobian is then not symmetric even for θ = 1. (The
-    law's tangent at the state, by ``CoefficientFunction.Diff``, was measured: its second
-    derivative in the Γ3 Jacobian took 5.7 s per assembly on 576 DOFs.)"""
+    law's tangent at the state, by ``CoefficientFunction.Diff``, was tried and dropped: its second
+    derivative in the Γ3 Jacobian made every assembly far too slow, docs/measurements.md, section
+    ngcontact/model/forms.py.)"""
     return step_normal_stress(T.tangent(), v, xi, rate, direction=direction)
 
 

@@ -1,27 +1,19 @@
-"""When the Γ3 integrand is compiled to machine code: a measured rule, not a clock.
+"""When the Γ3 integrand is compiled to machine code: a rule fitted to measurements, not a clock.
 
 Compiling the integrand of the Γ3 Jacobian (``StepSystem.use_machine_code``: NGSolve's
 ``Compile(realcompile=True)`` with first derivatives only, on the element boundaries at Γ3)
 takes ``COMPILE_S`` once per simulation and saves, at every assembly of the Γ3 Jacobian (one
-per Newton iteration), about ``SAVING`` per facet of Γ3. Measured on this project's machine
-(NGSolve 6.2.2608, one thread; interpreted ``Compile()`` against machine code, per facet of Γ3
-and Jacobian assembly; compile times 5.6–9.4 s):
-
-=======  ================  ==================================================================
-dim      unknowns on Γ3    interpreted / machine code per facet
-=======  ================  ==================================================================
-2        u                 Hertz P2: 89 / 15 µs (82 facets), 126 / 20 µs (328 facets)
-2        u, φ              reference plate P1: 487 / 45 µs (39 facets), 637 / 76 µs (312); P2: 483 / 45 µs
-3        u                 Hertz P1: 736 / 153 µs (462 facets)
-3        u, φ              reference block P1: 2005 / 259 µs (98 facets), 3003 / 261 µs (392)
-=======  ================  ==================================================================
+per Newton iteration), about ``SAVING`` per facet of Γ3. Both are fitted to measurements on the
+Hertz scenes and the reference plate and block (interpreted ``Compile()`` against machine code,
+per facet of Γ3 and Jacobian assembly, one thread): docs/measurements.md, section
+ngcontact/model/machine_code.py.
 
 A simulation compiles when the Newton iterations it expects save more than the compile costs:
-``Simulation.run(dt, T)`` expects ``ITERATIONS_PER_STEP`` per nominal step (the demo: 390 in
-200 steps); a simulation stepped by hand compiles once the iterations it has made would have
-paid for the compile (the ski-rental rule: never more than twice the cost of the better of
-the two choices made in hindsight). A one-step Hertz solve then never compiles (it paid 15 s
-for it before), a long run of the 3D block compiles at once.
+``Simulation.run(dt, T)`` expects ``ITERATIONS_PER_STEP`` per nominal step; a simulation stepped
+by hand compiles once the iterations it has made would have paid for the compile (the ski-rental
+rule: never more than twice the cost of the better of the two choices made in hindsight). A
+one-step Hertz solve then never compiles (it paid for the compile before), a long run of the 3D
+block compiles at once.
 """
 import os
 import shutil
@@ -30,11 +22,13 @@ import sysconfig
 import warnings
 
 COMPILE_S = 8.0
-"""Seconds to compile the Γ3 Jacobian's integrand (5.6–9.4 s measured)."""
+"""Seconds to compile the Γ3 Jacobian's integrand (fitted to measurements: docs/measurements.md, section
+ngcontact/model/machine_code.py)."""
 SAVING = {(2, False): 1e-4, (2, True): 5e-4, (3, False): 6e-4, (3, True): 2.5e-3}
 """Seconds saved per facet of Γ3 and Newton iteration, by (dimension, whether φ is solved)."""
 ITERATIONS_PER_STEP = 2
-"""Newton iterations a nominal step of ``run`` is expected to take."""
+"""Newton iterations a nominal step of ``run`` is expected to take (fitted to the demo's run:
+docs/measurements.md, section ngcontact/model/machine_code.py)."""
 
 
 class MachineCode:
@@ -61,10 +55,9 @@ class MachineCode:
 BULK_COMPILED_FROM = 130_000
 """Volume elements (the process's part of the mesh) from which the bulk preconditioner forms'
 integrand (``forms.preconditioner_forms``, ``petsc_iterative``) is compiled to machine code
-when ``realcompile`` is None: 3D block P1, 183 808 elements, one thread: 7.2–7.7 s to
-assemble interpreted, 1.5–2.0 s compiled after 3.7–4.0 s of compiling (31 µs saved per
-element: one assembly pays for the compile from ~130 000 elements; at 1.06·10⁶ DOFs the
-interpreted assembly took 70 s)."""
+when ``realcompile`` is None: from there one assembly saves more than the compile costs (fitted
+to measurements on the 3D block P1, one thread: docs/measurements.md, section
+ngcontact/model/machine_code.py)."""
 
 
 def compile_bulk(realcompile, elements):
@@ -100,8 +93,7 @@ def compiled(cf, realcompile, maxderiv=2):
     """cf.Compile(), to machine code if ``realcompile`` (falls back, with a warning, when
     there is no working C++ compiler; NGSolve's ``ngscxx`` found first, ``find_compiler``);
     ``maxderiv``: the derivatives compiled (1 suffices for a Jacobian by
-    ``AssembleLinearization``: 6.5 s to compile instead of 8.7, and assembles in half the time
-    of 2)."""
+    ``AssembleLinearization``, and compiles and assembles faster than 2)."""
     if realcompile:
         if not _compiler:
             _compiler.append(find_compiler())

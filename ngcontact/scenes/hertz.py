@@ -16,8 +16,8 @@ gap measured along it). Isotropic, elastic, no piezoelectric coupling. Two contr
 Hertz, for the measured contact force F (per unit depth in 2D), E* = E/(1 − ν²):
   2D (cylinder on a plane): a = sqrt(4 F R/(π E*)), p(x) = p0 sqrt(1 − x²/a²), p0 = 2F/(π a);
   3D (sphere on a plane):   a = (3 F R/(4 E*))^(1/3), p(r) = p0 sqrt(1 − r²/a²), p0 = 3F/(2π a²).
-They hold for a/R small (the half-disk is not a half-plane: at a/R ≈ 0.1 they are met to
-about 1 %, docs/curved_contact.md).
+They hold for a/R small (the half-disk is not a half-plane; how closely they are met:
+docs/curved_contact.md).
 """
 import math
 

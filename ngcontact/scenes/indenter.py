@@ -29,13 +29,15 @@ at a quarter of the shorter side, about ``VERTICES_PER_CELL`` · 16 · 2000 = 3.
 ratio, within ``meshes.MAX_MESHED_VERTICES``."""
 CONDUCTANCE = 1.0
 """The tip's contact conductance (F/m²): large against ε33/a ≈ 1e-3 F/m², so that the contact
-zone is held at the tip's potential (tenfold more changes the charge by 0.2 %)."""
+zone is held at the tip's potential (a larger one hardly changes the charge: docs/measurements.md,
+section ngcontact/scenes/indenter.py)."""
 
 
 def mesh(thickness=H, width=W, h_contact=0.25e-6, fine=12e-6):
     """The meridian section [0, width] × [0, thickness] (m), of mesh size ``h_contact`` (m) in the
     square of side ``fine`` under the tip (Netgen's grading 0.1 away from it: the default 0.3
-    stiffens the film by about 1 % in force). Refused before meshing: an h_contact so small that
+    stiffens the film in force, docs/measurements.md, section ngcontact/scenes/indenter.py).
+    Refused before meshing: an h_contact so small that
     Netgen would make more than ``meshes.MAX_MESHED_VERTICES`` vertices (``meshes.check_meshed``),
     or sides more than ``MAX_ASPECT`` apart."""
     thickness, width = number("thickness", thickness, 0, low_open=True, unit=" m"), \

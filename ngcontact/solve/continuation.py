@@ -29,21 +29,20 @@ import numpy as np
 
 SMOOTH = 1e-2
 """The widest ramp of the path, relative to the body's size (the diameter of its bounding box):
-on the electrode contact (R = 1 cm, a push of 0.16 mm) Newton solves the step from the cold start
-with ramps of 10⁻⁵ to 10⁻⁴ m and not with 10⁻⁶ m."""
+wide enough that Newton solves the electrode contact's step from the cold start (docs/measurements.md,
+section ngcontact/solve/continuation.py)."""
 FACTOR = 100.0
 """The ratio of successive ramps of the path."""
 BISECTIONS = 4
 """The stages a path may give up and replace (``Continuation.solve``)."""
 TRUNCATION = 1e3
 """The widest truncation of the path, relative to L_φ: a truncation that does not act where the
-potentials of a step's iterates go (on the column pressed flat onto the conducting foundation,
-docs/stability.md, L_φ = 10⁶ V converges in 2–3 iterations where 10³ V cycles)."""
+potentials of a step's iterates go (on the column pressed flat onto the conducting foundation a
+high L_φ converges where the given one cycles: docs/stability.md)."""
 REDUCTION = 1e-2
-"""A stage before the last is done at this fraction of its first residual (``Newton.reduction``).
-On the electrode contact (P2, h = R/200 and R/50) solving those stages to Newton's tolerance cost
-9–15 more iterations in all; one of them (ψ's ramp 25× widened) stalls at 3·10⁻⁶ of the step's
-force scale, on a kink of the gated conduction, where 30× converges (docs/stability.md, section 11)."""
+"""A stage before the last is done at this fraction of its first residual (``Newton.reduction``):
+solved to Newton's tolerance, those stages cost more iterations in all, and one may stall on a kink
+of the gated conduction (the electrode contact: docs/stability.md, section 11)."""
 MOST = 8
 """The path's widest ramp is at most FACTOR^MOST times the narrowest (a ramp of 10⁻³⁰⁰ m is a step
 whatever the path)."""

@@ -21,9 +21,7 @@ def forcing_term(gamma, ratio):
                  the level before the rise, no further. Choice 2 itself gives ≥ γ there (capped at
                  1e-3 by Newton), which on 2 ranks cut the 3D block's first step back where
                  the serial run did not; asking the step's final accuracy instead made the
-                 GMRES of a rise run to its iteration limit (3D block P1, 142 404 DOFs:
-                 300 iterations for a 3e-12 reduction, 726 against 395 GMRES iterations over 3
-                 steps into first contact; docs/scale.md).
+                 GMRES of a rise run to its iteration limit (docs/scale.md).
 
     Both give γ at ratio 1."""
     return gamma * (ratio ** 2 if ratio <= 1.0 else 1.0 / ratio)

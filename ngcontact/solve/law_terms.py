@@ -17,8 +17,9 @@ Quadrature: a law's stress is not a polynomial of the strain, so NGSolve's defau
 ε(u):ε(v), of order 2(p − 1) (exact for the linear bulk), is not enough before h is far
 below the law's strain scale; N is integrated with p more orders, 3p − 2 in all
 (``BONUS_ORDER_PER_DEGREE`` × p; P1 keeps its one point, exact for constant strains).
-Measured on the manufactured contact case with fibre laws (docs/model.md): P2 energy-error
-rates 1.92, 1.75, 2.04 with the default rule, 2.01, 2.00, 2.00 with p more orders.
+On the manufactured contact case with fibre laws (docs/model.md) the P2 energy-error rates
+scatter with the default rule and are 2 with p more orders (docs/measurements.md, section
+ngcontact/solve/law_terms.py).
 """
 import ngsolve as ngs
 import numpy as np

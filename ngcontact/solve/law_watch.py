@@ -28,8 +28,7 @@ before are (``NewtonError.history``). Before each step's first residual, each la
 to be the one checked (``LawTerms.apply``).
 
 Cost: runs without laws pay nothing. With a projection law on the reference plate the check
-took 1.4 % of the run's CPU time (P1, 576 DOFs: 0.027 s of 1.9 s over 10 steps) and 1.3 % (P2,
-6696 DOFs: 0.15 s of 12 s).
+takes a small share of the run's CPU time (docs/measurements.md, section ngcontact/solve/law_watch.py).
 
 When Newton fails in a run with laws, ``LawTerms.explain`` (``LawWatch.diagnose``) names a law
 that is the likely cause in the error's reason and hint: a non-finite stress or tangent at the

@@ -15,7 +15,7 @@ exactly those steps. So the full steps are taken as before until they stop makin
 
 Where the laws that a path through smoother laws (``continuation``) widens change piece between
 the iterates since the last progress (ψ or φ_L: ``switches``), the step goes to that path at once
-(``budget`` 0): on the electrode contact and the glued plates a search there spent 6–13
+(``budget`` 0): on the electrode contact and the glued plates a search there only spent
 iterations before the path took over anyway (docs/stability.md, section 11). Where they do not
 (a stiff viscosity law, a cycle of the contact set alone), the search takes over; the path's
 widest stage searches too. Searching, every step must decrease the merit (Armijo):

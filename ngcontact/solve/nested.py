@@ -4,9 +4,9 @@ started from the solution of the level below, carried up by an exact prolongatio
 Semismooth Newton converges in one iteration from a start whose contact set is the
 solution's, and needs about one iteration per point of Γ3 it has to release where the start
 overestimates the set (``starts``). The solution of the level below has the contact zone to
-within a facet of that level: on the Hertz half-disk (P2, 21 447 DOFs) the finest level then
-takes 3 Newton iterations instead of 18 from the warm start, the coarsest level its own
-cold-start count at 1/16 of the DOFs (docs/speed.md). The same in order instead of mesh
+within a facet of that level: the finest level then takes a few Newton iterations, far fewer
+than from the warm start, and the coarsest level its own cold-start count on a fraction of the
+DOFs (the Hertz half-disk: docs/speed.md). The same in order instead of mesh
 (``Nested.first_order``, the start "p1"): a body of order p >= 2 solved with P1 on its own
 mesh first, for meshes without a hierarchy.
 
@@ -126,7 +126,7 @@ class Nested:
     def first_order(cls, body, coarse):
         """The start "p1": the step solved with P1 on the body's own mesh first, its u
         interpolated into the body's space (exact: P1 is in Pp). Any mesh, no hierarchy: Hertz
-        P2/P3 on one to three refinements 1.2-2.7x faster than the warm start (docs/speed.md).
+        P2/P3 on one to three refinements faster than the warm start (docs/speed.md).
         A ValueError naming ``guess`` for a body of order 1. ``coarse(mesh, order)``: the level's Step."""
         if body.order < 2:
             raise ValueError(f"guess='p1' starts a body of order >= 2 from P1 on its mesh; the body has order "

@@ -47,8 +47,9 @@ LINEAR_COUNTS = ("factorizations", "krylov_iterations", "krylov_failures")
 """The linear solver's counters that a solve reports."""
 SINGULAR_RATIO = 1e-12
 """A correction w with ‖r‖/‖w‖ below this (scaled dual over primal norm: the smallest singular
-value of the scaled Jacobian it reveals, 5e-5 to 6e-2 on the meshes of the test suite) comes
-from a singular Jacobian: the factorisation divided by a pivot at round-off."""
+value of the scaled Jacobian it reveals, orders of magnitude above this on the meshes of the
+test suite: docs/measurements.md, section ngcontact/solve/newton.py) comes from a singular
+Jacobian: the factorisation divided by a pivot at round-off."""
 SINGULAR = "stopped: the system is singular (the Jacobian has no unique solution)"
 NOT_FINITE = "stopped: the Jacobian has entries that are not finite (NaN or inf)"
 NOT_FINITE_HINT = ("a law or datum whose derivative is not finite at the state: NGSolve differentiates a "

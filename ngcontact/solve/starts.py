@@ -8,9 +8,8 @@ update) stays what it was, the supports keep their values at t_n, φ starts from
 the guess may penetrate the obstacle. From a start whose contact set is the solution's, Newton
 converges in one iteration; one that overestimates the set costs about an iteration per point
 of Γ3 it must release (the linearised problem pulls on the outermost points only), one that
-underestimates it fewer (it adds every point that penetrates). Hertz half-disk, P2, 21 447
-DOFs, the top moved down by 0.02 R: 18 iterations from the warm start u = 0, 16 from the rigid
-approach by 0.02 R, 5 by 0.006 R, 1 by 0.0068 R, 9 by 0.008 R (docs/speed.md).
+underestimates it fewer (it adds every point that penetrates; the counts of the Hertz
+half-disk's starts: docs/speed.md).
 
 Guesses:
 

@@ -2,10 +2,10 @@
 
 The semismooth Newton step linearises the contact law at the iterate. From a state where part
 of Γ3 is open, it misses the contact that the step itself creates: where the body first meets
-the foundation it moves on freely and overshoots deep into it (on the reference scene, 14 mm
-of Γ3 at first contact, for a true contact zone of one facet). The next iterations enforce
-contact on the whole overshoot and release it a few facets at a time, so their number grows
-with the mesh (11 → 18 iterations from 576 to 121 851 DOFs, P1). The step is cut where it
+the foundation it moves on freely and overshoots deep into it (on the reference scene, over
+many facets of Γ3 at first contact, for a true contact zone of one facet). The next iterations
+enforce contact on the whole overshoot and release it a few facets at a time, so their number
+grows with the mesh. The step is cut where it
 would carry an open point (u_ν < g) beyond a penetration δ = η max|Δu_ν|: then the contact
 law is linearised where contact begins, and the front is resolved in a few iterations
 whatever the mesh (docs/speed.md, "Newton iterations").
@@ -18,7 +18,7 @@ in a few steps, and fewer iterations release the overshoot after the last cut
 
 Where a face meets the foundation flat and all at once (the soft column of the stability
 study), the shortened steps can make Newton cycle; ``Newton`` then repeats the solve with
-full steps, which converge there in two iterations.
+full steps, which converge there in a few iterations.
 """
 import ngsolve as ngs
 import numpy as np
@@ -38,8 +38,8 @@ class StepLength:
     eta : δ = eta · max |Δu_ν| over Γ3, the penetration an open point may reach in one step
         where Γ3 does not touch the foundation when the solve begins.
     max_cuts : the most corrections shortened in one Newton solve (later ones are full).
-        Two resolve the first contact of the reference scene (one does not: 18 iterations
-        at 30 879 DOFs, as without the limit); more change nothing there.
+        Two resolve the first contact of the reference scene (one does not, as without the
+        limit); more change nothing there.
     eta_touching : the same where it does: a point of Γ3 lies within eta · max |Δu_ν| of the
         foundation (or beyond it) at the solve's start (decided at its first correction).
     max_cuts_touching : ``max_cuts`` where it does.

@@ -29,11 +29,11 @@ A solve has converged at x when
    terms add large eigenvalues only). The floor belongs to the state, not to the load: a body
    moved rigidly by its prescribed displacements has K x = 0 while |K||x| is of the size of the
    stresses that displacement would cause in a held body; once its glue has let go (β small but
-   not 0) S is the glue's last force (1e-12 to 1e-9 J^½ on the pulled plate), and a fraction of
-   S lies under that round-off, out of reach. A wrong state has a residual of the size of K
+   not 0) S is the glue's last force (tiny on the pulled plate), and a fraction of S lies under
+   that round-off, out of reach. A wrong state has a residual of the size of K
    times its error, above F unless that error is at the round-off of x itself. A contact term
    made absurdly stiff cannot raise F beyond twice the bulk's floor (the min): the residual of
-   a wrong state that it hides (γ0 = 1e30: a contact force 13 times too small) stalls at that
+   a wrong state that it hides (γ0 = 1e30: a contact force far too small) stalls at that
    term's round-off, far above F; or
 3. the residual is down to the round-off of all its terms and small against S:
    ``‖R(x)‖ <= F_Γ(x)`` and ``‖R(x)‖ <= FLOOR_LIMIT · S(x)``, with

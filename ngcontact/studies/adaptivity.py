@@ -12,12 +12,13 @@ the scene's DOF limit. Scenes (``SCENES``):
   there, f0 continuous with a kink): the exact energy error |||e||| and the effectivity
   η/|||e|||. Smoothness 3 (u ∈ H^{5/2−ε}, as a real contact solution) makes f0 jump across
   the end of the contact set, inside elements: the load's quadrature misses the jump by O(h),
-  an error of the data that no estimate of the discrete problem sees (P2 effectivity fell to
-  0.88 at 1.1·10⁵ DOFs; 1.75 with 8 more quadrature orders), docs/adaptivity.md;
+  an error of the data that no estimate of the discrete problem sees (the P2 effectivity falls
+  away from 1, and more quadrature orders do not restore it: docs/measurements.md, section
+  adaptivity), docs/adaptivity.md;
 * ``hertz``: the 2D Hertz half-disk pushed down by 0.02 R (one step): the energy error
   against an adaptive P3 reference (``REFERENCE_NDOF``; its own estimate says how close it
-  is), the effectivity, and the pressure error against Hertz's closed form (which itself holds
-  to about 1 % at this a/R);
+  is), the effectivity, and the pressure error against Hertz's closed form (itself an
+  approximation at this a/R: docs/measurements.md, section adaptivity);
 * ``hertz3d``: the half-ball (P1): the estimate and the pressure error;
 * ``reference``: the reference plate's push, hold and pull over [0, 0.25 s] (25 steps of
   10 ms; the estimate every fifth step, the largest over them marks the next mesh:
@@ -341,12 +342,13 @@ def main(out, scenes=("manufactured", "hertz"), orders=(1, 2), stop_newton=None,
 
 
 TOL_FLOOR = 1e-6
-"""The smallest ``--tol``. The P2 Hertz disk certifies 1e-2 at 6 927 DOFs and 2e-3 at 39 210
-(docs/adaptivity.md), about N^(-0.9): its DOF limit (``Scene.max_ndof``, 1.2e5) reaches about
-7e-4, and 1e-6 would need about 10⁸ DOFs (200 GB at ``checks.MEMORY_PER_DOF``), where the
-energy of the error also nears the round-off of a state solved to Newton's relative residual
-of 1e-10. A smaller tol could not be met on any machine; one between it and what a scene's
-limit reaches ends "NOT reached" (exit status 1 on the command line)."""
+"""The smallest ``--tol``: extrapolated from the certified tolerances of the P2 Hertz disk against
+its DOFs (fitted to measurements on it: docs/measurements.md, section adaptivity), 1e-6 lies far
+beyond a scene's DOF limit (``Scene.max_ndof``, 1.2e5) and needs the memory of the largest
+machines (``checks.MEMORY_PER_DOF``), and the energy of the error there nears the round-off of a
+state solved to Newton's relative residual of 1e-10. A smaller tol could not be met on any
+machine; one between it and what a scene's limit reaches ends "NOT reached" (exit status 1 on
+the command line)."""
 
 
 def to_tolerance(tol, scenes=("hertz",), orders=(2,), fraction=None, progress=True, marking=None, stop_newton=None,

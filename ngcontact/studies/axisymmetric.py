@@ -15,11 +15,11 @@ report) and pointwise ("pointwise_error"):
 λ_h the enforcement's multiplier at the Gauss points of the residual on Γ3
 (``ContactRecord.multiplier_points``, weights ``ContactSide.gauss_weights``), λ_ref the
 reference's, interpolated in r, and P_B the facet average. The pointwise error is dominated
-by the facet that holds the end of the contact zone (λ_h kinks inside it) and moves by a
-factor 2-5 from one mesh to the next. The time of a run is the wall time from the mesh to the
-solved step (meshing, set-up, Newton), one thread; the runs are interleaved (section, 3D,
-section, ...) over ``rounds`` and the median is kept. ``summary`` interpolates (log-log)
-the time each kind needs to reach an error and their ratio.
+by the facet that holds the end of the contact zone (λ_h kinks inside it) and does not fall
+steadily from one mesh to the next (docs/measurements.md, section axisymmetric). The time of a
+run is the wall time from the mesh to the solved step (meshing, set-up, Newton), one thread;
+the runs are interleaved (section, 3D, section, ...) over ``rounds`` and the median is kept.
+``summary`` interpolates (log-log) the time each kind needs to reach an error and their ratio.
 """
 import math
 import time
@@ -36,7 +36,7 @@ from .common import table, write_csv
 SECTION_SIZES = (0.02, 0.01, 0.005, 0.0025, 0.00125)
 """Contact mesh sizes (m, R = 1) of the meridian-section runs."""
 QUARTER_SIZES = (0.08, 0.04, 0.02, 0.01, 0.005)
-"""Contact mesh sizes of the 3D quarter-ball runs (0.005: one to two minutes a run)."""
+"""Contact mesh sizes of the 3D quarter-ball runs (the finest is the costliest run of the study)."""
 COLUMNS = ("kind", "order", "h_contact", "ndof", "newton", "force", "a", "error", "pointwise_error", "seconds")
 
 

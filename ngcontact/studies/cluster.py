@@ -42,10 +42,10 @@ WORKER = "ngcontact.studies.cluster_case"
 """The module each run executes (``python -m``)."""
 DT = 2.0 ** -8
 """The default time step, s (3.9 ms): a power of two, so that t_n − t_{n−1} is exact and every
-step has the same rate coefficient 1/dt. With 5 ms, round-off in t_n − t_{n−1} changed 1/dt at
-the third and fourth steps (200.00000000000003, 199.99999999999997), and with it the system's
-generation: the kept factorisations were made anew and GAMG's preconditioner rebuilt (and
-compiled again: +4 s a step on the plate P2 with 2 088 DOFs)."""
+step has the same rate coefficient 1/dt. With a step that is not a power of two, round-off in
+t_n − t_{n−1} changes 1/dt from step to step, and with it the system's generation: the kept
+factorisations are made anew and GAMG's preconditioner rebuilt and compiled again, which costs
+seconds a step (docs/measurements.md, section cluster)."""
 MAX_RANKS = 1024
 """The most MPI ranks a run may ask for."""
 SHOWN = ("order", "level", "ndof", "ranks", "solver", "round", "step_s", "newton_mean", "krylov_per_newton",

@@ -8,8 +8,8 @@ sizes and ranks (the medians of ``summary.csv``), by least squares in log space:
 * time per step ≈ a·(n/p)^α, or a·(n/p)^α·p^γ where the data warrant it: at least four
   points over two or more p, and a smaller leave-one-out error than without γ; fitted to the
   runs with no more processes than cores only, where there are two sizes of them at least (an
-  oversubscribed run's time measures the sharing of the cores: on the 2-core machine the runs
-  under ``-n 3`` made γ ≈ 1.2–1.7, a time per step growing with the ranks);
+  oversubscribed run's time measures the sharing of the cores: it makes γ > 0, a time per step
+  growing with the ranks; docs/measurements.md, section cluster_model);
 * memory per rank (the largest computing rank's peak) ≈ m₀ + b·(n/p)^β (m₀ = 0 with fewer
   than four points over three sizes); under mpiexec also rank 0's ≈ m₀ + b·n^β (rank 0 meshes
   the whole problem and holds it; "masterinverse" factorises there);

@@ -10,24 +10,26 @@ conduction, Nitsche with θ = 0. Γ3 stays open throughout (u_ν < 0 < g, checke
 no contact area, λ_h = 0 at every Gauss point), so that Nitsche's term [P]_- vanishes and, with
 θ = 0, nothing of Nitsche is left: the step residual is exactly the semi-discrete system
 discretised in time. (With θ = 1 the term −(θ/γ)∫σ̃_ν σ_ν(v) stays; γ and σ_ν(v) both grow
-like the scheme's c, so it does not vanish as k → 0 but depends on c: BDF2 with θ = 1 tends to
-6.5e-3 in u from the θ = 0 system on this mesh, a spatial consistency term, and runs with
-different k differ by a part of it.) Two histories (``HISTORIES``):
+like the scheme's c, so it does not vanish as k → 0 but depends on c: BDF2 with θ = 1 tends to a
+u apart from the θ = 0 system's on this mesh by a spatial consistency term, and runs with
+different k differ by a part of it; docs/measurements.md, section column_order.) Two histories
+(``HISTORIES``):
 
-* "lift": F0 = 3e8 N/m³, T = 0.05 s: the glue stretches to 0.21 L, β falls to 0.90;
-* "debond": F0 = 1e9 N/m³, T = 0.07 s: every point of Γ3 separates beyond L at 0.044-0.045 s
+* "lift": F0 = 3e8 N/m³, T = 0.05 s: the glue stretches within L and β falls a little;
+* "debond": F0 = 1e9 N/m³, T = 0.07 s: every point of Γ3 separates beyond L before T
   (a kink in time of the semi-discrete solution: R_ν' jumps from −1 to 0) and β falls to
-  ≤ 4.6e-4 on every facet (ε_a = 0: β decays like exp(−γ_ν L² t), never to 0).
+  nearly 0 on every facet (ε_a = 0: β decays like exp(−γ_ν L² t), never to 0).
 
 Errors at T of each fully discrete run (``Simulation(scheme=...)``, equal steps, Newton to
 1e-12; backward Euler with ``beta_update="implicit"``) against the Radau solution: u relative
 in the max norm over the u DOFs, β absolute max over the facets (and relative to max |β_ref|:
-β_ref is ~4e-4 at the end of "debond"), φ relative max. Rates log(e_coarse/e_fine)/log(n_fine/n_coarse)
-between successive runs (per halving of k). The reference's own error is estimated by Radau at a looser rtol
-(``check_rtol``) against it. Rows ``against="replica"`` hold the agreement of ngcontact's runs
-with the same fully discrete schemes written on the semi-discrete system (``SemiDiscreteColumn.
-backward_euler`` / ``bdf2``, with ngcontact's quadrature of the Γ3 terms): ngcontact steps the
-system it should, to the Newton tolerance.
+β_ref is small at the end of "debond"), φ relative max. Rates
+log(e_coarse/e_fine)/log(n_fine/n_coarse) between successive runs (per halving of k). The
+reference's own error is estimated by Radau at a looser rtol (``check_rtol``) against it. Rows
+``against="replica"`` hold the agreement of ngcontact's runs with the same fully discrete schemes
+written on the semi-discrete system (``SemiDiscreteColumn.backward_euler`` / ``bdf2``, with
+ngcontact's quadrature of the Γ3 terms): ngcontact steps the system it should, to the Newton
+tolerance.
 """
 import math
 

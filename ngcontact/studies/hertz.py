@@ -28,9 +28,9 @@ COLUMNS = ["dim", "order", "normal", "level", "ndof", "newton", "coarse_newton",
 
 def case(order, level, normal, dim=2):
     """One solved case as (row, simulation): from level 1 on started by nested iteration
-    (``starts``: the finest level in 3 Newton iterations instead of 10-19, the step 2.6-3.2x
-    faster from 5e4 DOFs; ``newton`` counts the finest level's, ``coarse_newton`` the coarser
-    levels')."""
+    (``starts``: fewer Newton iterations on the finest level and a faster step on large meshes,
+    docs/measurements.md, section hertz; ``newton`` counts the finest level's, ``coarse_newton``
+    the coarser levels')."""
     t0 = time.perf_counter()
     sim = hertz.simulation(order, refine=level, dim=dim, normal=normal, keep_states=False)
     with ngs.TaskManager():

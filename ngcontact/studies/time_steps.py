@@ -11,7 +11,7 @@ Scenes (``SCENES``):
   follows the scheme's rate coefficient c, docs/time.md), the setting in which a time scheme's
   own error is seen alone.
 * ``column``: the soft column glued on its bottom and lifted off by the body force
-  3·10⁸ sin²(πt/0.2) N/m³ over T = 0.05 s (β falls to 0.90), no conduction.
+  3·10⁸ sin²(πt/0.2) N/m³ over T = 0.05 s (the glue stretches, β falls a little), no conduction.
 
 The reference solution is fixed-k BDF2 with ``REFERENCE_STEPS`` steps, Newton to 1e-12; its own
 error is estimated by a run with half as many steps (printed, in the CSV as the row
@@ -40,9 +40,10 @@ COLUMNS = ("scene", "label", "scheme", "dt", "rtol", "steps", "rejected", "newto
            "error_phi", "error_beta", "failed")
 LABELS = ("backward Euler, fixed k", "BDF2, fixed k", "BDF2, error-controlled")
 MIN_T = 0.01
-"""The plate's shortest final time, s: it touches the foundation at t = 0.008 s (maxh 0.01);
-before that the schemes would be compared on a history in which nothing happens (the study
-costs the same minutes at any T: its step counts are fixed)."""
+"""The plate's shortest final time, s: just after the plate first touches the foundation
+(docs/measurements.md, section time_steps); before that the schemes would be compared on a
+history in which nothing happens (the study costs the same minutes at any T: its step counts
+are fixed)."""
 MIN_MAXH = 2 * NETGEN_RESOLUTION * reference.L1
 """The plate's finest mesh size, m: halved along Γ3 (``scenes.reference``), at Netgen's
 resolution there (``geometries.plate``)."""

@@ -23,10 +23,11 @@ from ngcontact.checks import number
 from ngcontact.model.forms import boundary_stiffness, step_normal_stress, step_normal_stress_variation
 
 ACCURATE_FROM = {1: 3.0, 0: 0.1, -1: 3.0}
-"""γ0 from which each variant θ gave the contact force within 1 % on the reference plate
-(docs/stability.md, section 1): below, θ = 1 and θ = 0 may converge to forces 20–130 % off or
-fail (their coercivity needs γ0 above a trace-inequality constant), θ = −1 is stable but
-imposes contact only weakly (8 % off at 0.1, 25 % at 0.001)."""
+"""γ0 from which each variant θ has its contact force within 1 % on the reference plate
+(fitted to measurements on the reference plate, docs/stability.md, section 1, and
+docs/measurements.md, section ngcontact/gamma3/enforcement/nitsche.py): below, θ = 1 and θ = 0
+may converge to forces far off or fail (their coercivity needs γ0 above a trace-inequality
+constant), θ = −1 is stable but imposes contact only weakly, the more so the smaller γ0."""
 
 
 @dataclass(frozen=True)
@@ -35,7 +36,7 @@ class Nitsche:
 
     theta : 1 (symmetric), 0 (incomplete) or -1 (skew-symmetric).
     gamma0 : γ0 > 0; γ = γ0 p² (stiffness)/h (``forms.boundary_stiffness``). The variants
-        give the contact force within 1 % from γ0 = ``ACCURATE_FROM[theta]`` on.
+        give an accurate contact force from γ0 = ``ACCURATE_FROM[theta]`` on.
     """
     theta: int = 1
     gamma0: float = 10.0

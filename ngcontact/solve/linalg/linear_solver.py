@@ -14,9 +14,8 @@ serially, PETSc's KSP on a distributed mesh with MUMPS; NGSolve's ``GMResSolver`
 breakdowns that were none with Newton's weighted inner product) instead of factorising
 again, until the Krylov iterations cost more than a factorisation would. Its serial
 Gram–Schmidt is numpy (BLAS) on a kept basis; NGSolve's C++
-``la.GMRESSolver`` is no faster here (Hertz P2, 14 298 DOFs, 28 iterations: 0.30 s against
-0.28–0.39 s, of which 0.22–0.28 s are the products and preconditioner solves both make;
-docs/speed.md), and would need a Python callback for Newton's inner product.
+``la.GMRESSolver`` is no faster here (most of the time goes to the products and preconditioner
+solves both make; docs/speed.md), and would need a Python callback for Newton's inner product.
 
 Both solvers have ``solve(matrix, freedofs, r, w, generation=..., timer=..., weights=...)``
 (w = A⁻¹ r on the free DOFs; ``generation`` changes when the matrix changed beyond the Γ3
@@ -50,16 +49,9 @@ rank 0 and factorises it there (exact for non-symmetric matrices; "umfpack" and
 
 def factorization_worth(ndof, dim):
     """How many GMRES iterations preconditioned by a kept factorisation cost as much as one
-    factorisation, for a step system of ``ndof`` DOFs in ``dim`` D: a rule fitted to the ratio
-    factorisation time / GMRES iteration time measured on the reference scene (one thread,
-    sparse Cholesky of the symmetric part, medians over 8 steps; PyPI NGSolve 6.2.2608):
-
-    ====  =====================================================================
-    2D    P1: 230 at 167 free DOFs, 121 at 2 216, 29 at 8 560, 3.0 at 33 632, 4.5 at 133 312;
-          P2: 99 at 2 216, 55 at 8 560, 3.8 at 33 632; P3: 54 at 4 872
-    3D    P1: 139 at 632, 32 at 4 056, 9.8 at 28 880; P2: 30 at 632
-    ====  =====================================================================
-
+    factorisation, for a step system of ``ndof`` DOFs in ``dim`` D: a power of ``ndof`` per
+    dimension, fitted to the ratio factorisation time / GMRES iteration time measured on the
+    reference scene (docs/measurements.md, section ngcontact/solve/linalg/linear_solver.py),
     clamped to [4, 40] (the kept factorisation's ``max_budget``). A rule, not a clock: the
     solver's decisions, and so its results, are the same in every run (the wall-time ratio it
     replaces made identical runs differ at Newton's tolerance)."""
@@ -74,10 +66,10 @@ def reproducible():
     NGSolve's "sparsecholesky" starts threads of its own (``ngsglobals.numthreads``, 2 on the
     project's machines) even when no TaskManager is active, and adds their contributions in
     the order the threads finish: the same matrix then gave solutions that differ at round-off
-    in 2 of 16 processes (121 851 DOFs: 309db0 on one thread every time; 35747d, e62b77 on two).
-    On one thread it is as fast at these sizes (0.65–0.70 s against 0.60–1.11 s at 121 851
-    DOFs). Inside a TaskManager (``ngsolve.GetNumThreads() > 1``) nothing changes: the user
-    asked for threads, and results there are reproducible only to round-off."""
+    from one process to another. On one thread it is as fast at the sizes of the project's runs
+    (docs/measurements.md, section ngcontact/solve/linalg/linear_solver.py). Inside a TaskManager
+    (``ngsolve.GetNumThreads() > 1``) nothing changes: the user asked for threads, and results
+    there are reproducible only to round-off."""
     if ngs.GetNumThreads() > 1:
         yield
         return
@@ -161,9 +153,8 @@ class KeptFactorization:
     ``generation`` or the free DOFs changed, when the matrix changed in more rows than the
     ``budget`` since it was factorised (``changed_rows``: GMRES preconditioned by the
     factorisation of A − E converges in at most rank(E) + 1 iterations, so a change in m rows
-    costs up to m iterations; at first contact of a one-step Hertz solve, P2, 21 447 DOFs, the
-    Γ3 terms changed 30–470 rows between iterations against a budget of 9, and GMRES ran
-    into its cap at every other iteration), when the last solve needed more than half of the
+    costs up to m iterations; at first contact the Γ3 terms change far more rows between
+    iterations than the budget, and GMRES would run into its cap), when the last solve needed more than half of the
     ``budget`` of GMRES iterations that one factorisation costs (``factorization_worth``)
     beyond what the first solve after the last factorisation needed
     for the same accuracy (what a new one would need; per decade of ``tol``: with the
@@ -188,8 +179,8 @@ class KeptFactorization:
 
     ``margin`` (1e-3): Newton asks GMRES for ``margin`` × (its target / its residual)
     (``newton.Newton``): its accuracy is that of the preconditioned norm, where the true
-    residual falls less (demo, 200 steps: 0.1 gave 460 Newton iterations, 0.01 414, 1e-3 390,
-    1e-4 390).
+    residual falls less (on the demo looser margins cost Newton iterations, a tighter one gains
+    none: docs/measurements.md, section ngcontact/solve/linalg/linear_solver.py).
     """
 
     margin = 1e-3

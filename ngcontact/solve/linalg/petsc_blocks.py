@@ -13,7 +13,8 @@ def rigid_motion_values(body, X):
     With NGSolve's hierarchical H1 basis a linear function is its vertex values (DOF v of each
     component is vertex v, the higher-order DOFs are 0; on a straight-sided mesh exactly what
     ``GridFunction.Set`` gives, to round-off): read from the vertex coordinates instead of 6
-    ``Set`` calls, which took 29 s at 1.06·10⁶ DOFs (3D P1, one thread)."""
+    ``Set`` calls, slow on large meshes (docs/measurements.md, section
+    ngcontact/solve/linalg/petsc_blocks.py)."""
     dim, V = body.dim, body.V
     if body.mesh.ne == 0:                                 # rank 0 of a distributed mesh: no elements
         for _ in range(3 if dim == 2 else 6):
@@ -42,9 +43,9 @@ def rigid_motion_values(body, X):
 def node_by_node(PETSc, mapping, template, rows, ncomp, n_u):
     """u's rows of J (the index set ``rows``) reordered node by node, the ``ncomp`` components
     of each scalar DOF together, as an index set of block size ncomp: GAMG then aggregates
-    nodes (its graph of the ncomp × ncomp blocks) instead of single components. 3D block P1,
-    u's preconditioner form at 142 404 DOFs, one core: GAMG's setup 1.57 against 5.8 s, a
-    V-cycle 0.025 against 0.036 s, CG (1e-8) the same 20–22 iterations. VectorH1 numbers its
+    nodes (its graph of the ncomp × ncomp blocks) instead of single components: a faster setup
+    and V-cycle for the same CG iterations (docs/measurements.md, section
+    ngcontact/solve/linalg/petsc_blocks.py). VectorH1 numbers its
     DOFs component by component (the first n_u/ncomp are x); each DOF is tagged with
     (its owner's rank, its scalar DOF, its component), which the owner's copy carries into J's
     numbering; distributed, PETSc's rows of one node may be on different ranks, so every node's

@@ -10,14 +10,14 @@ preconditioner (``gamma3_bulk``) on PETSc's parts instead of nested meshes:
   B: diag(GAMG_u, −GAMG_φ), PETSc's smoothed-aggregation algebraic multigrid (``PCGAMG``) of
      the SPD forms of ``forms.preconditioner_forms`` (u: the piezo-stiffened elasticity plus
      c times the viscosity; φ: the permittivity), u with the rigid-body motions as its near
-     null space (without them GAMG needed 117 instead of 28 CG iterations on the 3D block's
-     u form at 15 315 DOFs) and its rows ordered node by node with block size d
-     (``petsc_blocks.node_by_node``: GAMG's setup 3.7× faster at 142 404 DOFs);
+     null space (without them GAMG needs several times the CG iterations) and its rows ordered
+     node by node with block size d (``petsc_blocks.node_by_node``: a faster GAMG setup);
 
   y = S r;  y += B (r − J y);  y += S (r − J y),
 
 the two products with J taken by its strips J[:, Γ3] (y = S r is zero off Γ3) and J[Γ3, :]
-(S reads Γ3's rows only): 6.52 against 8.17 s of GMRES per step at 142 404 DOFs.
+(S reads Γ3's rows only), cheaper than products with all of J (docs/measurements.md, section
+ngcontact/solve/linalg/petsc_iterative.py).
 
 No nested meshes are needed (NGSolve cannot refine a distributed mesh, so its multigrid does
 not run there), and every part runs on every rank. B's u part is built anew when the rate
@@ -55,8 +55,8 @@ from ngcontact.solve.linalg.petsc_solver import MumpsFactorization, PetscMatrix,
 GAMG_OPTIONS = {"pc_gamg_threshold": 0.01}
 """PETSc options of both GAMG preconditioners unless given (``PETSC_OPTIONS``): dropping the
 graph's weak couplings below 0.01 (PETSc's default: none) coarsens less aggressively and takes
-fewer GMRES iterations (3D block P1, 142 404 DOFs, 3 first-contact steps, one thread: 49.3
-against 67.3 GMRES iterations per Newton iteration, 30.9 against 32.7 s per step)."""
+fewer GMRES iterations on the 3D block (docs/measurements.md, section
+ngcontact/solve/linalg/petsc_iterative.py)."""
 
 
 class GamgSolver:
@@ -84,10 +84,9 @@ class GamgSolver:
     ``forcing`` (0.01): after every correction but a step's first Newton asks for no more
     than ``inexact.forcing_term`` (0.01 (‖r_k‖ / ‖r_{k−1}‖)² after a fall, Eisenstat–Walker;
     0.01 ‖r_{k−1}‖ / ‖r_k‖ after a rise), so that corrections while the contact set still
-    moves are not solved to the step's final accuracy. 3D block P1, 142 404 DOFs, 3 steps of
-    2⁻⁸ s into first contact (2 threads): 17 Newton and 395 GMRES iterations, 16.2 s per step,
-    against 16, 726 and 26.3 s with the forcing after falls only (the GMRES after one rise ran
-    to ``maxiter``) and 16, 683 without (docs/speed.md, docs/scale.md).
+    moves are not solved to the step's final accuracy: on the 3D block, about as many Newton
+    iterations with far fewer GMRES iterations than with the forcing after falls only (the
+    GMRES after a rise ran to ``maxiter``) or without it (docs/speed.md, docs/scale.md).
     """
 
     margin = 0.1
@@ -130,7 +129,8 @@ class GamgSolver:
     def _preconditioners(self, freedofs):
         """B: GAMG of the u and φ preconditioner forms at the current rate coefficient. The
         integrands are compiled once with c as the scheme's Parameter (compiling to machine code
-        took 3.8 s of the 10 s that every new c cost at 142 404 DOFs); at a new c φ's GAMG (the
+        was a large share of what every new c cost: docs/measurements.md, section
+        ngcontact/solve/linalg/petsc_iterative.py); at a new c φ's GAMG (the
         permittivity has no c) is kept, u's made anew."""
         PETSc, _ = load()
         previous = self._bulk or [None, None]
@@ -252,7 +252,7 @@ class GamgSolver:
 
     def surface_defect(self, r, y):
         """Γ3's rows of r − J y: J[Γ3, :] stands for J (two products with all of J per
-        application otherwise: 11 of the 58 ms at 142 404 DOFs)."""
+        application otherwise)."""
         self._strips[2].mult(y, self._sd)
         self._sd.aypx(-1.0, self._sr)
         return self._sd
@@ -322,9 +322,9 @@ class GamgSolver:
 
 FACTOR_BYTES = {2: 320.0, 3: 210.0}
 """Bytes of a MUMPS LU factorisation of the step Jacobian per n·log(n) DOFs in 2D and per
-n^(4/3) in 3D (nested dissection's fill), from the process peaks measured here: 2D reference
-plate P2, 30 879 DOFs, serial MUMPS 444 MB against 359 MB with the sparse Cholesky of the
-symmetric part; 3D block P1, 142 404 DOFs, serial factorisations ~1.5 GB (docs/cluster.md)."""
+n^(4/3) in 3D (nested dissection's fill), fitted to the process peaks measured on the 2D reference
+plate and the 3D block (docs/measurements.md, section ngcontact/solve/linalg/petsc_iterative.py;
+docs/cluster.md)."""
 FACTOR_SHARE = 0.5
 """The share of a node's physical memory that a fallback factorisation may take."""
 
@@ -335,9 +335,9 @@ def factorisation_fits(ndof, dim, mesh):
     (``checks.node_memory``; under MPI every rank's share of its node's is compared with its
     share of the factorisation). The machine's size, not the memory free at the moment: the
     choice, and so the run, must not depend on what else the machine is doing (an earlier
-    version read MemAvailable). A 3D P1 Jacobian of 1.06·10⁶ DOFs (~20 GB) does not fit on this
-    24 GB machine: its factorisation, the fallback of a GMRES that had not converged, was
-    killed for lack of memory at 24 GB."""
+    version read MemAvailable). A factorisation that does not fit, the fallback of a GMRES that
+    had not converged, is killed for lack of memory instead of failing with a reason
+    (docs/measurements.md, section ngcontact/solve/linalg/petsc_iterative.py)."""
     need = FACTOR_BYTES[dim] * (ndof ** (4 / 3) if dim == 3 else ndof * np.log(max(ndof, 2)))
     total = node_memory()
     comm = parallel.comm_of(mesh)

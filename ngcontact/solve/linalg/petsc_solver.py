@@ -80,8 +80,8 @@ class PetscMatrix:
     (``mat``), with the vector mapping (``vectors``) of ngsPETSc, converted once (distributed by
     ngsPETSc, serially straight from the free block's CSR arrays); ``refill()``
     copies the NGSolve matrix's current values in (same pattern) without converting again:
-    the conversion through PETSc's MATIS cost 0.2 s of every 0.28 s factorisation at 34 749
-    DOFs on 2 ranks."""
+    the conversion through PETSc's MATIS cost most of every factorisation (docs/measurements.md,
+    section ngcontact/solve/linalg/petsc_solver.py)."""
 
     def __init__(self, matrix, freedofs):
         PETSc, ngsPETSc = load()

@@ -5,7 +5,8 @@ import numpy as np
 
 FACTORIZATION = ("kept_baseline", "kept_values", "kept_positions")
 """The arrays of a kept factorisation in a restart state (``KeptFactorization.save``): the bulk
-of a step archive (the values factorised, about 12 times the state on the demo's plate)."""
+of a step archive (the values factorised, many times the state: docs/measurements.md, section
+ngcontact/solve/linalg/solver_restart.py)."""
 
 
 def without_factorization(arrays):

@@ -46,10 +46,10 @@ from .backward_euler import BackwardEuler
 
 BETA_TOL, BETA_PASSES = 1e-6, 20
 """β_n is taken as consistent with u_n when another pass changes it by at most BETA_TOL (the
-default ``beta_tolerance``; an error-controlled run lowers it to its rtol). Measured against a
-tolerance of 1e-10: the same errors to 3 digits (the soft column, 16–256 steps and rtol 1e-5,
-1e-6; the reference plate with the nodal constraint, k = T/16 … T/256), with 37–42 % fewer
-Newton iterations on the column and 7–16 % fewer on the plate: each pass is a Newton solve."""
+default ``beta_tolerance``; an error-controlled run lowers it to its rtol). Fitted to measurements
+against a tolerance of 1e-10 on the soft column and the reference plate (docs/measurements.md,
+section ngcontact/time/schemes/bdf2.py): the same errors with fewer Newton iterations, as each
+pass is a Newton solve."""
 MAX_RATIO = 1 + math.sqrt(2) - 1e-3
 """The largest step ratio k_n/k_{n−1} taken as a BDF2 step (zero-stability: ω < 1 + √2);
 beyond it the step restarts with backward Euler."""
@@ -132,10 +132,11 @@ class BDF2(BackwardEuler):
         """β_n by BDF2 with γ_ν R_ν² at u_n itself, not at the extrapolation: β_n from u_n,
         (u_n, φ_n) again with that β_n, until β_n changes by at most ``beta_tolerance`` (at most
         ``BETA_PASSES`` passes; else a NewtonError, and the cut-back policy halves the step).
-        Across a pull-off the extrapolated u_ν overshoots into tension: at k = T/16 on the
-        reference plate β fell to 0.12 where it is 0.86. On a distributed mesh the change is the
-        largest over all ranks' facets: every rank makes the same passes (a rank that stopped on its
-        own facets alone recorded the step while the others waited in the next Newton solve)."""
+        Across a pull-off the extrapolated u_ν overshoots into tension, and β from it falls far
+        below its value at u_n (docs/measurements.md, section ngcontact/time/schemes/bdf2.py).
+        On a distributed mesh the change is the largest over all ranks' facets: every rank makes the
+        same passes (a rank that stopped on its own facets alone recorded the step while the others
+        waited in the next Newton solve)."""
         passes = [result]
         for _ in range(BETA_PASSES):
             used = self.beta.values.copy()
