@@ -17,3 +17,4 @@ def uniaxial():
                             np.diag([916.0, 916.0, 830.0]) * ngc.EPS0,
                             relaxation_time * c, name="uniaxial")
     return make
+

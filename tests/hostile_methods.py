@@ -18,46 +18,14 @@ import time
 import pytest
 
 import ngcontact as ngc
-from ngcontact.gamma3.enforcement.penalty import PenaltyTerms
+from support import METHOD_MEMBERS as MEMBERS, StiffLayer, without
 from ngcontact.scenes import reference as scene
 
 CLASSES = ("methods",)
 
 
-class StiffLayer:
-    """A method of the user's with every member of the protocol: the penalty law with its own name."""
-    name, keeps_symmetry, skew_symmetric = "stiff layer", True, False
-    condensable, distributable, takes_obstacle = True, True, True
-
-    def __init__(self, factor=1e4):
-        self.factor = factor
-
-    def contact_fields(self):
-        return {}
-
-    def stiffness_factors(self):
-        return {"the stiff layer": self.factor}
-
-    def flags(self):
-        return []
-
-    def build(self, body, contact, side, *, gap, coefficients, normal):
-        return PenaltyTerms(self, body, gap=gap, coefficients=coefficients, normal=normal)
-
-
 class OtherLayer(StiffLayer):
     """Another class with the same name and parameters."""
-
-
-MEMBERS = ("name", "keeps_symmetry", "skew_symmetric", "condensable", "distributable", "takes_obstacle",
-           "contact_fields", "stiffness_factors", "flags", "build")
-
-
-def without(*names, **changes):
-    """A StiffLayer whose class lacks ``names`` and has ``changes`` (class attributes)."""
-    namespace = {n: getattr(StiffLayer, n) for n in MEMBERS + ("__init__",) if n not in names}
-    namespace.update(changes)
-    return type("Broken", (), namespace)()
 
 
 def returning(value):

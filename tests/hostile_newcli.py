@@ -7,7 +7,7 @@ command; ``axisymmetric --rounds`` out of range; ``adapt --tol`` below its floor
 (0, 1], a marking that does not exist, scenes and orders that leave nothing to solve (hertz3d
 runs P1 only) or a load history: each ``CliError`` (exit status 2, one line naming the
 option, before any work). ``adapt --tol`` that its scene's DOF limit stops before the tolerance
-exits with status 1 and one line saying NOT reached (``Exit``); ``--marking`` with ``--tol`` is
+exits with status 1 and one line saying NOT reached (``CliError`` with code 1); ``--marking`` with ``--tol`` is
 used (``Ran``). ``pull_off.run(cases=)``: a time step past the history's end, 0, NaN, one step
 or more than ``checks.MAX_STEPS``, mesh sizes out of range, malformed cases: a named error
 before any run.
@@ -23,37 +23,12 @@ cases that must run an adaptation give the Hertz scene a DOF limit of 400 on its
 import os
 from dataclasses import dataclass
 
+from support import small_hertz
+
 CLASSES = ("newcli", "adaptsolve")
 
 SMALL_NDOF = 400
 """The DOF limit of the Hertz disk in the cases that run ``adapt --tol`` (its coarsest mesh)."""
-
-
-@dataclass(frozen=True)
-class Exit:
-    """Exit status ``code`` (not 0, not 2: the command ran but missed its target), one line on
-    stderr (besides one-line warnings) naming the ``words``, no traceback."""
-    code: int
-    words: tuple
-
-    def __init__(self, code, *words):
-        object.__setattr__(self, "code", code)
-        object.__setattr__(self, "words", words)
-
-    def problem(self, outcome, references):
-        import test_hostile as h
-        if outcome.kind != "returned":
-            return outcome.describe()
-        code, stderr = outcome.value["code"], outcome.value["stderr"]
-        lines = [line for line in stderr.splitlines() if line.strip() and not line.startswith("ngcontact: warning:")]
-        if "Traceback" in stderr:
-            return f"exit {code} with a traceback: {h._line(lines[-1] if lines else '')}"
-        if code != self.code:
-            return f"exit status {code}, not {self.code} ({h._line(lines[-1]) if lines else 'nothing on stderr'})"
-        if len(lines) != 1:
-            return f"{len(lines)} lines on stderr, not one: {h._line(' / '.join(lines))}"
-        missing = h._named(lines[0], self.words)
-        return f"the line does not name {'/'.join(missing)}: {h._line(lines[0])}" if missing else None
 
 
 @dataclass(frozen=True)
@@ -66,18 +41,6 @@ class Ran:
         if outcome.kind != "returned":
             return f"expected a completed run; {outcome.describe()}"
         return self.check(outcome.value)
-
-
-def small_hertz():
-    """``studies.adaptivity``'s Hertz disk with its coarsest mesh and a DOF limit of SMALL_NDOF
-    (installed in the case's process as the scene "hertz")."""
-    from ngcontact.scenes import hertz
-    from ngcontact.studies import adaptivity
-    scene = adaptivity.SCENES["hertz3d"]()
-    scene.name, scene.max_ndof = "hertz", SMALL_NDOF
-    scene.mesh = lambda order: hertz.mesh(2, h_contact=0.2, curve=order)
-    scene.scene = lambda order: (lambda mesh: hertz.simulation(order, mesh=mesh, keep_states=False))
-    return scene
 
 
 def register(h):
@@ -131,7 +94,7 @@ def register(h):
         def call(ctx):
             from ngcontact import adapt
             from ngcontact.studies import adaptivity
-            adaptivity.SCENES["hertz"] = small_hertz
+            adaptivity.SCENES["hertz"] = lambda: small_hertz(SMALL_NDOF)
             certified = []
             if record:
                 solve = adapt.solve
@@ -146,7 +109,7 @@ def register(h):
 
     h.case("newcli", f"adapt --tol 1e-3 --scene hertz --orders 1 (DOF limit {SMALL_NDOF}): not reached",
            small(["adapt", "--tol", "1e-3", "--scene", "hertz", "--orders", "1"]),
-           Exit(1, "tol", "NOT reached", "hertz P1", "DOF limit"))
+           h.CliError("tol", "NOT reached", "hertz P1", "DOF limit", code=1, within=h.HANG["cli"]))
 
     def every_level_certified(v):
         if v["code"] not in (0, 1):

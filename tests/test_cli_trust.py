@@ -14,6 +14,7 @@ import textwrap
 import numpy as np
 import pytest
 
+from support import small_hertz
 from ngcontact import cli
 from ngcontact.model import machine_code
 from ngcontact.scenes import reference
@@ -141,16 +142,8 @@ def test_adapt_to_a_tolerance_not_reached_exits_1_saying_so(capsys, monkeypatch)
     """The Hertz disk (P1, coarse) with a DOF limit of 400: the levels stop at the limit with a
     relative estimate above the tol; the certificate line says NOT reached and ">", the one
     line on stderr names the scene and the reason, exit status 1."""
-    from ngcontact.scenes import hertz
     from ngcontact.studies import adaptivity
-
-    def small():
-        scene = adaptivity.SCENES["hertz3d"]()
-        scene.name, scene.max_ndof = "hertz", 400
-        scene.mesh = lambda order: hertz.mesh(2, h_contact=0.2, curve=order)
-        scene.scene = lambda order: (lambda mesh: hertz.simulation(order, mesh=mesh, keep_states=False))
-        return scene
-    monkeypatch.setitem(adaptivity.SCENES, "hertz", small)
+    monkeypatch.setitem(adaptivity.SCENES, "hertz", small_hertz)
     code, lines, out = _cli(["adapt", "--tol", "1e-3", "--scene", "hertz", "--orders", "1"], capsys)
     assert code == 1 and len(lines) == 1, lines
     assert lines[0].startswith("ngcontact adapt: --tol 0.001 NOT reached for hertz P1 (DOF limit: relative estimate ")

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import ngcontact as ngc
+from support import small_hertz
 from ngcontact.geometries import plate
 
 
@@ -207,16 +208,8 @@ def test_adapt_to_tolerance_writes_its_table_and_levels(tmp_path, monkeypatch):
     import json
     import ngsolve as ngs
     from ngcontact import cli
-    from ngcontact.scenes import hertz
     from ngcontact.studies import adaptivity
-
-    def small():
-        scene = adaptivity.SCENES["hertz3d"]()
-        scene.name, scene.max_ndof = "hertz", 400
-        scene.mesh = lambda order: hertz.mesh(2, h_contact=0.2, curve=order)
-        scene.scene = lambda order: (lambda mesh: hertz.simulation(order, mesh=mesh, keep_states=False))
-        return scene
-    monkeypatch.setitem(adaptivity.SCENES, "hertz", small)
+    monkeypatch.setitem(adaptivity.SCENES, "hertz", small_hertz)
     cli.main(["adapt", "--tol", "0.5", "--scene", "hertz", "--orders", "1", "--out", str(tmp_path)])
     (run,) = json.loads((tmp_path / "tolerance.json").read_text())
     assert (run["scene"], run["order"], run["tol"], run["reached"]) == ("hertz", 1, 0.5, True)

@@ -5,6 +5,7 @@ import pytest
 
 import ngcontact as ngc
 from conftest import C33, E33, EPS33
+from support import StiffLayer, without
 from ngcontact import Contact
 from ngcontact.contact_laws import conductance_literal
 from ngcontact.model.forms import matrix_cf, normal_stress, strain
@@ -251,7 +252,7 @@ def test_a_method_of_the_users_runs_without_an_edit_of_the_package():
     its own name in the simulation and the refusal of an obstacle it says it does not take."""
     from ngcontact.gamma3.enforcement.penalty import PenaltyTerms
 
-    class StiffLayer:
+    class NormalLayer:
         name, keeps_symmetry, skew_symmetric = "stiff layer", True, False
         condensable, distributable, takes_obstacle = True, True, False
 
@@ -273,15 +274,15 @@ def test_a_method_of_the_users_runs_without_an_edit_of_the_package():
         def build(self, body, contact, side, *, gap, coefficients, normal):
             return PenaltyTerms(self, body, gap=gap, coefficients=coefficients, normal=normal)
 
-    mine = pressed_plate(Contact(gap=GAP, method=StiffLayer(1e4)))
+    mine = pressed_plate(Contact(gap=GAP, method=NormalLayer(1e4)))
     theirs = pressed_plate(Contact(gap=GAP, method=ngc.Penalty(1e4)))
     a, b = mine.run(dt=0.5, T=1)[-1], theirs.run(dt=0.5, T=1)[-1]
     assert np.abs(a.contact.force - b.contact.force).max() <= 1e-12 * np.abs(b.contact.force).max()
     assert "contact: stiff layer" in repr(mine)
     with pytest.warns(ngc.PhysicsWarning, match="the stiff layer penetrates"):
-        pressed_plate(Contact(gap=GAP, method=StiffLayer(1.0)))
+        pressed_plate(Contact(gap=GAP, method=NormalLayer(1.0)))
     with pytest.raises(ValueError, match="the stiff layer acts along the body's normal only"):
-        Contact(method=StiffLayer(1e4), obstacle=ngc.obstacles.Plane((0.0, -GAP), (0.0, 1.0)))
+        Contact(method=NormalLayer(1e4), obstacle=ngc.obstacles.Plane((0.0, -GAP), (0.0, 1.0)))
 
 
 def test_a_method_object_and_contacts_fields_must_agree():
@@ -327,35 +328,6 @@ def test_the_parameters_left_out_take_the_methods_and_replace_round_trips():
         assert again.enforcement_method == contact.enforcement_method and again.gap == 1e-5
 
 
-class _Layer:
-    """A complete method of the user's (the penalty law) with one parameter."""
-    name, keeps_symmetry, skew_symmetric = "layer", True, False
-    condensable, distributable, takes_obstacle = True, True, True
-
-    def __init__(self, factor):
-        self.factor = factor
-
-    def contact_fields(self):
-        return {}
-
-    def stiffness_factors(self):
-        return {"the layer": self.factor}
-
-    def flags(self):
-        return []
-
-    def build(self, body, contact, side, *, gap, coefficients, normal):
-        from ngcontact.gamma3.enforcement.penalty import PenaltyTerms
-        return PenaltyTerms(self, body, gap=gap, coefficients=coefficients, normal=normal)
-
-
-def _lacking(*names, **changes):
-    members = {n: getattr(_Layer, n) for n in ("name", "keeps_symmetry", "skew_symmetric", "condensable",
-                                                "distributable", "takes_obstacle", "contact_fields",
-                                                "stiffness_factors", "flags", "build", "__init__")}
-    return type("Lacking", (), {**{k: v for k, v in members.items() if k not in names}, **changes})(1e4)
-
-
 @pytest.mark.parametrize("names, changes, words", [
     (("condensable",), {}, "lacks condensable"),
     (("flags", "contact_fields"), {}, "lacks contact_fields, flags"),
@@ -367,13 +339,13 @@ def _lacking(*names, **changes):
 ])
 def test_a_user_method_is_checked_member_by_member_at_contact(names, changes, words):
     with pytest.raises(TypeError, match=rf"Contact.method: the method object .*Lacking {words}"):
-        Contact(method=_lacking(*names, **changes))
-    with pytest.raises(TypeError, match=r"got the class _Layer: give an instance, e.g. _Layer\(\)"):
-        Contact(method=_Layer)
+        Contact(method=without(*names, class_name="Lacking", **changes))
+    with pytest.raises(TypeError, match=r"got the class StiffLayer: give an instance, e.g. StiffLayer\(\)"):
+        Contact(method=StiffLayer)
 
 
 def test_what_a_user_methods_build_returns_is_checked():
-    class Nothing(_Layer):
+    class Nothing(StiffLayer):
         def build(self, body, contact, side, **kw):
             return None
 
@@ -387,8 +359,8 @@ def test_a_user_methods_class_and_parameters_are_in_the_fingerprint():
     their fields (no class, no parameters: earlier runs keep their fingerprint)."""
     from ngcontact.output import fingerprint
     prints = [pressed_plate(Contact(gap=GAP, method=m), maxh=0.02).fingerprint(1.0)
-              for m in (_Layer(1e4), _Layer(2e4), _Layer(1e4), ngc.Penalty(1e4))]
-    assert prints[0]["contact.method.class"] == "test_contact._Layer"
+              for m in (StiffLayer(1e4), StiffLayer(2e4), StiffLayer(1e4), ngc.Penalty(1e4))]
+    assert prints[0]["contact.method.class"] == "support.StiffLayer"
     assert prints[0]["contact.method.parameters.factor"] == 1e4
     assert [k for k, _, _ in fingerprint.differences(prints[0], prints[1])] == ["contact.method.parameters.factor"]
     assert fingerprint.differences(prints[0], prints[2]) == []
@@ -401,12 +373,12 @@ def test_a_user_methods_parameters_come_from_parameters_or_its_public_attributes
     (a cache of its own is no parameter)."""
     from ngcontact.output import fingerprint
 
-    class Cached(_Layer):
+    class Cached(StiffLayer):
         def build(self, body, contact, side, **kw):
             self._terms = super().build(body, contact, side, **kw)
             return self._terms
 
-    class Declared(_Layer):
+    class Declared(StiffLayer):
         def parameters(self):
             return {"ε factor": self.factor, "law": "linear"}
 

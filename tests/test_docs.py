@@ -9,16 +9,15 @@ import importlib.util
 import os
 import pathlib
 import re
-import shutil
 import subprocess
 import sys
 
 import numpy as np
 import pytest
-from matplotlib.image import imread
+
+from test_webgui import CHROMIUM, screenshot as webgui_screenshot
 
 ROOT = pathlib.Path(__file__).parents[1]
-CHROMIUM = shutil.which("chromium")
 MISSING = [name for name in ("sphinx", "myst_nb") if importlib.util.find_spec(name) is None]
 pytestmark = pytest.mark.skipif(bool(MISSING), reason=f"the docs extra is not installed (no {', '.join(MISSING)}): "
                                                       "pip install \".[docs]\"")
@@ -64,13 +63,8 @@ def test_tutorials_and_topic_pages_are_in_the_site(site):
 
 
 def screenshot(page, png, profile):
-    """Headless Chromium, offline (the flags of test_webgui), 1000 x 800; RGB floats in [0, 1]."""
-    subprocess.run([CHROMIUM or "chromium", "--headless", "--no-sandbox", "--disable-gpu",
-                    "--disable-quic", "--no-first-run", "--disable-background-networking",
-                    "--disable-component-update", "--disable-sync", f"--user-data-dir={profile}",
-                    "--window-size=1000,800", "--virtual-time-budget=5000", f"--screenshot={png}",
-                    page.as_uri()], check=True, timeout=600, capture_output=True)
-    return imread(png)[..., :3]
+    """The page in headless Chromium (``test_webgui.screenshot``), 1000 x 800."""
+    return webgui_screenshot(page, png, profile, size=(1000, 800))
 
 
 def ink(image):

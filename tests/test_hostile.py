@@ -196,15 +196,18 @@ class Correct:
 
 @dataclass(frozen=True)
 class CliError:
-    """Exit status 2 within CLI_LIMIT s (``within`` s for an error that comes after the work, a
-    run that fails by name), one line on stderr naming the ``words``, no traceback (besides
-    one-line warnings, "ngcontact: warning: ...", printed before it)."""
+    """Exit status ``code`` (2: refused; 1: the command ran but missed its target) within CLI_LIMIT
+    s (``within`` s for an error that comes after the work, a run that fails by name), one line on
+    stderr naming the ``words``, no traceback (besides one-line warnings, "ngcontact: warning:
+    ...", printed before it)."""
     words: tuple
     within: float = CLI_LIMIT
+    code: int = 2
 
-    def __init__(self, *words, within=CLI_LIMIT):
+    def __init__(self, *words, within=CLI_LIMIT, code=2):
         object.__setattr__(self, "words", words)
         object.__setattr__(self, "within", within)
+        object.__setattr__(self, "code", code)
 
     def problem(self, outcome, references):
         if outcome.kind != "returned":
@@ -213,15 +216,15 @@ class CliError:
         lines = [line for line in stderr.splitlines() if line.strip() and not line.startswith("ngcontact: warning:")]
         if "Traceback" in stderr:
             return f"exit {code} with a traceback: {_line(lines[-1] if lines else '')}"
-        if code != 2:
-            return f"exit status {code}, not 2 ({_line(lines[-1]) if lines else 'nothing on stderr'})"
+        if code != self.code:
+            return f"exit status {code}, not {self.code} ({_line(lines[-1]) if lines else 'nothing on stderr'})"
         if len(lines) != 1:
             return f"{len(lines)} lines on stderr, not one: {_line(' / '.join(lines))}"
         missing = _named(lines[0], self.words)
         if missing:
             return f"the line does not name {'/'.join(missing)}: {_line(lines[0])}"
         if outcome.elapsed > self.within:
-            return f"exit 2 after {outcome.elapsed:.1f} s: {_line(lines[0])}"
+            return f"exit {code} after {outcome.elapsed:.1f} s: {_line(lines[0])}"
         return None
 
 

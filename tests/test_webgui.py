@@ -24,12 +24,13 @@ pytestmark = pytest.mark.skipif(CHROMIUM is None and not os.environ.get("CI"),
                                 reason="needs Debian's chromium (.ci/run installs it)")
 
 
-def screenshot(page, png, profile):
-    """Headless Chromium, offline, 900 x 600; returns the RGB image as floats in [0, 1]."""
+def screenshot(page, png, profile, size=(900, 600)):
+    """Headless Chromium, offline, ``size`` (width, height) pixels; returns the RGB image as floats
+    in [0, 1]."""
     subprocess.run([CHROMIUM or "chromium", "--headless", "--no-sandbox", "--disable-gpu",
                     "--disable-quic", "--no-first-run", "--disable-background-networking",
                     "--disable-component-update", "--disable-sync", f"--user-data-dir={profile}",
-                    "--window-size=900,600", "--virtual-time-budget=5000", f"--screenshot={png}",
+                    f"--window-size={size[0]},{size[1]}", "--virtual-time-budget=5000", f"--screenshot={png}",
                     page.as_uri()], check=True, timeout=600, capture_output=True)
     return imread(png)[..., :3]
 
