@@ -138,13 +138,14 @@ def test_adapt_to_a_tolerance_honours_marking_and_adaptive_stopping(arguments, g
     assert tol == 0.01 and {k: v for k, v in options.items() if k not in ("dt", "max_ndof")} == given
 
 
-def test_adapt_to_a_tolerance_not_reached_exits_1_saying_so(capsys, monkeypatch):
+def test_adapt_to_a_tolerance_not_reached_exits_1_saying_so(capsys, monkeypatch, tmp_path):
     """The Hertz disk (P1, coarse) with a DOF limit of 400: the levels stop at the limit with a
     relative estimate above the tol; the certificate line says NOT reached and ">", the one
     line on stderr names the scene and the reason, exit status 1."""
     from ngcontact.studies import adaptivity
     monkeypatch.setitem(adaptivity.SCENES, "hertz", small_hertz)
-    code, lines, out = _cli(["adapt", "--tol", "1e-3", "--scene", "hertz", "--orders", "1"], capsys)
+    code, lines, out = _cli(["adapt", "--tol", "1e-3", "--scene", "hertz", "--orders", "1", "--out", str(tmp_path)],
+                            capsys)
     assert code == 1 and len(lines) == 1, lines
     assert lines[0].startswith("ngcontact adapt: --tol 0.001 NOT reached for hertz P1 (DOF limit: relative estimate ")
     (certificate,) = [line for line in out.splitlines() if "reached" in line or "certified" in line]
