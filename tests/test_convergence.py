@@ -30,6 +30,7 @@ def test_rates_of_the_paper_quantity(viscous):
     assert all(r.error_max["total"] >= r.error_final["total"] for r in viscous)
 
 
+@pytest.mark.long
 def test_beta_part_is_first_order_for_every_order():
     """Adhesive case: β ∈ B^h (facet constants) is O(h) whatever the order of u, so the
     paper's total error is capped at O(h) once β0 varies."""
@@ -40,6 +41,7 @@ def test_beta_part_is_first_order_for_every_order():
     assert study.fitted_rate(runs, 2, "total") < 1.5
 
 
+@pytest.mark.long
 def test_first_order_in_the_time_step():
     runs = study.time_study(order=2, level=1, halvings=3, progress=False)
     assert 0.8 <= study.fitted_rate(runs, 2, by="dt") <= 1.2

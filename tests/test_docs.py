@@ -19,8 +19,9 @@ from test_webgui import CHROMIUM, screenshot as webgui_screenshot
 
 ROOT = pathlib.Path(__file__).parents[1]
 MISSING = [name for name in ("sphinx", "myst_nb") if importlib.util.find_spec(name) is None]
-pytestmark = pytest.mark.skipif(bool(MISSING), reason=f"the docs extra is not installed (no {', '.join(MISSING)}): "
-                                                      "pip install \".[docs]\"")
+pytestmark = [pytest.mark.docs,
+              pytest.mark.skipif(bool(MISSING), reason=f"the docs extra is not installed (no {', '.join(MISSING)}): "
+                                                       "pip install \".[docs]\"")]
 needs_chromium = pytest.mark.skipif(CHROMIUM is None and not os.environ.get("CI"),
                                     reason="needs Debian's chromium (.ci/run installs it)")
 

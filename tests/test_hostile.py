@@ -243,7 +243,7 @@ class Case:
     call: object              # call(ctx) -> a small picklable value; runs in the case's process
     expect: tuple             # accepted outcomes
     needs: tuple = ()         # module fixtures whose values (paths) go into ctx
-    slow: bool = False
+    slow: bool = False        # True: a slow case (-m slow); "long": CI's leg of long tests (-m long)
 
 
 CASES = []
@@ -1239,7 +1239,8 @@ PROCESS_CASES = ["demo --order abc", "demo --maxh 1e-6", "demo --refine 12", "de
                  "stability --out /proc/hostile", ""]
 for arguments, words in CLI_CASES:
     cli(arguments, words, process=True, slow=arguments not in PROCESS_CASES)
-cli("demo --steps 2 --maxh 0.02 --gamma0 1e-6", "step|gamma0", process=True, within=HANG["cli"])   # fails by name
+cli("demo --steps 2 --maxh 0.02 --gamma0 1e-6", "step|gamma0", process=True, within=HANG["cli"],   # fails by name
+    slow="long")
 
 
 # ----------------------------------------------------------------------------- classes of the newer features
@@ -1387,7 +1388,8 @@ def demo_base(tmp_path_factory):
 
 
 def _params():
-    return [pytest.param(c, id=c.id, marks=[pytest.mark.slow] if c.slow else []) for c in CASES]
+    marks = {False: [], True: [pytest.mark.slow], "long": [pytest.mark.long]}
+    return [pytest.param(c, id=c.id, marks=marks[c.slow]) for c in CASES]
 
 
 @pytest.mark.parametrize("found", _params())
@@ -1403,7 +1405,7 @@ def test_hostile_input(found, request, tmp_path):
 
 def test_the_suite_has_400_default_cases_in_every_class():
     """The measure of issue 22: at least 400 hostile inputs, each class of the issue present."""
-    default = [c for c in CASES if not c.slow]
+    default = [c for c in CASES if c.slow is False]
     groups = {c.group for c in default}
     assert len(default) >= 400 and len({c.id for c in CASES}) == len(CASES)
     assert {"extreme", "held", "sizes", "types", "objects", "nonsense", "resume", "output", "cli"} <= groups

@@ -115,6 +115,7 @@ def test_a_law_without_its_nonlinearity_gives_the_linear_result(which):
     assert np.abs(states[0] - states[1]).max() <= 1e-11 * scale
 
 
+@pytest.mark.long
 def test_two_runs_with_a_law_are_bitwise_equal():
     """The laws' samples use a fixed seed and no solver decision reads the clock: two runs of
     the reference scene with a law give the same bits."""
@@ -235,6 +236,7 @@ def test_weak_normal_supports_carry_the_laws_stress(order):
     assert abs(strain) > 3 * 3e-4                               # |dev ε| > the ball's radius
 
 
+@pytest.mark.long
 def test_a_law_in_3d_contact_with_an_obstacle(monkeypatch):
     """The 3D Hertz half-ball pressed onto a plane (Nitsche, supports; h_contact = 0.05, where
     no run is flagged for penetration): ζ = 0 gives the linear state to 1e-11; ζ = max|F|

@@ -37,7 +37,7 @@ def pairs():
     return Pairs()
 
 
-@pytest.mark.parametrize("order", [pytest.param(1, marks=pytest.mark.slow), 2], ids=["P1", "P2"])
+@pytest.mark.parametrize("order", [pytest.param(1, marks=pytest.mark.slow), pytest.param(2, marks=pytest.mark.long)], ids=["P1", "P2"])
 def test_iterative_steps_equal_the_factorised_ones(pairs, order):
     """Five steps of the 3D reference block into first contact (glue, conduction: the
     non-symmetric coupled Jacobian), then one of half the size, by GMRES with multigrid reach

@@ -365,6 +365,7 @@ def test_streamed_results_resume_distributed(tmp_path):
         r"simulation's by up to 1e-07 m \(of .* m; another u0\?\): not the same scene", run["start"][0])
 
 
+@pytest.mark.long
 def test_a_failed_write_on_one_rank_stops_every_rank(tmp_path):
     """``run(dt, T, out=DIR)`` under ``mpiexec -n 3`` (``tests/distributed_streaming.py fail``):
     when rank 1 cannot write its part of step 4, or rank 0 the step's archive (a directory in
@@ -426,7 +427,8 @@ def test_what_does_not_run_distributed_says_so(tmp_path):
         assert 'Name="displacement"' in text and 'Name="potential"' in text
 
 
-@pytest.mark.parametrize("command", ["hertz", "convergence", "stability", "adapt", "timesteps", "timeorder"])
+@pytest.mark.parametrize("command", ["hertz", *(pytest.param(c, marks=pytest.mark.long)
+                                              for c in ("convergence", "stability", "adapt", "timesteps", "timeorder"))])
 def test_serial_commands_are_refused_under_mpiexec(command, tmp_path):
     """``mpiexec -n 2 python -m ngcontact hertz|convergence|stability``: one line, printed by
     rank 0 only, exit status 2 on every rank, nothing written (each rank ran the whole serial

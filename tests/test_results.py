@@ -72,7 +72,7 @@ def uninterrupted():
     return sim.history
 
 
-@pytest.mark.parametrize("signum", [signal.SIGKILL, signal.SIGINT])
+@pytest.mark.parametrize("signum", [pytest.param(signal.SIGKILL, marks=pytest.mark.long), signal.SIGINT])
 def test_a_killed_run_resumes_to_the_uninterrupted_states(tmp_path, signum, uninterrupted):
     on_disk = interrupted(tmp_path, signum, after=12)
     assert 12 <= on_disk < len(uninterrupted)                # stopped part-way
@@ -169,6 +169,7 @@ def test_the_demo_resumes(tmp_path):
     assert json.loads((tmp_path / "a" / "summary.json").read_text())["tip_deflection"] == b["tip_deflection"]
 
 
+@pytest.mark.long
 def test_studies_skip_the_cases_on_disk(tmp_path):
     """``hertz --resume`` and ``bench --resume`` keep the cases already measured (a marked
     value in the file survives) and compute only the missing ones."""
@@ -190,6 +191,7 @@ def test_studies_skip_the_cases_on_disk(tmp_path):
         bench.run(tmp_path / "b", orders=(1,), max_ndof=600, steps=3, progress=False, resume=True)
 
 
+@pytest.mark.long
 def test_the_reference_convergence_study_resumes(tmp_path):
     """The fine run of the reference-scene study streams into the study's directory and a
     resumed study reuses it and the finished cases (same errors, no new fine steps)."""
@@ -455,7 +457,7 @@ DEMOS = {   # scheme, demo options, the steps after which it is interrupted, the
 }
 
 
-@pytest.mark.parametrize("name", DEMOS)
+@pytest.mark.parametrize("name", [n if n == "backward_euler" else pytest.param(n, marks=pytest.mark.long) for n in DEMOS])
 def test_an_interrupted_demo_resumes_bitwise(tmp_path, name):
     """The demo's run (its default scheme, and BDF2 with error-controlled steps: the demo with
     ``--scheme bdf2 --rtol 0.1``) interrupted after step K and resumed equals the run never

@@ -97,6 +97,7 @@ def test_predictor_changes_the_start_not_the_solution():
     assert deep > 1e3 * plain.history[4].residuals[0]
 
 
+@pytest.mark.long
 def test_first_contact_iterations_do_not_grow_with_the_mesh():
     """The 6-step first-contact window of the reference scene (P1, maxh 5 mm, levels 0-2):
     with the step-length limit the first-contact step takes 5 Newton iterations on every
@@ -150,7 +151,8 @@ def test_step_timings_split_the_wall_time():
     assert sum(rec.factorizations for rec in sim.history[1:]) < sum(rec.newton_iterations for rec in sim.history[1:])
 
 
-@pytest.mark.parametrize("residual", [False, True], ids=["jacobian", "jacobian and residual"])
+@pytest.mark.parametrize("residual", [False, pytest.param(True, marks=pytest.mark.long)],
+                         ids=["jacobian", "jacobian and residual"])
 def test_realcompiled_contact_terms_agree(residual, monkeypatch):
     """The Γ3 Jacobian's integrand compiled to machine code in the middle of a run (as
     ``machine_code`` decides), and with it the residual's on the elements at Γ3 (as on meshes of
@@ -225,7 +227,8 @@ def test_growth_exponent_recovers_a_power_law():
     assert np.isnan(bench.growth_exponent(ndof[:3], seconds[:3]))
 
 
-@pytest.mark.parametrize("dim, order, max_ndof", [(2, 1, 3000), (2, 2, 1e4), (3, 1, 5000)])
+@pytest.mark.parametrize("dim, order, max_ndof", [(2, 1, 3000), (2, 2, 1e4),
+                                                    pytest.param(3, 1, 5000, marks=pytest.mark.long)])
 def test_levels_stay_below_the_size_limit(dim, order, max_ndof):
     """The chosen refinement levels have ndof <= max_ndof; one more would not."""
     found = bench.levels(order, dim, max_ndof)

@@ -121,6 +121,7 @@ def test_penalty_penetration_falls_like_one_over_penalty():
 
 # ------------------------------------------------------------------------------- β update
 
+@pytest.mark.long
 def test_explicit_beta_leaves_the_unit_interval_implicit_does_not():
     """dt γ_ν L² = 2 and 8 on the plate pulled off its glue: the explicit update goes below 0
     before clipping (and is clipped on several facets); the implicit one stays in [0, 1] and

@@ -198,6 +198,7 @@ def test_a_failed_coarse_level_falls_back_at_the_right_time(monkeypatch):
     same_state(sim, warm_sim)
 
 
+@pytest.mark.long
 def test_the_hertz_study_starts_each_level_from_the_one_below():
     """``python -m ngcontact hertz``'s cases from level 1 on: the finest level in at most 3
     Newton iterations, the coarse levels' counted apart, and the errors of the warm start."""

@@ -102,6 +102,7 @@ def test_backward_euler_has_no_estimate_to_control_steps():
         reference.simulation(1, COARSE).run(DT, 0.01, rtol=1e-3)
 
 
+@pytest.mark.long
 def test_the_demo_chooses_its_steps(tmp_path):
     """``demo --scheme bdf2 --rtol 1e-3``: the steps add up to the load history's 0.5 s, vary by
     orders of magnitude (short at the located events), and the chart of them is written."""
@@ -138,6 +139,7 @@ def _glued_column(rtol=None, steps=None):
     return sim
 
 
+@pytest.mark.long
 def test_the_glue_s_final_error_falls_with_rtol():
     """β is not damped: per step, its local errors add up over the run (the final error fell
     only as rtol^(2/3) or less); per unit step, the final error falls in proportion to rtol.
