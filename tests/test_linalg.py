@@ -70,7 +70,8 @@ def block_forces():
     return np.array([sim.step(dt).contact.force for dt in (DT, DT / 2)])
 
 
-@pytest.mark.parametrize("name", solver_choice.names())
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.long) if n in ("umfpack", "superlu") else n
+                                  for n in solver_choice.names()])
 def test_every_solver_by_name_gives_the_same_steps_on_the_3d_block(name, block_forces):
     """Every name resolve takes gives the default's contact force on the 3D block to 1e-8, in
     contact and after a change of the step size; the iterative ones ("multigrid": GMRES around
