@@ -18,11 +18,11 @@ reference's, interpolated in r, and P_B the facet average. The pointwise error i
 by the facet that holds the end of the contact zone (λ_h kinks inside it) and does not fall
 steadily from one mesh to the next (docs/measurements.md, section axisymmetric). The time of a
 run is its solve time, the step's own record (Newton with its factorisations,
-``common.solve_seconds``), and apart what it paid once (``setup_s``: meshing, the forms, step 0),
-one thread; the runs are interleaved (section, 3D, section, ...) over ``rounds`` and the least
-of each time over the rounds is kept (``common.fastest``; with one round, a single timing).
-``summary`` interpolates (log-log) the solve time each kind needs to reach an error and their
-ratio.
+``common.solve_seconds``), and apart what it paid once (``setup_s``: meshing, the forms, step 0,
+and the compile of the Γ3 integrand where ``model.machine_code``'s rule makes one), one thread;
+the runs are interleaved (section, 3D, section, ...) over ``rounds`` and the least of each time
+over the rounds is kept (``common.fastest``; with one round, a single timing). ``summary``
+interpolates (log-log) the solve time each kind needs to reach an error and their ratio.
 """
 import math
 import time
@@ -182,7 +182,7 @@ def command(out, order=2, rounds=2, quick=False, progress=True):
     sections, quarters = (SECTION_SIZES[:3], QUARTER_SIZES[:2]) if quick else (SECTION_SIZES, QUARTER_SIZES)
     rows = study(order, sections, quarters, 1 if quick else rounds, progress)
     write_csv(rows, out / "axisymmetric.csv", COLUMNS)
-    times = (f"times in s: setup_s what a run paid once (meshing, forms, step 0), solve_s its step; each "
+    times = (f"times in s: setup_s what a run paid once (meshing, forms, step 0, compiling), solve_s its step; each "
              f"{timing_label(1 if quick else rounds)}")
     text = (f"{QUICK} (the coarsest sizes, one round)\n" if quick else "") + times + "\n\n" + \
         table(cases(rows), (*COLUMNS, "repeats")) + "\n\n" + \
