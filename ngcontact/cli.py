@@ -124,7 +124,8 @@ def parser():
                                "pull-off): "
                                "<study>.csv and charts")
     stab.add_argument("--out", metavar="DIR", type=_directory, default="stability", help="output directory")
-    stab.add_argument("--quick", action="store_true", help="fewer runs per study (about a third)")
+    stab.add_argument("--quick", action="store_true",
+                      help="fewer runs per study (about a third), marked indicative only (default: off)")
     stab.add_argument("--resume", action="store_true", help="skip the studies whose <study>.csv is in OUT")
     stab.add_argument("--study", metavar="NAME", nargs="+", default=None,
                       help="run only these studies (default: all of nitsche_map, time_step_sweep, incompressibility, "
@@ -216,10 +217,12 @@ def parser():
                             "tolerance.json, each level's mesh as .vol); exit status 1 if a scene's limit comes first")
     axi = commands.add_parser("axisymmetric", parents=[common], help="the half-ball on a plane solved on its "
                               "meridian section (a body of revolution) against the 3D quarter-ball: pressure error "
-                              "against wall time, axisymmetric.csv, axisymmetric.md and a chart")
+                              "against solve time (setup apart), axisymmetric.csv, axisymmetric.md and a chart")
     axi.add_argument("--out", metavar="DIR", type=_directory, default="axisymmetric", help="output directory")
-    axi.add_argument("--rounds", metavar="N", type=int, default=2, help="interleaved repetitions (default 2)")
-    axi.add_argument("--quick", action="store_true", help="the coarsest sizes only, one round (seconds)")
+    axi.add_argument("--rounds", metavar="N", type=int, default=2,
+                     help="interleaved repetitions, the least time of each case kept (default 2)")
+    axi.add_argument("--quick", action="store_true", help="the coarsest sizes only, one round: its times are "
+                     "single timings, marked indicative only (default: off)")
     return main_parser
 
 

@@ -70,7 +70,7 @@ def test_cli_writes_csv_and_charts(tmp_path):
     main(["convergence", "--orders", "1", "--levels", "2", "--out", str(tmp_path)])
     rows = list(csv.DictReader(open(tmp_path / "errors.csv")))
     assert len(rows) == 2 and {"order", "level", "h", "dt", "ndof", "error_u", "error_phi",
-                               "error_beta", "error_total", "rate_total", "wall_s"} <= set(rows[0])
+                               "error_beta", "error_total", "rate_total", "setup_s", "solve_s"} <= set(rows[0])
     assert float(rows[1]["h"]) == float(rows[0]["h"]) / 2
     assert 0.5 < float(rows[1]["rate_total"]) < 1.5
     for name in ("error_vs_h.png", "error_vs_ndof.png", "work_precision.png"):

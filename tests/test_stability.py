@@ -290,7 +290,9 @@ def test_cli_writes_csv_and_prints_a_table(tmp_path, monkeypatch, capsys):
     monkeypatch.setattr(st, "STUDIES", dict(tiny=tiny))
     cli.main(["stability", "--out", str(tmp_path), "--quick"])
     assert (tmp_path / "tiny.csv").read_text().splitlines() == ["a,b", "1,0.5", "2,0.25"]
-    assert "0.25" in capsys.readouterr().out and (tmp_path / "tiny.png").exists()
+    out = capsys.readouterr().out
+    assert "0.25" in out and (tmp_path / "tiny.png").exists()
+    assert out.count(common.QUICK) == 2          # --quick: said at the start and at the end
 
 
 def test_the_stability_command_runs_only_the_studies_named(tmp_path, monkeypatch, capsys):

@@ -1,8 +1,15 @@
 """What every study shares: rows written as CSV and printed as tables, failed runs classified,
-and the one progress convention (``ngcontact.output.progress.bar``).
+the one progress convention (``ngcontact.output.progress.bar``) and the one way a run's time is
+told.
 
 A study's result is a list of rows, flat dicts with the same keys; a failed Newton solve is
 kept as a row too, with ``failure_kind`` of its residual history.
+
+Times: a chart plots a run's solve time, its time steps as their records give it
+(``solve_seconds``), and a table gives apart what the run paid once (``setup_s``: the mesh,
+the simulation's forms and compiled integrands, step 0); where a case is repeated, the least
+time over the repeats (``fastest``). A ``--quick`` run says that its numbers are indicative
+(``QUICK``).
 """
 import csv
 import json
@@ -127,6 +134,41 @@ def newton_total(sim, failed):
     """Newton iterations of a run: all computed steps, plus the failed attempt (``failed``
     from ``run``, or None)."""
     return int(sim.history.newton_iterations[1:].sum()) + (failed["failed_iterations"] if failed else 0)
+
+
+def solve_seconds(history):
+    """The solve time of a run (s): the wall time its time steps recorded (``StepRecord.wall_s``
+    of steps 1 on: Newton, its factorisations, the records). Building the simulation and step 0
+    are not in it, nor the failed tries of cut-backs (not recorded)."""
+    return float(sum(record.wall_s for record in history[1:]))
+
+
+def split_seconds(total_s, history, measured_s=0.0):
+    """(setup_s, solve_s) of a run that took ``total_s`` s from its mesh to its last step,
+    ``measured_s`` of them in the study's own error measurement: the solve time
+    (``solve_seconds``) and the rest, what the run paid once (building, compiling, step 0)."""
+    solve_s = solve_seconds(history)
+    return max(total_s - solve_s - measured_s, 0.0), solve_s
+
+
+def fastest(rows, key, times=("setup_s", "solve_s")):
+    """One row per case (``key(row)``, in the order of first appearance): the first row of the
+    case with each of ``times`` the least over its repeats and ``repeats`` their number. The
+    least, not the median: other work on the machine only ever slows a run down."""
+    cases = {}
+    for row in rows:
+        cases.setdefault(key(row), []).append(row)
+    return [dict(runs[0], **{t: min(r[t] for r in runs) for t in times}, repeats=len(runs))
+            for runs in cases.values()]
+
+
+def timing_label(repeats):
+    """How a chart's times were taken: the least of ``repeats`` rounds, or a single timing."""
+    return "a single timing, one round" if repeats == 1 else f"the least of {repeats} rounds"
+
+
+QUICK = "quick: indicative only"
+"""The mark of a ``--quick`` run's charts and printed tables: few and small cases, one round."""
 
 
 def fitted_slope(xs, ys):

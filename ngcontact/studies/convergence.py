@@ -3,7 +3,9 @@
 The error quantity of (4.12) is max_n (‖u_n − u_n^h‖_V + ‖φ_n − φ_n^h‖_W + ‖β_n − β_n^h‖_L²(Γ3))
 with ‖v‖_V = ‖ε(v)‖ and ‖ξ‖_W = ‖∇ξ‖ (L²(Ω)). Each part is recorded, as a maximum over
 the steps and at the final time, for every order and level, with ndof, Newton iterations
-and wall time. Two kinds of exact solution:
+and the run's time: its solve time (the time steps' records, ``common.solve_seconds``) and,
+apart, what it paid once (``setup_s``: mesh, data, forms, step 0; the error measurement is in
+neither). The work–precision chart plots the solve time. Two kinds of exact solution:
 
 * ``manufactured_study``: ``scenes.manufactured.ContactManufactured`` (known contact set,
   the contact, adhesion and conduction laws satisfied exactly), on the plate [0, 1] × [0, 0.5]
@@ -50,7 +52,8 @@ ends) and dt halvings (the finest run has 4 · 2^11 steps)."""
 @dataclass
 class Run:
     """One solve of a study: errors are dicts over PARTS and "total" (= their sum); h the
-    mesh size (m or the plate's unit), dt the time step (s)."""
+    mesh size (m or the plate's unit), dt the time step (s); setup_s and solve_s its times
+    (s, the module docstring; nan for a run kept by a version that did not split them)."""
     order: int
     level: int
     h: float
@@ -59,8 +62,15 @@ class Run:
     error_max: dict
     error_final: dict
     newton_iterations: list = field(default_factory=list)
-    wall_s: float = 0.0
+    setup_s: float = math.nan
+    solve_s: float = math.nan
     rates: dict = field(default_factory=dict)
+
+
+def _run(data):
+    """A Run from its CaseStore dict (the fields it knows: a kept run's total ``wall_s`` is
+    dropped, it mixed the one-off costs into the solve)."""
+    return Run(**{k: v for k, v in data.items() if k in Run.__dataclass_fields__})
 
 
 def scaled_pzt(tau=0.3):
@@ -75,21 +85,24 @@ def _with_total(errors):
 
 def _measured_run(sim, dt, T, measure):
     """Step ``sim`` to T with ``Simulation.run`` (cut-backs included), measuring the error
-    parts after every step; returns (max, final)."""
+    parts after every step; returns (max, final, the seconds the measurement took)."""
     worst = dict.fromkeys(PARTS, 0.0)
     last = {}
+    spent = [0.0]
 
     def after(record):
+        t0 = wallclock.perf_counter()
         last.update(measure())
         worst.update({p: max(worst[p], last[p]) for p in PARTS})
+        spent[0] += wallclock.perf_counter() - t0
     sim.run(dt, T, on_step=after)
-    return _with_total(worst), _with_total(last)
+    return _with_total(worst), _with_total(last), spent[0]
 
 
 def _stored(store, args):
     """_manufactured_run(*args), or its Run from the CaseStore ``store``."""
     key = "manufactured " + " ".join(map(str, args))
-    return (store or CaseStore(None)).get(key, lambda: _manufactured_run(*args), asdict, lambda d: Run(**d))
+    return (store or CaseStore(None)).get(key, lambda: _manufactured_run(*args), asdict, _run)
 
 
 def manufactured_study(orders=(1, 2), levels=3, case="viscous", dt=0.25, T=1.0, maxh=MANUFACTURED_MAXH,
@@ -123,20 +136,21 @@ def time_study(order=2, level=2, halvings=4, case="viscous", dt0=0.25, T=1.0, ma
 
 def _manufactured_run(order, level, case, dt, T, maxh, time_profile, smoothness, theta, gamma0,
                       scheme="backward_euler"):
+    start = wallclock.perf_counter()
     mesh = plate(*MANUFACTURED_PLATE, maxh=maxh, refine=level)
     body = ngc.Body(mesh, scaled_pzt(), clamped="left", grounded="top", contact_side="bottom", order=order)
     mms = ContactManufactured(body.tensors, case=case, time_profile=time_profile, smoothness=smoothness)
     time = ngs.Parameter(0.0)
-    start = wallclock.perf_counter()
     with ngs.TaskManager():
         sim = ngc.Simulation(body, mms.loads(body, time), contact=mms.contact(time, theta, gamma0), time=time,
                              u0=mms.cf(mms.u.subs(t_symbol, 0), time), keep_states=False, scheme=scheme,
                              physical_checks=False)      # unit-size manufactured fields: scale-free
 
-        worst, final = _measured_run(sim, dt, T, lambda: dict(zip(PARTS, mms.errors(sim) + (mms.beta_error(sim),))))
-    wall = wallclock.perf_counter() - start
+        worst, final, measured = _measured_run(sim, dt, T, lambda: dict(zip(PARTS, mms.errors(sim)
+                                                                              + (mms.beta_error(sim),))))
+    setup, solve = common.split_seconds(wallclock.perf_counter() - start, sim.history, measured)
     return Run(order, level, maxh / 2**level, dt, body.ndof, worst, final,
-               [int(n) for n in sim.history.newton_iterations[1:]], wall)
+               [int(n) for n in sim.history.newton_iterations[1:]], setup, solve)
 
 
 def reference_study(orders=(1, 2), levels=3, steps=80, T=0.25, maxh=REFERENCE_MAXH, reference_order=None,
@@ -171,9 +185,9 @@ def reference_study(orders=(1, 2), levels=3, steps=80, T=0.25, maxh=REFERENCE_MA
         runs = []
 
         def solved(order, level):
+            start = wallclock.perf_counter()
             sim = reference.simulation(order, maxh, level)
             transfer = ngs.GridFunction(fine.body.X)
-            start = wallclock.perf_counter()
             with ngs.TaskManager():
                 def measure():
                     n = len(sim.history) - 1
@@ -186,12 +200,13 @@ def reference_study(orders=(1, 2), levels=3, steps=80, T=0.25, maxh=REFERENCE_MA
                     beta_f = fine.history[n].contact.beta
                     return dict(u=norm(eu) / scale["u"], phi=norm(dphi) / scale["phi"],
                                 beta=math.sqrt(np.dot((beta_f - beta_c) ** 2, fine_side.measure)) / scale["beta"])
-                worst, final = _measured_run(sim, dt, T, measure)
+                worst, final, measured = _measured_run(sim, dt, T, measure)
+            setup, solve = common.split_seconds(wallclock.perf_counter() - start, sim.history, measured)
             return Run(order, level, maxh / 2**level, dt, sim.body.ndof, worst, final,
-                       [int(k) for k in sim.history.newton_iterations[1:]], wallclock.perf_counter() - start)
+                       [int(k) for k in sim.history.newton_iterations[1:]], setup, solve)
         for order, level in cases:
             key = f"reference P{order} L{level} {steps} {T} {maxh} fine P{reference_order} L{reference_level}"
-            runs.append(store.get(key, lambda: solved(order, level), asdict, lambda d: Run(**d)))
+            runs.append(store.get(key, lambda: solved(order, level), asdict, _run))
             shown.write(_line(runs[-1]))
             shown.update()
     return add_rates(runs)
@@ -232,46 +247,56 @@ def fitted_rate(runs, order, part="total", by="h", last=3):
 def _line(run):
     errors = "  ".join(f"{p} {run.error_max[p]:.3e}" for p in (*PARTS, "total"))
     return (f"order {run.order} level {run.level} h {run.h:.4g} dt {run.dt:.4g} ndof {run.ndof:7d}  "
-            f"{errors}  newton {sum(run.newton_iterations)}  wall {run.wall_s:.2f} s")
+            f"{errors}  newton {sum(run.newton_iterations)}  setup {run.setup_s:.2f} s  solve {run.solve_s:.2f} s")
 
 
 def rows(runs):
     """The runs as flat rows, the columns of errors.csv: order, level, h, dt, ndof, each
-    error part (max over steps, and final), observed rates, Newton iterations, wall_s."""
+    error part (max over steps, and final), observed rates, Newton iterations, setup_s and
+    solve_s (the module docstring)."""
     return [dict(order=r.order, level=r.level, h=r.h, dt=r.dt, ndof=r.ndof,
                  **{f"error_{p}": r.error_max[p] for p in (*PARTS, "total")},
                  **{f"error_{p}_final": r.error_final[p] for p in (*PARTS, "total")},
                  **{f"rate_{p}": r.rates.get(p, float("nan")) for p in (*PARTS, "total")},
-                 newton_iterations=sum(r.newton_iterations), wall_s=r.wall_s) for r in runs]
+                 newton_iterations=sum(r.newton_iterations), setup_s=r.setup_s, solve_s=r.solve_s) for r in runs]
+
+
+CHARTS = {"h": [("h", "mesh size h", "error_vs_h.png"), ("ndof", "ndof", "error_vs_ndof.png"),
+                 ("solve_s", "solve time: the time steps [s] (one run each; setup apart)", "work_precision.png")],
+          "dt": [("dt", "time step dt [s]", "error_vs_dt.png")]}
+"""The charts of ``plot`` by the variable of the study: (the Run's field on x, its label, the file)."""
+
+
+def chart(runs, attr, label, title):
+    """The Figure of the errors of ``runs`` against their field ``attr`` (h or dt with slope
+    guides; ``solve_s``: the work–precision chart, the solve time and not the one-off costs)."""
+    fig = Figure(figsize=(6.5, 4.5), layout="constrained")
+    ax = fig.add_subplot()
+    for i, order in enumerate(sorted({r.order for r in runs})):
+        seq = [r for r in runs if r.order == order]
+        xs = np.array([getattr(r, attr) for r in seq])
+        for part, style in (("total", "o-"), ("u", "s--"), ("beta", "^:")):
+            ys = np.array([r.error_max[part] for r in seq])
+            if np.all(ys > 0):
+                ax.loglog(xs, ys, style, color=f"C{i}", ms=4,
+                          label=f"P{order} {'(4.12) total' if part == 'total' else part}")
+        if attr in ("h", "dt"):
+            slope = order if attr == "h" else 1
+            e0 = seq[0].error_max["u"] or seq[0].error_max["total"]
+            ax.loglog(xs, e0 * (xs / xs[0]) ** slope, color=f"C{i}", lw=0.6, alpha=0.6)
+    ax.set(xlabel=label, ylabel="max over steps of the error", title=title)
+    if attr in ("h", "dt"):
+        ax.text(0.02, 0.02, "thin lines: slope guides h^p (dt^1)", transform=ax.transAxes, fontsize=7)
+    ax.legend(fontsize=6, ncol=2)
+    return fig
 
 
 def plot(runs, out, title, by="h"):
-    """Charts: error vs h (slope guides), vs ndof, vs wall time (work-precision); or vs dt."""
-    orders = sorted({r.order for r in runs})
-    charts = {"h": [("h", "mesh size h", "error_vs_h.png"), ("ndof", "ndof", "error_vs_ndof.png"),
-                    ("wall_s", "wall time [s]", "work_precision.png")],
-              "dt": [("dt", "time step dt [s]", "error_vs_dt.png")]}[by]
+    """The charts of ``CHARTS[by]`` in ``out``: error vs h, vs ndof, vs solve time
+    (work–precision; the one-off costs apart in errors.csv); or vs dt. Returns their paths."""
     paths = []
-    for attr, label, name in charts:
-        fig = Figure(figsize=(6.5, 4.5), layout="constrained")
-        ax = fig.add_subplot()
-        for i, order in enumerate(orders):
-            seq = [r for r in runs if r.order == order]
-            xs = np.array([getattr(r, attr) for r in seq])
-            for part, style in (("total", "o-"), ("u", "s--"), ("beta", "^:")):
-                ys = np.array([r.error_max[part] for r in seq])
-                if np.all(ys > 0):
-                    ax.loglog(xs, ys, style, color=f"C{i}", ms=4,
-                              label=f"P{order} {'(4.12) total' if part == 'total' else part}")
-            if attr in ("h", "dt"):
-                slope = order if attr == "h" else 1
-                e0 = seq[0].error_max["u"] or seq[0].error_max["total"]
-                ax.loglog(xs, e0 * (xs / xs[0]) ** slope, color=f"C{i}", lw=0.6, alpha=0.6)
-        ax.set(xlabel=label, ylabel="max over steps of the error", title=title)
-        if attr in ("h", "dt"):
-            ax.text(0.02, 0.02, "thin lines: slope guides h^p (dt^1)", transform=ax.transAxes, fontsize=7)
-        ax.legend(fontsize=6, ncol=2)
-        fig.savefig(out / name, dpi=120)
+    for attr, label, name in CHARTS[by]:
+        chart(runs, attr, label, title).savefig(out / name, dpi=120)
         paths.append(out / name)
     return paths
 

@@ -4,7 +4,9 @@ paper's form), orders × nested meshes.
 
 Each case is one quasi-static step (the top brought down by d); the errors are those of
 ``scenes.hertz.errors``: contact half-width a_h/a − 1, peak pressure p0_h/p0 − 1 and the
-pressure L2 error on Γ3, with the rate between successive levels (h halves). Writes
+pressure L2 error on Γ3, with the rate between successive levels (h halves), and the case's
+times: ``solve_s`` its step (the coarse levels of the nested start included) and apart
+``setup_s``, what it paid once (mesh, forms, step 0; ``common.split_seconds``). Writes
 ``hertz.csv``, ``hertz.md`` (the tables) and ``hertz_pressure.png`` (λ_h along Γ3 against
 Hertz on the finest mesh of each order, both normals).
 """
@@ -23,7 +25,7 @@ from . import common
 from .common import table, write_csv
 
 COLUMNS = ["dim", "order", "normal", "level", "ndof", "newton", "coarse_newton", "force", "a", "width_error",
-           "peak_error", "pressure_L2", "rate_L2", "seconds"]
+           "peak_error", "pressure_L2", "rate_L2", "setup_s", "solve_s"]
 
 
 def case(order, level, normal, dim=2):
@@ -35,12 +37,13 @@ def case(order, level, normal, dim=2):
     sim = hertz.simulation(order, refine=level, dim=dim, normal=normal, keep_states=False)
     with ngs.TaskManager():
         sim.run(1.0, 1.0, guess="nested" if level else None)
+    setup_s, solve_s = common.split_seconds(time.perf_counter() - t0, sim.history)
     e = hertz.errors(sim)
     row = dict(dim=dim, order=order, normal=normal, level=level, ndof=sim.X.ndof,
                newton=sim.history[-1].newton_iterations,
                coarse_newton=sum(sim.starts.nested.iterations) if level else 0, force=e["force"], a=e["a"],
                width_error=e["a_h"] / e["a"] - 1, peak_error=e["p0_h"] / e["p0"] - 1,
-               pressure_L2=e["pressure_L2"], rate_L2=math.nan, seconds=time.perf_counter() - t0)
+               pressure_L2=e["pressure_L2"], rate_L2=math.nan, setup_s=setup_s, solve_s=solve_s)
     return row, sim
 
 
@@ -64,7 +67,7 @@ def run(out, orders=(1, 2), levels=4, dim=2, progress=True, resume=False):
         for order, normal, level in cases:
             key = f"{dim}D P{order} {normal} L{level}"
             if key in done:
-                row, profile = done[key]["row"], done[key]["profile"]
+                row, profile = dict(dict(setup_s=math.nan, solve_s=math.nan), **done[key]["row"]), done[key]["profile"]
             else:
                 row, sim = case(order, level, normal, dim)
                 profile = [list(map(float, a)) for a in _profile(sim)] if level == levels - 1 else None

@@ -26,7 +26,7 @@ import time as wallclock
 
 from ngcontact import checks, parallel
 
-from ngcontact.studies.common import write_csv
+from ngcontact.studies.common import QUICK, write_csv
 from . import (debonding, electrode_map, incompressibility, load_cycles, nitsche_map, nonlinear_laws, penalty_sweep,
                pull_off, strong_coupling, time_step_sweep)
 
@@ -40,7 +40,8 @@ STUDIES = dict(nitsche_map=nitsche_map, time_step_sweep=time_step_sweep, incompr
 def command(out, quick=False, resume=False, studies=None):
     """``python -m ngcontact stability``: run every study (or those named in ``studies``), write
     <study>.csv and the charts into ``out``, print each study's summary; ``resume`` skips the
-    studies whose <study>.csv (written when a study ends) is already in ``out``. Serial only
+    studies whose <study>.csv (written when a study ends) is already in ``out``; ``quick``: fewer
+    runs, said at the start and the end and on every chart (``common.QUICK``). Serial only
     (refused under mpiexec)."""
     parallel.refuse_under_mpiexec("stability")
     quick, resume = checks.flag("quick", quick), checks.flag("resume", resume)
@@ -50,6 +51,9 @@ def command(out, quick=False, resume=False, studies=None):
                          f"{', '.join(STUDIES)}")
     out = checks.writable_directory(out)
     start = wallclock.perf_counter()
+    mark = f" ({QUICK}: fewer runs per study)" if quick else ""
+    if quick:
+        print(mark.strip(), flush=True)
     for name, study in STUDIES.items():
         if studies and name not in studies:
             continue
@@ -61,4 +65,4 @@ def command(out, quick=False, resume=False, studies=None):
         rows = study.run(out, quick=quick)
         write_csv(rows, out / f"{name}.csv")
         print(f"{study.summary(rows)}\n({wallclock.perf_counter() - began:.1f} s)", flush=True)
-    print(f"\nwall {wallclock.perf_counter() - start:.1f} s; results in {out}")
+    print(f"\nwall {wallclock.perf_counter() - start:.1f} s; results in {out}{mark}")

@@ -9,6 +9,7 @@ from ngcontact.output.progress import bar
 from ngcontact.scenes import column, reference
 
 from ngcontact.studies.common import fmt, run as run_quietly
+from .shared import save
 
 LOAD_HISTORY = ((0.0, 0.0), (0.01, 1.0), (0.1, 1.0), (0.12, -1.0), (1e3, -1.0))
 """(time in s, fraction of the body force): lift, hold, reverse into a push, hold."""
@@ -64,7 +65,7 @@ def run(out=None, *, force=3e8, dt=2e-3, T=0.2, beta_update="explicit", quick=Fa
                 for g, f, b in zip(glued[1:], free[1:], beta[1:])]
         shown.write(summary(rows))
     if out is not None:
-        _plot(rows, out)
+        _plot(rows, out, quick)
     return rows
 
 
@@ -84,7 +85,7 @@ def summary(rows):
     return "\n".join(f"{k}: {fmt(v)}" for k, v in headline(rows).items())
 
 
-def _plot(rows, out):
+def _plot(rows, out, quick=False):
     t = np.array([r["time"] for r in rows])
     fig = Figure(figsize=(7.5, 5.5), layout="constrained")
     axes = fig.subplots(2, 1, sharex=True)
@@ -99,4 +100,4 @@ def _plot(rows, out):
     axes[1].legend()
     for ax in axes:
         ax.grid(True, lw=0.3)
-    fig.savefig(out / "debonding.png", dpi=100)
+    save(fig, out / "debonding.png", quick)

@@ -40,7 +40,7 @@ from ngcontact.output.progress import bar
 from ngcontact.scenes import electrode, hertz, reference
 
 from ngcontact.studies.common import add_row, failure_kind, fmt
-from .shared import STATUS_COLOURS, short
+from .shared import STATUS_COLOURS, save, short
 
 VARIANTS = {"before": dict(gating="gap", globalise=False), "after": dict(gating="pressure", globalise=True)}
 """The solver and law compared: (Contact.gating, Simulation's globalise)."""
@@ -158,7 +158,7 @@ def run(out=None, *, conductances=None, ramp_widths=None, discretisations=None, 
                     conductance=reference.CONTACT["conductance"], ramp_width=reference.CONTACT["ramp_width"]))
                 add_row(rows, row, shown, COLUMNS)
     if out is not None:
-        _plot(rows, pathlib.Path(out), force_tol)
+        _plot(rows, pathlib.Path(out), force_tol, quick)
     return rows
 
 
@@ -320,7 +320,7 @@ def _status_map(ax, runs, down, across, key, title):
     ax.set_title(title, fontsize=9)
 
 
-def _plot(rows, out, force_tol):
+def _plot(rows, out, force_tol, quick=False):
     electrode_rows = [r for r in rows if r["scene"] == "electrode"]
     legend = ("green: converged; orange: converged, force off by more than "
               f"{100 * force_tol:g} % from the after run at the widest δ; red: Newton failed\n"
@@ -337,7 +337,7 @@ def _plot(rows, out, force_tol):
                             f"{variant}: h_contact = {h:g} m, P{order}")
                 ax.set(xlabel="ramp width δ [m]", ylabel="k_e [F/m²]")
         fig.suptitle("electrode contact, one step: Newton iterations (discarded included)\n" + legend, fontsize=9)
-        fig.savefig(out / "electrode_map.png", dpi=100)
+        save(fig, out / "electrode_map.png", quick)
 
         fig = Figure(figsize=(13, 4.2), layout="constrained")
         axes = fig.subplots(1, 2, sharey=True)
@@ -357,7 +357,7 @@ def _plot(rows, out, force_tol):
         fig.legend(*axes[0].get_legend_handles_labels(), fontsize=7, loc="outside right center")
         fig.suptitle("electrode contact: the potential where the body presses on the grounded plane "
                      "(converged runs)", fontsize=9)
-        fig.savefig(out / "electrode_potential.png", dpi=100)
+        save(fig, out / "electrode_potential.png", quick)
 
     glue = [r for r in rows if r["scene"] == "glue"]
     grounded = [r for r in rows if r["scene"] == "grounded"]
@@ -377,4 +377,4 @@ def _plot(rows, out, force_tol):
         fig.suptitle("glue map: most Newton iterations in one step (discarded included); red: failed\n"
                      + (f"plate grounded at its clamped end, {grounded[0]['steps']} steps of {GROUNDED_DT:g} s: "
                         f"{notes}" if grounded else ""), fontsize=9)
-        fig.savefig(out / "electrode_glue.png", dpi=100)
+        save(fig, out / "electrode_glue.png", quick)

@@ -8,6 +8,7 @@ from ngcontact.output.progress import bar
 from ngcontact.scenes import reference
 
 from ngcontact.studies.common import add_row, table
+from .shared import save
 
 COLUMNS = ("nu", "order", "mesh", "ndof", "ratio")
 """The columns of the summary table."""
@@ -60,7 +61,7 @@ def run(out=None, *, nus=None, orders=(1, 2, 3), maxh=0.005, reference_order=3, 
                            reference=fine, ratio=tip / fine)
                 add_row(rows, row, shown, COLUMNS)
     if out is not None:
-        _plot(rows, out)
+        _plot(rows, out, quick)
     return rows
 
 
@@ -68,7 +69,7 @@ def summary(rows):
     return table(rows, COLUMNS)
 
 
-def _plot(rows, out):
+def _plot(rows, out, quick=False):
     fig = Figure(figsize=(6.5, 4.2), layout="constrained")
     ax = fig.add_subplot()
     for i, (order, mesh) in enumerate(dict.fromkeys((r["order"], r["mesh"]) for r in rows)):
@@ -81,4 +82,4 @@ def _plot(rows, out):
     ax.invert_xaxis()
     ax.grid(True, lw=0.3)
     ax.legend(fontsize=8)
-    fig.savefig(out / "incompressibility.png", dpi=100)
+    save(fig, out / "incompressibility.png", quick)

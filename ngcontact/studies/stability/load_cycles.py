@@ -7,7 +7,7 @@ from ngcontact.output.progress import bar
 from ngcontact.scenes import reference
 
 from ngcontact.studies.common import failure_kind, line, newton_total, run as run_quietly, table
-from .shared import APPLIED
+from .shared import APPLIED, save
 
 COLUMNS = ("dt", "records", "newton", "newton_max", "cutbacks", "cycling", "switches", "openings", "balance")
 """The columns of the summary table."""
@@ -73,7 +73,7 @@ def run(out=None, *, dts=None, cycles=4, period=0.1, low=-0.2, maxh=0.01, quick=
             shown.write(line(row, COLUMNS))
             shown.update()
     if out is not None:
-        _plot(traces, history, out)
+        _plot(traces, history, out, quick)
     return rows
 
 
@@ -81,7 +81,7 @@ def summary(rows):
     return table(rows, COLUMNS)
 
 
-def _plot(traces, history, out):
+def _plot(traces, history, out, quick=False):
     fig = Figure(figsize=(9, 7), layout="constrained")
     axes = fig.subplots(3, 1, sharex=True)
     times, factors = np.array(history).T
@@ -97,4 +97,4 @@ def _plot(traces, history, out):
     axes[2].set(xlabel="time t [s]", ylabel="Newton iterations per step\n(dotted: cut-back)")
     for ax in axes:
         ax.grid(True, lw=0.3)
-    fig.savefig(out / "load_cycles.png", dpi=100)
+    save(fig, out / "load_cycles.png", quick)

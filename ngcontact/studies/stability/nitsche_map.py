@@ -11,7 +11,7 @@ from ngcontact.output.progress import bar
 from ngcontact.scenes import reference
 
 from ngcontact.studies.common import add_row, fmt, newton_total, table
-from .shared import STATUS_COLOURS, press, pressure_oscillation, reference_force, scaled_condition_number, short
+from .shared import STATUS_COLOURS, press, pressure_oscillation, reference_force, save, scaled_condition_number, short
 
 COLUMNS = ("theta", "gamma0", "status", "failure", "newton", "force_error", "max_penetration",
            "pressure_oscillation", "cond")
@@ -68,7 +68,7 @@ def run(out=None, *, gamma0s=None, thetas=(1, 0, -1), maxh=0.01, order=1, steps=
                                contact_area=c.contact_area, cond=scaled_condition_number(sim))
                 add_row(rows, row, shown, COLUMNS[:-1])
     if out is not None:
-        _plot(rows, out, force_tol, steps)
+        _plot(rows, out, force_tol, steps, quick)
     return rows
 
 
@@ -90,7 +90,7 @@ def summary(rows):
         f"θ = {theta}: [{fmt(a)}, {fmt(b)}]" for theta, (a, b) in ranges.items())
 
 
-def _plot(rows, out, force_tol, steps):
+def _plot(rows, out, force_tol, steps, quick=False):
     thetas = list(dict.fromkeys(r["theta"] for r in rows))
     gamma0s = sorted({r["gamma0"] for r in rows})
     codes = {s: i for i, s in enumerate(STATUS_COLOURS)}
@@ -109,7 +109,7 @@ def _plot(rows, out, force_tol, steps):
     ax.set(xlabel="γ0", title=f"green: converged, force within {100 * force_tol:g} %; orange: "
            "converged, force wrong; red: Newton failed\n(numbers: Newton iterations; c2: cycles "
            "with period 2, nc: no convergence)")
-    fig.savefig(out / "nitsche_map.png", dpi=100)
+    save(fig, out / "nitsche_map.png", quick)
 
     fig = Figure(figsize=(11, 6.5), layout="constrained")
     axes = fig.subplots(2, 3, sharex=True)
@@ -137,4 +137,4 @@ def _plot(rows, out, force_tol, steps):
         ax.set_xlabel("γ0")
     axes[0, 0].legend()
     fig.suptitle(f"the reference plate pushed onto the foundation ({steps} steps, no cut-backs)")
-    fig.savefig(out / "nitsche_sweep.png", dpi=100)
+    save(fig, out / "nitsche_sweep.png", quick)

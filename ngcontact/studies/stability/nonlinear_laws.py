@@ -19,7 +19,7 @@ from ngcontact.output.progress import bar
 from ngcontact.scenes import reference
 
 from ngcontact.studies.common import add_row, newton_total, table
-from .shared import press
+from .shared import press, save
 
 COLUMNS = ("law", "zeta", "delta", "kappa", "cutbacks", "converged", "failure", "newton", "newton_max", "force_change")
 """The columns of the summary table."""
@@ -93,7 +93,7 @@ def run(out=None, *, zetas=None, power=None, exponent=1.0, maxh=0.01, order=1, s
                            force_change=(force - linear_force) / linear_force)
                 add_row(rows, row, shown, COLUMNS)
     if out is not None:
-        _plot(rows, out)
+        _plot(rows, out, quick)
     return rows
 
 
@@ -111,7 +111,7 @@ def summary(rows):
     return "\n".join(lines)
 
 
-def _plot(rows, out):
+def _plot(rows, out, quick=False):
     fig = Figure(figsize=(11, 4), layout="constrained")
     axes = fig.subplots(1, 2)
     for cutbacks, marker in ((0, "o"), (6, "s")):
@@ -134,4 +134,4 @@ def _plot(rows, out):
     for ax in axes:
         ax.grid(True, which="both", lw=0.3)
         ax.legend(fontsize=7)
-    fig.savefig(out / "nonlinear_laws.png", dpi=100)
+    save(fig, out / "nonlinear_laws.png", quick)

@@ -11,7 +11,7 @@ from ngcontact.output.progress import bar
 from ngcontact.scenes import reference
 
 from ngcontact.studies.common import add_row, fitted_slope, newton_total, table
-from .shared import press, reference_force, scaled_condition_number
+from .shared import press, reference_force, save, scaled_condition_number
 
 COLUMNS = ("method", "factor", "converged", "failure", "newton", "max_penetration", "force_error", "cond")
 """The columns of the summary table."""
@@ -58,7 +58,7 @@ def run(out=None, *, factors=None, maxh=0.01, order=1, steps=4, quick=False, pro
                                cond=scaled_condition_number(sim))
                 add_row(rows, row, shown, COLUMNS)
     if out is not None:
-        _plot(rows, out)
+        _plot(rows, out, quick)
     return rows
 
 
@@ -73,7 +73,7 @@ def summary(rows):
                                    f"{penetration_slope(rows):.3f}")
 
 
-def _plot(rows, out):
+def _plot(rows, out, quick=False):
     fig = Figure(figsize=(12, 3.8), layout="constrained")
     axes = fig.subplots(1, 4)
     for i, (name, label) in enumerate(LABELS.items()):
@@ -96,4 +96,4 @@ def _plot(rows, out):
         ax.set(xscale="log", yscale=scale, xlabel="factor", ylabel=label)
         ax.grid(True, lw=0.3)
     axes[0].legend(fontsize=7)
-    fig.savefig(out / "penalty_sweep.png", dpi=100)
+    save(fig, out / "penalty_sweep.png", quick)

@@ -20,7 +20,7 @@ from ngcontact.output.progress import bar
 from ngcontact.scenes import reference
 
 from ngcontact.studies.common import failure_kind, line, table
-from .shared import APPLIED
+from .shared import APPLIED, save
 
 COLUMNS = ("dt", "maxh", "steps", "worst_time", "worst_newton", "worst_crossed", "crossed_max", "per_point",
            "over_10", "balance")
@@ -66,7 +66,7 @@ def run(out=None, *, cases=None, order=2, quick=False, progress=True):
             shown.write(line(row, COLUMNS))
             shown.update()
     if out is not None:
-        _plot(traces, out)
+        _plot(traces, out, quick)
     return rows
 
 
@@ -147,7 +147,7 @@ def summary(rows):
     return table(rows, COLUMNS)
 
 
-def _plot(traces, out):
+def _plot(traces, out, quick=False):
     fig = Figure(figsize=(10, 4), layout="constrained")
     left, right = fig.subplots(1, 2)
     for i, ((dt, maxh), (times, newton, crossed)) in enumerate(traces.items()):
@@ -161,4 +161,4 @@ def _plot(traces, out):
     left.legend(fontsize=7)
     for ax in (left, right):
         ax.grid(True, lw=0.3)
-    fig.savefig(out / "pull_off.png", dpi=100)
+    save(fig, out / "pull_off.png", quick)

@@ -4,7 +4,7 @@ import numpy as np
 
 from ngcontact.scenes import reference
 
-from ngcontact.studies.common import run
+from ngcontact.studies.common import QUICK, run
 
 APPLIED = reference.PRESSURE * reference.L1
 """The reference scene's peak load on top, N/m."""
@@ -59,3 +59,11 @@ def short(failure):
     return {"stagnation": "stag", "no convergence": "nc", "diverged": "div"}.get(
         failure, failure.replace("cycle ", "c"))
 
+
+
+def save(fig, path, quick=False):
+    """Write the chart ``fig`` to ``path``; a ``quick`` run's chart marked as such in its corner
+    (``common.QUICK``: fewer runs, the maps coarser)."""
+    if quick:
+        fig.text(0.995, 0.005, f"({QUICK})", ha="right", va="bottom", fontsize=8, color="firebrick")
+    fig.savefig(path, dpi=100)

@@ -10,7 +10,7 @@ from ngcontact.output.progress import bar
 from ngcontact.scenes import reference
 
 from ngcontact.studies.common import add_row, newton_total, table
-from .shared import APPLIED, press, scaled_condition_number
+from .shared import APPLIED, press, save, scaled_condition_number
 
 COLUMNS = ("k2", "e_scale", "stiffening", "converged", "failure", "newton", "recovered", "cutbacks",
            "force_ratio", "cond")
@@ -78,7 +78,7 @@ def run(out=None, *, k2s=None, maxh=0.01, order=1, steps=4, quick=False, progres
                            cond=scaled_condition_number(sim))
             add_row(rows, row, shown, COLUMNS)
     if out is not None:
-        _plot(rows, out)
+        _plot(rows, out, quick)
     return rows
 
 
@@ -86,7 +86,7 @@ def summary(rows):
     return table(rows, COLUMNS)
 
 
-def _plot(rows, out):
+def _plot(rows, out, quick=False):
     x = np.array([1 - r["k2"] for r in rows])
     ok = np.array([r["converged"] for r in rows])
     fig = Figure(figsize=(12, 3.8), layout="constrained")
@@ -116,4 +116,4 @@ def _plot(rows, out):
         ax.set(xscale="log", xlabel="1 − k²")
         ax.invert_xaxis()
         ax.grid(True, lw=0.3)
-    fig.savefig(out / "strong_coupling.png", dpi=100)
+    save(fig, out / "strong_coupling.png", quick)

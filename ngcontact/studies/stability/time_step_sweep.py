@@ -7,6 +7,7 @@ from ngcontact.output.progress import bar
 from ngcontact.scenes import reference
 
 from ngcontact.studies.common import line, newton_total, run as run_quietly, table
+from .shared import save
 
 COLUMNS = ("update", "dt_gamma_L2", "records", "beta_unclipped_min", "beta_min", "clipped", "beta_rise",
            "beta_error")
@@ -101,7 +102,7 @@ def run(out=None, *, dt_gamma_L2s=None, reference_dt_gamma_L2=0.125, T=0.32, pul
                 shown.write(line(row, COLUMNS + ("newton",)))
                 shown.update()
     if out is not None:
-        _plot(rows, traces, (ref_times, ref_beta), side, out)
+        _plot(rows, traces, (ref_times, ref_beta), side, out, quick)
     return rows
 
 
@@ -109,7 +110,7 @@ def summary(rows):
     return table(rows, COLUMNS)
 
 
-def _plot(rows, traces, reference_beta, side, out):
+def _plot(rows, traces, reference_beta, side, out, quick=False):
     tip = int(np.argmax(side.midpoints[:, 0]))
     fig = Figure(figsize=(13, 3.8), layout="constrained")
     axes = fig.subplots(1, 3)
@@ -139,4 +140,4 @@ def _plot(rows, traces, reference_beta, side, out):
     for ax in axes:
         ax.grid(True, lw=0.3)
         ax.legend(fontsize=7)
-    fig.savefig(out / "time_step_sweep.png", dpi=100)
+    save(fig, out / "time_step_sweep.png", quick)
