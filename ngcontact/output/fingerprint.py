@@ -29,7 +29,9 @@ never continued with another scene. Its fields (one key each, e.g. ``contact.gam
   or False, and ``petsc``: the options of ``Simulation(solver={...})`` that tune the solver it
   chose, only where there are any: ``solver_choice.describe``) and
   ``realcompile`` (True, False, or None: by the rule of ``machine_code``);
-  ``scheme``: the time scheme's name (β's update of backward Euler is ``contact.beta_update``);
+  ``scheme``: the time scheme's name (β's update of backward Euler is ``contact.beta_update``),
+  and for a class of the user's (not in ``schemes.SCHEMES``) ``scheme.class``, its module and
+  qualified name;
 * ``run.*`` (``run_options``, added by ``results`` to the fingerprint it stores): the options
   of ``Simulation.run`` that change the results: dt, T, rtol and, with rtol, dt_min and
   event_dt as used (their defaults resolved), without it max_cutbacks and a guess for every
@@ -64,6 +66,7 @@ from ngcontact.gamma3.contact import NOT_GIVEN, Contact
 from ngcontact.gamma3.enforcement import METHODS
 from ngcontact.model.loads import Loads
 from ngcontact.model.materials import Material
+from ngcontact.time.schemes import SCHEMES
 
 SAMPLE_TIMES = 5
 """Times in [0, T] at which data that may depend on time are sampled."""
@@ -111,13 +114,19 @@ def options(newton, scheme, electric, condense, machine_code_rule):
     """The ``options.*`` and ``scheme`` fields of a simulation solved by ``newton`` with the time
     scheme ``scheme``: Newton's rtol, maxit, step limit, globalisation and linear solver as used
     (``solver_choice.describe``), ``electric`` and ``condense`` (as used), and ``realcompile``
-    (None where ``machine_code_rule`` decides, else whether the Γ3 integrand is compiled)."""
+    (None where ``machine_code_rule`` decides, else whether the Γ3 integrand is compiled);
+    ``scheme.class`` for a scheme of the user's."""
     return {"options.rtol": newton.rtol, "options.maxit": newton.maxit, "options.electric": bool(electric),
             "options.predictor": bool(scheme.predictor), "options.limit_steps": newton.step_length is not None,
             "options.globalise": newton.line_search is not None, "options.condense": bool(condense),
             "options.solver": newton.solver_name, **describe(newton.solver),
             "options.realcompile": None if machine_code_rule else bool(scheme.system.machine_code),
-            "scheme": scheme.name}
+            "scheme": scheme.name, **({} if type(scheme) in SCHEMES.values() else {"scheme.class": _class(scheme)})}
+
+
+def _class(value):
+    """The module and qualified name of ``value``'s class."""
+    return f"{type(value).__module__}.{type(value).__qualname__}"
 
 
 RUN_OPTIONS = ("dt", "T", "rtol", "dt_min", "event_dt", "max_cutbacks", "guess")
@@ -202,7 +211,7 @@ def _contact(contact, body, sample):
             method = contact.enforcement_method
             found["contact.method"] = method.name
             if type(method) not in METHODS.values():
-                found["contact.method.class"] = f"{type(method).__module__}.{type(method).__qualname__}"
+                found["contact.method.class"] = _class(method)
                 found.update({f"contact.method.parameters.{k}": v
                               for k, v in _method_parameters(method, lambda v: sample(v, gamma3)).items()})
         elif f.name == "obstacle":
