@@ -14,7 +14,8 @@ never continued with another scene. Its fields (one key each, e.g. ``contact.gam
 * ``contact.*``: every field of ``Contact`` (``contact`` is None without a contact law; the
   method by its name, its parameters in ``theta``, ``gamma0``, ``penalty``, each the Contact's
   default where the method has none, ``UNUSED``) and ``contact.obstacle.*``, the obstacle's
-  own data; a method object of another class than the package's (``enforcement.METHODS``)
+  own data (its public attributes; the obstacle itself by its class's name, with its module
+  for one of the user's); a method object of another class than the package's (``enforcement.METHODS``)
   adds ``contact.method.class`` (its module and qualified name) and
   ``contact.method.parameters.<name>`` for each of its parameters (its ``parameters()`` if it
   has one, else a dataclass's fields, else ``vars()`` without names starting with "_":
@@ -63,6 +64,7 @@ import numpy as np
 from ngcontact import parallel
 from ngcontact.solve.linalg.solver_choice import describe
 from ngcontact.gamma3.contact import NOT_GIVEN, Contact
+from ngcontact.gamma3 import obstacles
 from ngcontact.gamma3.enforcement import METHODS
 from ngcontact.model.loads import Loads
 from ngcontact.model.materials import Material
@@ -214,11 +216,11 @@ def _contact(contact, body, sample):
                 found["contact.method.class"] = _class(method)
                 found.update({f"contact.method.parameters.{k}": v
                               for k, v in _method_parameters(method, lambda v: sample(v, gamma3)).items()})
-        elif f.name == "obstacle":
-            found["contact.obstacle"] = None if value is None else type(value).__name__
+        elif f.name == "obstacle":        # a built-in one by its class's name, one of the user's by its module's too
+            found["contact.obstacle"] = None if value is None else \
+                type(value).__name__ if isinstance(value, obstacles.OBSTACLES) else _class(value)
             if value is not None:
-                found.update({f"contact.obstacle.{k}": sample(v, gamma3) for k, v in vars(value).items()
-                              if not k.startswith("_")})
+                found.update({f"contact.obstacle.{k}": sample(v, gamma3) for k, v in obstacles.data(value).items()})
         elif callable(value) and not isinstance(value, ngs.CoefficientFunction):
             found[f"contact.{f.name}"] = sample.law(value, gamma3, body.size)
         else:
