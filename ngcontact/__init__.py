@@ -4,15 +4,18 @@ conductive foundation, with adhesion (Guettaf & Touzaline), on NGSolve.
 The public API is the names below; ``ngcontact.geometries`` (meshes with named
 boundaries), ``ngcontact.scenes`` (ready scenes and manufactured solutions) and
 ``ngcontact.contact_laws`` (the laws p, R_ν, φ_L, ψ), ``ngcontact.obstacles`` (rigid obstacles:
-``Plane``, ``Cylinder``, ``Sphere``, ``SignedDistance``), ``ngcontact.parallel`` (runs under
-mpiexec on a distributed mesh) and ``ngcontact.checks`` (checks of user input: ranges,
-booleans, sizes against the machine's memory), ``ngcontact.petsc_solver`` (MUMPS through
-PETSc: ``MumpsFactorization`` of an NGSolve matrix, ``available()``), ``ngcontact.meshes``
-(nested meshes: a mesh refined with its coarse mesh kept; a copy refined where marked),
-``ngcontact.schemes`` (the time schemes), ``ngcontact.results`` (a run's directory read back:
-``read``), ``ngcontact.estimators`` (a posteriori error estimates of a step), ``ngcontact.adapt``
-(adaptive meshes) and ``ngcontact.laws`` (nonlinear F and A) are public modules too, as names
-of the package and as import paths (``from ngcontact.obstacles import Plane``).
+``Plane``, ``Cylinder``, ``Sphere``, ``SignedDistance``; ``Obstacle``, the protocol of one of
+the user's), ``ngcontact.methods`` (the enforcement methods on Γ3: their protocols ``Method``
+and ``Enforcement``, and ``boundary_stiffness``, for a method of the user's),
+``ngcontact.parallel`` (runs under mpiexec on a distributed mesh) and ``ngcontact.checks``
+(checks of user input: ranges, booleans, sizes against the machine's memory),
+``ngcontact.petsc_solver`` (MUMPS through PETSc: ``MumpsFactorization`` of an NGSolve matrix,
+``available()``), ``ngcontact.meshes`` (nested meshes: a mesh refined with its coarse mesh kept;
+a copy refined where marked), ``ngcontact.schemes`` (the time schemes; ``TimeScheme``, the
+protocol of one of the user's), ``ngcontact.results`` (a run's directory read back: ``read``),
+``ngcontact.estimators`` (a posteriori error estimates of a step), ``ngcontact.adapt`` (adaptive
+meshes) and ``ngcontact.laws`` (nonlinear F and A) are public modules too, as names of the
+package and as import paths (``from ngcontact.obstacles import Plane``).
 
 The package is in layers, each a sub-package that says what it owns and what it may import:
 ``model`` (body, materials, laws, loads, supports, forms), ``gamma3`` (the contact data and
@@ -38,7 +41,7 @@ if _mpi_launch.launched():                      # before NGSolve loads, if it ha
     _mpi_launch.yield_when_oversubscribed()
 
 from ngcontact import adapt, checks, estimators, meshes, moved as _moved, parallel  # noqa: E402
-from ngcontact.gamma3 import contact_laws, obstacles  # noqa: E402
+from ngcontact.gamma3 import contact_laws, enforcement as methods, obstacles  # noqa: E402
 from ngcontact.gamma3.contact import Contact  # noqa: E402
 from ngcontact.gamma3.enforcement import METHODS, Nitsche, NodalConstraint, Penalty  # noqa: E402
 from ngcontact.model import laws  # noqa: E402
@@ -61,4 +64,4 @@ __getattr__ = _moved.attribute
 __all__ = ["Body", "Contact", "Nitsche", "Penalty", "NodalConstraint", "Loads", "Material", "Simulation", "History",
            "StepRecord", "ContactRecord", "NewtonError", "PhysicsWarning", "AccuracyWarning", "TimeStepWarning",
            "METHODS", "EPS0", "MIN_DT", "academic", "pzt5a", "batio3", "save_html", "contact_laws", "parallel", "checks", "meshes",
-           "schemes", "adapt", "estimators", "laws", "petsc_solver", "obstacles", "results"]
+           "schemes", "adapt", "estimators", "laws", "petsc_solver", "obstacles", "methods", "results"]

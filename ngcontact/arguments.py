@@ -139,7 +139,7 @@ def controlled(newton_rtol, scheme, dt, rtol, dt_min, event_dt, T=0.0):
     if rtol < 100 * newton_rtol:
         raise ValueError(f"run: rtol = {rtol:g} is below 100 × Newton's tolerance ({newton_rtol:g}): the error "
                          "estimate would measure Newton's inexactness; a larger rtol, or Simulation(rtol=...) smaller")
-    if not hasattr(scheme, "local_error"):
+    if not scheme.estimates_error:
         raise ValueError(f"run(rtol={rtol:g}): the scheme {scheme.name!r} has no local error estimate to choose "
                          "steps by; use Simulation(scheme='bdf2'), or fixed steps (no rtol)")
     smallest = max(MIN_DT, RESOLUTION * abs(T))               # the smallest step ``step`` takes up to T

@@ -23,6 +23,7 @@ REMOVED_IN = "0.3"
 PUBLIC = {
     "contact_laws": "gamma3.contact_laws",
     "laws": "model.laws",
+    "methods": "gamma3.enforcement",
     "obstacles": "gamma3.obstacles",
     "petsc_solver": "solve.linalg.petsc_solver",
     "results": "output.results",

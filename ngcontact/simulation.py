@@ -36,7 +36,8 @@ from ngcontact.solve.newton import Newton, NewtonResult, Timings
 from ngcontact.output.observables import Recorder
 from ngcontact.output.progress import bar
 from ngcontact.output.records import History, StepRecord
-from ngcontact.time.schemes import DEFAULT, StepCoefficients, scheme_class
+from ngcontact.time.schemes import DEFAULT, StepCoefficients, TimeScheme, scheme_class
+from ngcontact.time.schemes.protocol import check_built
 from ngcontact.solve.linalg.solver_choice import as_options, check_simulation, resolve
 from ngcontact.solve.nested import COARSE_OPTIONS, coarse_body
 from ngcontact.solve.starts import Approach, Starts
@@ -62,7 +63,9 @@ class Simulation:
     time : ngsolve.Parameter used in the loads and the contact data (created if not given);
         the time scheme sets it to t_n at step n.
     scheme : the time scheme, a name of ``schemes.SCHEMES``: "backward_euler" (default, the
-        paper's (4.3)–(4.5)).
+        paper's (4.3)–(4.5)) or "bdf2"; or a class of the user's that follows
+        ``schemes.TimeScheme``, built here with the simulation's step system (the class, not an
+        instance; checked before any work: a TypeError naming what it lacks).
     u0 : initial displacement (number tuple or CoefficientFunction), zero on Γ1 and admissible;
         default 0. Newton's start of a step may differ from it (``step(dt, guess=...)``).
     solver : the linear solver of the Newton corrections (``solver_choice``; ``solver`` says what
@@ -132,7 +135,7 @@ class Simulation:
                  maxit: int = 50, keep_states: bool = True, predictor: bool = False, condense: bool | None = None,
                  realcompile: bool | None = None, limit_steps: bool = True, reuse_factorization: bool = True,
                  iterative: bool | str | None = None, electric: bool | None = None, physical_checks: bool = True,
-                 scheme: str = DEFAULT, globalise: bool = True) -> None:
+                 scheme: str | type[TimeScheme] = DEFAULT, globalise: bool = True) -> None:
         options = arguments.simulation(body, loads, contact, time, inverse, dict(
             keep_states=keep_states, predictor=predictor, condense=condense, realcompile=realcompile,
             limit_steps=limit_steps, reuse_factorization=reuse_factorization, iterative=iterative,
@@ -187,6 +190,7 @@ class Simulation:
         self.scheme = Scheme(coefficients, self.system, self.newton, self.gfu,
                              self.gamma3.beta if contact is not None else None, predictor,
                              self.gamma3.normal if contact is not None else None)
+        check_built(self.scheme)
         # checks that the supports and the contact hold the body; the levels of nested iteration
         self.starts = Starts(body, self.gamma3, self.system, coefficients.at, partial(
             self._coarse, dict(u0=u0, scheme=scheme, rtol=rtol, maxit=maxit, limit_steps=limit_steps,

@@ -101,8 +101,8 @@ def register(h):
     def without(module, call):
         """``call`` with ``module`` unimportable (a partial install)."""
         def hidden(ctx):
-            from ngcontact import petsc_solver
-            petsc_solver._modules = None
+            from ngcontact.solve.linalg import petsc_modules
+            petsc_modules._modules = None
             sys.modules[module] = None
             return call(ctx)
         return hidden

@@ -90,7 +90,8 @@ def _scheme_cases(h):
     # bad names and types: refused by name before any mesh is used
     for label, value in [("'bogus'", "bogus"), ("'BDF2'", "BDF2"), ("'backward euler'", "backward euler"),
                          ("''", ""), ("'bdf2 '", "bdf2 "), ("None", None), ("2", 2), ("True", True),
-                         ("['bdf2']", ["bdf2"]), ("the class BDF2", ngc.schemes.BDF2), ("1.5", 1.5)]:
+                         ("['bdf2']", ["bdf2"]), ("1.5", 1.5), ("the protocol itself", ngc.schemes.TimeScheme),
+                         ("a class without the protocol", type("NoScheme", (), {}))]:
         case(f"Simulation(scheme={label})", lambda ctx, v=value: h.built(h.simulation(scheme=v)),
              h.Error(CHOICE, "scheme"))
     case("demo.run(scheme='bogus')", h.demo(scheme="bogus"), h.Error(VE, "scheme"))

@@ -1,11 +1,15 @@
 """What several test modules share and the hostile suite's fork server imports too (it cannot
 import ``conftest``, which names the repository's own there): a contact method of the user's, the
 closed form of a viscous column, a small adaptive Hertz scene."""
+from ngcontact.contact_laws import positive_part
+from ngcontact.methods import boundary_stiffness
+
+import ngsolve as ngs
 
 
 class StiffLayer:
-    """A contact method of the user's with every member of the protocol (``enforcement.Method``):
-    the penalty law under its own name, with one parameter."""
+    """A contact method of the user's with every member of the protocol (``ngcontact.methods.Method``),
+    written with the public names only: the penalty law under its own name, with one parameter."""
     name, keeps_symmetry, skew_symmetric = "stiff layer", True, False
     condensable, distributable, takes_obstacle = True, True, True
 
@@ -22,8 +26,28 @@ class StiffLayer:
         return []
 
     def build(self, body, contact, side, *, gap, coefficients, normal):
-        from ngcontact.gamma3.enforcement.penalty import PenaltyTerms
-        return PenaltyTerms(self, body, gap=gap, coefficients=coefficients, normal=normal)
+        return LayerTerms(self.factor * boundary_stiffness(body, coefficients.rate), gap, normal)
+
+
+class LayerTerms:
+    """StiffLayer's Γ3 expressions (``ngcontact.methods.Enforcement``): the contact pressure
+    λ = ε [u_ν − g]_+ with ε = factor × ``boundary_stiffness`` (Pa/m), as ``Penalty``'s."""
+    newton_hook = None
+
+    def __init__(self, epsilon, gap, normal):
+        self.epsilon, self.gap, self.n = epsilon, gap, normal
+
+    def multiplier(self, u, phi, traction):
+        return self.epsilon * positive_part(u * self.n - self.gap)
+
+    def signorini(self, u, phi, v, xi, traction):
+        return self.multiplier(u, phi, traction) * (v * self.n)
+
+    def active(self, u, phi, traction):
+        return ngs.IfPos(self.gap - u * self.n, 0, 1)
+
+    def contact_distance(self, u, phi, traction):
+        return u * self.n - self.gap
 
 
 METHOD_MEMBERS = ("name", "keeps_symmetry", "skew_symmetric", "condensable", "distributable", "takes_obstacle",

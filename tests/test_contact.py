@@ -354,6 +354,22 @@ def test_what_a_user_methods_build_returns_is_checked():
         pressed_plate(Contact(gap=GAP, method=Nothing(1e4)), maxh=0.02)
 
 
+def test_a_user_method_written_with_the_public_names_runs_as_penalty():
+    """StiffLayer (tests/support.py: its Γ3 terms written with ``ngcontact.methods.boundary_stiffness``
+    and ``ngcontact.contact_laws`` only) makes Penalty's steps with the same factor, through
+    contact, to round-off."""
+    runs = []
+    for method in (StiffLayer(1e4), ngc.Penalty(1e4)):
+        sim = pressed_plate(Contact(gap=GAP, method=method), maxh=0.02)
+        sim.run(0.25, 1.0)
+        runs.append(sim)
+    mine, penalty = runs
+    assert penalty.history[-1].contact.contact_area > 0
+    for a, b in zip(mine.history, penalty.history):
+        assert np.abs(a.state - b.state).max() <= 1e-12 * np.abs(penalty.history[-1].state).max()
+    assert ngc.methods.boundary_stiffness is ngc.model.forms.boundary_stiffness
+
+
 def test_a_user_methods_class_and_parameters_are_in_the_fingerprint():
     """Two user methods that differ in a parameter are two scenes; the package's methods keep
     their fields (no class, no parameters: earlier runs keep their fingerprint)."""

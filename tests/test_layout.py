@@ -41,12 +41,13 @@ def modules():
     return found
 
 
-def imports(name, path):
+def imports(name, path, source=None):
     """The absolute names a module imports (relative imports resolved), with the names taken
-    from each (None for a plain ``import``)."""
+    from each (None for a plain ``import``); every import statement, at the top or inside a
+    function. ``source``: the module's text instead of the file's."""
     package = name if path.name == "__init__.py" else name.rsplit(".", 1)[0]
     result = []
-    for node in ast.walk(ast.parse(path.read_text())):
+    for node in ast.walk(ast.parse(path.read_text() if source is None else source)):
         if isinstance(node, ast.Import):
             result += [(alias.name, None) for alias in node.names]
         elif isinstance(node, ast.ImportFrom):
@@ -136,6 +137,74 @@ def test_every_layer_imports_only_the_foundation_and_the_layers_below():
                 if rank(module) > rank(name):
                     wrong.append(f"{name} imports {module}")
     assert not wrong, "\n".join(wrong)
+
+
+def import_graph(sources):
+    """{module: the package modules it imports} of ``sources``, {dotted name: (path, text or None
+    for the file's)}: an import of a name of a module reaches the module itself (``from
+    ngcontact.x import y`` reaches ngcontact.x.y where that is a module, else ngcontact.x), old
+    and public paths (``ngcontact.obstacles``) the module they stand for."""
+    from ngcontact.moved import new_name
+    graph = {}
+    for name, (path, source) in sources.items():
+        reached = set()
+        for target, names in imports(name, path, source):
+            if target != "ngcontact" and not target.startswith("ngcontact."):
+                continue
+            target = new_name(target) or target
+            for module in [target] if names is None else [new_name(f"{target}.{n}") or f"{target}.{n}" for n in names]:
+                reached.add(module if module in sources else target)
+        graph[name] = sorted(reached & set(sources) - {name})
+    return graph
+
+
+def import_cycles(graph):
+    """The import cycles of ``graph`` ({module: modules it imports}) a depth-first search meets,
+    each as the modules along it in import order (one within a cycle met before is not repeated)."""
+    cycles, done = [], set()
+    for start in sorted(graph):
+        if start in done:
+            continue
+        path, on_path, stack = [], {}, [(start, iter(graph[start]))]
+        path.append(start)
+        on_path[start] = 0
+        while stack:
+            node, following = stack[-1]
+            step = next(following, None)
+            if step is None:
+                stack.pop()
+                path.pop()
+                del on_path[node]
+                done.add(node)
+            elif step in on_path:
+                cycle = path[on_path[step]:]
+                if not any(set(cycle) <= set(c) for c in cycles):
+                    cycles.append(cycle)
+            elif step not in done:
+                on_path[step] = len(path)
+                path.append(step)
+                stack.append((step, iter(graph[step])))
+    return cycles
+
+
+PETSC_BEFORE = {
+    "ngcontact.solve.linalg.petsc_options": "def reading_options(what):\n"
+                                            "    from ngcontact.solve.linalg.petsc_solver import load\n",
+    "ngcontact.solve.linalg.petsc_solver": "from ngcontact.solve.linalg.petsc_options import reading_options\n"}
+"""How petsc_options and petsc_solver imported each other, one of them inside a function."""
+
+
+def test_no_import_cycle_among_the_modules():
+    """No module of the package imports, directly or through others, a module that imports it:
+    imports go one way, also those inside functions (which Python resolves late and so let a
+    cycle run). The rule finds the cycle petsc_options and petsc_solver once made."""
+    sources = {name: (path, None) for name, path in modules()}
+    cycles = import_cycles(import_graph(sources))
+    assert not cycles, "\n".join(" -> ".join(c + c[:1]) for c in cycles)
+    before = dict(sources, **{name: (PACKAGE / "solve" / "linalg" / f"{name.rsplit('.', 1)[1]}.py", text)
+                              for name, text in PETSC_BEFORE.items()})
+    assert [set(c) for c in import_cycles(import_graph(before))] == [set(PETSC_BEFORE)]
+    assert import_cycles({"a": ["b"], "b": ["c"], "c": ["a"], "d": ["a"]}) == [["a", "b", "c"]]
 
 
 def test_each_layer_says_what_it_owns_and_what_it_may_import():

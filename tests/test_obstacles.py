@@ -152,3 +152,68 @@ def _solved3(level, normal):
     with ngs.TaskManager():
         sim.run(1.0, 1.0)
     return sim
+
+
+class Floor:
+    """A plane obstacle written from scratch through the protocol ``obstacles.Obstacle`` (an
+    object of the user's): a point of it and its unit normal out of the obstacle."""
+
+    def __init__(self, point, outward):
+        self.point, self.outward = point, outward
+
+    def fields(self, dim):
+        n = ngs.CF(tuple(self.outward))
+        return (ngs.CF((ngs.x, ngs.y, ngs.z)[:dim]) - ngs.CF(tuple(self.point))) * n, -n
+
+
+def test_an_obstacle_of_the_user_s_gives_the_plane_s_contact():
+    """The reference plate pushed onto ``Floor`` below Γ3 makes ``obstacles.Plane``'s steps to
+    round-off: states, contact forces and β; the fingerprint names the user's class."""
+    paper, T = reference.contact(), 0.02
+    runs = []
+    for obstacle in (obstacles.Plane((0.0, -paper.gap), (0.0, 1.0)), Floor((0.0, -paper.gap), (0.0, 1.0))):
+        sim = reference.simulation(1, 0.01, contact=dataclasses.replace(paper, gap=0.0, obstacle=obstacle))
+        sim.run(2.5e-3, T)
+        runs.append(sim)
+    plane, floor = runs
+    assert plane.history[-1].contact.contact_area > 0                     # it did touch
+    force_scale = np.abs(plane.history[-1].contact.force).max()
+    for a, b in zip(plane.history, floor.history):
+        assert np.abs(b.state - a.state).max() <= 1e-12 * np.abs(plane.history[-1].state).max()
+        assert np.abs(b.contact.force - a.contact.force).max() <= 1e-10 * force_scale
+        assert np.allclose(b.contact.beta, a.contact.beta, rtol=0, atol=1e-12)
+    assert plane.fingerprint(T)["contact.obstacle"] == "Plane"
+    assert floor.fingerprint(T)["contact.obstacle"] == "test_obstacles.Floor"
+
+
+def _floor(**members):
+    """A class like ``Floor`` with ``members`` changed, built at the reference plate's bottom."""
+    return type("Broken", (Floor,), members)((0.0, -1e-5), (0.0, 1.0))
+
+
+@pytest.mark.parametrize("obstacle, error, words", [
+    (object(), TypeError, r"Contact.obstacle must be an ngcontact.obstacles Plane, .* which lacks fields"),
+    (Floor, TypeError, r"Contact.obstacle must be an obstacle object, got the class Floor: give an instance"),
+    (_floor(fields=3), TypeError, r"Contact.obstacle: the obstacle test_obstacles.Broken has fields = 3: not callable"),
+    (_floor(fields=lambda self: None), TypeError, r"has fields\(\), which cannot be called as fields\(dim\)"),
+])
+def test_an_obstacle_without_the_protocol_is_named_by_contact(obstacle, error, words):
+    with pytest.raises(error, match=words):
+        ngc.Contact(obstacle=obstacle)
+
+
+@pytest.mark.parametrize("fields, error, words", [
+    (lambda self, dim: ngs.y, TypeError, r".*Broken.fields\(2\) returned a CoefficientFunction: it must return the "
+                                         r"pair \(gap, obstacle normal\)"),
+    (lambda self, dim: [ngs.y, (0, -1)], TypeError, r".*Broken.fields\(2\) returned a list of 2: it must return the pair"),
+    (lambda self, dim: (ngs.y, (0, -1, 0)), ValueError, r"the normal of .*Broken.fields\(2\) must have 2 components"),
+    (lambda self, dim: (ngs.y + 1e-5, "down"), TypeError, r"the normal of .*Broken.fields\(2\) must be a number"),
+    (lambda self, dim: (ngs.y + 1e-5 * ngs.Parameter(1.0), (0, -1)), ValueError,
+     r"the gap of .*Broken.fields\(2\) depends on an ngsolve.Parameter that is not the simulation's time"),
+])
+def test_what_an_obstacle_s_fields_return_is_checked(fields, error, words):
+    """What ``fields(dim)`` returns is checked where the simulation calls it: a pair, the gap
+    scalar, the normal of dim components, both on the simulation's time Parameter only."""
+    with pytest.raises(error, match=rf"^Contact.obstacle: {words}"):
+        reference.simulation(1, 0.01, contact=dataclasses.replace(reference.contact(), gap=0.0,
+                                                                  obstacle=_floor(fields=fields)))

@@ -16,6 +16,7 @@ from netgen.geom2d import unit_square
 
 import ngcontact as ngc
 from ngcontact import petsc_solver
+from ngcontact.solve.linalg import petsc_modules
 from ngcontact.geometries import plate
 from ngcontact.scenes import reference
 from test_parallel import HERE, launch, mpiexec
@@ -27,7 +28,7 @@ needs_petsc = pytest.mark.skipif(not petsc_solver.available(),
 def test_mumps_without_petsc_says_how_to_install_it(monkeypatch):
     """With petsc4py unimportable, ``Simulation(solver="mumps")`` raises before any work,
     naming what is missing and the install line."""
-    monkeypatch.setattr(petsc_solver, "_modules", None)
+    monkeypatch.setattr(petsc_modules, "_modules", None)
     monkeypatch.setitem(sys.modules, "petsc4py", None)
     with pytest.raises(ImportError, match=r'solver="mumps" needs PETSc .* pip install --no-deps '
                                           r'dolfinx-solver-real ngsPETSc'):
@@ -416,7 +417,7 @@ def test_rigid_motions_from_the_vertices_are_the_interpolated_motions(order, dim
 
 def test_gamg_without_petsc_says_how_to_install_it(monkeypatch):
     """``solver='gamg'`` without PETSc: an ImportError naming it and the install line."""
-    monkeypatch.setattr(petsc_solver, "_modules", None)
+    monkeypatch.setattr(petsc_modules, "_modules", None)
     monkeypatch.setitem(sys.modules, "petsc4py", None)
     with pytest.raises(ImportError, match=r"solver='gamg' needs PETSc .* pip install --no-deps dolfinx-solver-real"):
         reference.simulation(1, 0.02, dim=3, solver="gamg")

@@ -15,7 +15,7 @@ import pytest
 import ngcontact as ngc
 from ngcontact.geometries import plate
 from ngcontact.scenes import reference
-from ngcontact.solve.linalg import petsc_solver, solver_choice
+from ngcontact.solve.linalg import petsc_modules, petsc_solver, solver_choice
 from test_parallel import HERE, launch
 
 GAMG = {"ksp_type": "gmres", "pc_type": "gamg", "pc_gamg_threshold": 0.01}
@@ -36,7 +36,7 @@ def petsc():
 def test_a_dict_without_petsc_says_how_to_install_it(monkeypatch):
     """With petsc4py unimportable, a valid dict raises ``PetscMissing`` naming ``solver=`` and the
     install line, before any work; the command line's check says PETSc is needed."""
-    monkeypatch.setattr(petsc_solver, "_modules", None)
+    monkeypatch.setattr(petsc_modules, "_modules", None)
     monkeypatch.setitem(sys.modules, "petsc4py", None)
     monkeypatch.setattr(ngc.Body, "space", _no_work)
     with pytest.raises(petsc_solver.PetscMissing, match=r"solver=\{'ksp_type': 'gmres', 'pc_type': 'gamg'.*\} needs "

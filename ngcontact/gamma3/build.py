@@ -17,7 +17,7 @@ from ngcontact.gamma3.adhesion import BondingField
 from ngcontact.model.admissible import GapCheck
 from ngcontact.gamma3.contact_side import ContactSide
 from ngcontact.model.loads import as_cf
-from ngcontact.gamma3.obstacles import check_normal
+from ngcontact.gamma3.obstacles import check_normal, named_direction, obstacle_fields
 from ngcontact.gamma3.enforcement import built
 
 
@@ -64,20 +64,20 @@ def build(body, contact, system, realcompile=False):
     ``realcompile``: compile the Γ3 Jacobian's integrand to machine code now
     (``StepSystem.use_machine_code``)."""
     side = ContactSide(body)
+    coefficients = system.coefficients
     if contact.obstacle is not None:
-        gap, normal = contact.obstacle.fields(body.dim)
+        gap, normal = obstacle_fields(contact.obstacle, body.dim, coefficients.time)     # checked
         sampled_normal = normal
     else:
         gap, normal, sampled_normal = as_cf(contact.gap, 1, "Contact.gap"), ngs.specialcf.normal(body.dim), None
     foundation_potential = as_cf(contact.foundation_potential, 1, "Contact.foundation_potential")
     data = Gamma3(side, contact, None, None, gap, foundation_potential, normal, sampled_normal)
-    coefficients = system.coefficients
     gamma3_data(contact, data, body.mesh, coefficients.at, 0.0)
     gap_check = GapCheck(body, data)
     with coefficients.at(0.0):
         gap_check(0.0)
         if sampled_normal is not None:
-            check_normal(side, gap, normal, body.size, getattr(contact.obstacle, "_given", None))
+            check_normal(side, gap, normal, body.size, named_direction(contact.obstacle))
     beta = BondingField(side, contact)
     enforcement = built(contact.enforcement_method, body, contact, side, gap=gap, coefficients=coefficients,
                         normal=normal)                    # checked: the Enforcement protocol

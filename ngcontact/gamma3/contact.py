@@ -9,7 +9,7 @@ from ngcontact.checks import number, parameters
 from ngcontact.model.loads import as_cf
 from ngcontact.gamma3 import enforcement
 from ngcontact.gamma3.enforcement import CONTACT_FIELDS, METHODS, resolve
-from ngcontact.gamma3.obstacles import OBSTACLES
+from ngcontact.gamma3 import obstacles
 
 
 class _NotGiven:
@@ -42,8 +42,9 @@ class Contact:
         gap : g >= 0 in m, number or CoefficientFunction on Γ3 (may use the time Parameter;
             checked on Γ3 at every step, with a tolerance of 1e-8 of the body's size).
         obstacle : a rigid obstacle (``ngcontact.obstacles``: Plane, Cylinder, Sphere,
-            SignedDistance) giving the gap and the obstacle normal n_o, along which every
-            law of Γ3 then acts; None (default): the paper's form with ``gap``.
+            SignedDistance, or an object of the user's with the protocol ``obstacles.Obstacle``)
+            giving the gap and the obstacle normal n_o, along which every law of Γ3 then acts;
+            None (default): the paper's form with ``gap``.
         compliance : c_ν in Pa/m of p(r) = c_ν [r]_+, or a function r ↦ CF (any Lipschitz p
             >= 0 vanishing for r <= 0; sampled by ``contact_laws.checked``).
     Adhesion (2.8)-(2.9):
@@ -160,9 +161,7 @@ class Contact:
                                  "at the start, read once at t = 0, and β then follows (2.9); give β0 without "
                                  "a Parameter")
         if self.obstacle is not None:
-            if not isinstance(self.obstacle, OBSTACLES):
-                raise TypeError("Contact.obstacle must be an ngcontact.obstacles Plane, Cylinder, Sphere or "
-                                f"SignedDistance, got {type(self.obstacle).__name__}")
+            obstacles.check(self.obstacle)             # the protocol obstacles.Obstacle
             if isinstance(self.gap, ngs.CoefficientFunction) or self.gap != 0:
                 raise ValueError("Contact: give either gap (the paper's form, along the body's normal) or "
                                  "obstacle (the gap comes from it), not both")
@@ -188,12 +187,8 @@ class Contact:
         """(name, CoefficientFunction) of its data, for the checks of ``Simulation``."""
         named = [("Contact.gap", self.gap), ("Contact.foundation_potential", self.foundation_potential),
                  ("Contact.beta0", self.beta0)]
-        obstacle = self.obstacle
-        for attribute in ("point", "center", "distance", "normal"):
-            value = getattr(obstacle, attribute, None) if obstacle is not None else None
-            if value is not None:
-                named += [(f"Contact.obstacle.{attribute}", v)
-                          for v in (value if isinstance(value, (tuple, list)) else [value])]
+        for attribute, value in (obstacles.data(self.obstacle) if self.obstacle is not None else {}).items():
+            named += [(f"Contact.obstacle.{attribute}", v) for v in (value if isinstance(value, (tuple, list)) else [value])]
         return [(n, v) for n, v in named if isinstance(v, ngs.CoefficientFunction)]
 
     def regularised(self):

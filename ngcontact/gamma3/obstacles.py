@@ -17,20 +17,101 @@ pointing into the obstacle where the body is closest to it (``Simulation`` check
 ``check_normal``). ``Plane`` and ``SignedDistance`` take the direction as ``outward``, the
 normal pointing out of the obstacle towards the body (n_o = −outward); errors name it as
 the user passed it.
+
+An obstacle of the user's is any object that follows ``Obstacle`` (its ``fields(dim)``):
+``Contact()`` checks it (``check``: a TypeError naming ``Contact.obstacle`` and what it lacks),
+and what ``fields`` returns is checked where the simulation first calls it (``obstacle_fields``).
 """
+import inspect
 import warnings
+from typing import Protocol
 
 import ngsolve as ngs
 import numpy as np
 
 from ngcontact import parallel
-from ngcontact.checks import number
+from ngcontact.checks import number, uses_only
 from ngcontact.model.loads import as_cf
 from ngcontact.moved import REMOVED_IN
 
 NEAR = 0.05
 """``check_normal`` looks at the points of Γ3 whose gap is within this fraction of the
 body's size of the smallest gap."""
+
+
+class Obstacle(Protocol):
+    """What ``Contact(obstacle=...)`` and Γ3 use of a rigid obstacle (an instance, not its class).
+
+    Its public attributes (``vars()`` without the names that start with "_") are its data: the
+    run's fingerprint samples them on Γ3 (so that a run is never resumed with another obstacle),
+    and the CoefficientFunctions among them (or in tuples and lists of them) may depend on no
+    ngsolve.Parameter but the simulation's time.
+    """
+
+    def fields(self, dim):
+        """(g, n_o) in ``dim`` D (2 or 3) at the points of Γ3 in the reference configuration: the
+        gap g (m; a scalar CoefficientFunction or number, >= 0 where the body is clear of the
+        obstacle, the distance to it) and the obstacle normal n_o (a unit vector of ``dim``
+        components, CoefficientFunction or tuple, pointing from the body into the obstacle).
+        Both may depend on the simulation's time Parameter (a moving obstacle) and on position.
+        Called once when the simulation is built; a ValueError for a ``dim`` it cannot serve."""
+
+
+def check(obstacle):
+    """Raise a TypeError naming ``Contact.obstacle`` and the object's class if ``obstacle`` is a
+    class, or lacks ``fields`` callable as ``fields(dim)`` (the protocol ``Obstacle``)."""
+    kind = _class(obstacle)
+    protocol = "(the protocol ngcontact.obstacles.Obstacle: fields(dim) returning the gap and the obstacle normal)"
+    if isinstance(obstacle, type):
+        raise TypeError(f"Contact.obstacle must be an obstacle object, got the class {obstacle.__qualname__}: give an "
+                        f"instance, e.g. {obstacle.__qualname__}(...) {protocol}")
+    fields = getattr(obstacle, "fields", None)
+    if fields is None:
+        raise TypeError(f"Contact.obstacle must be an ngcontact.obstacles Plane, Cylinder, Sphere or SignedDistance, "
+                        f"or an object of the user's with fields(dim); got {obstacle!r:.80} ({kind}), which lacks "
+                        f"fields {protocol}")
+    if not callable(fields):
+        raise TypeError(f"Contact.obstacle: the obstacle {kind} has fields = {fields!r:.60}: not callable {protocol}")
+    try:
+        inspect.signature(fields).bind(2)
+    except TypeError as err:
+        raise TypeError(f"Contact.obstacle: the obstacle {kind} has fields{inspect.signature(fields)}, which cannot "
+                        f"be called as fields(dim): {err} {protocol}") from None
+    except ValueError:                          # no signature to read (a builtin): it is called as it is
+        pass
+
+
+def obstacle_fields(obstacle, dim, time):
+    """(g, n_o) of ``obstacle.fields(dim)`` as CoefficientFunctions, checked: a pair, g scalar and
+    n_o of ``dim`` components, real, on no Parameter but ``time`` (the simulation's); else a
+    TypeError or ValueError naming ``Contact.obstacle`` and the object's class."""
+    kind = _class(obstacle)
+    returned = obstacle.fields(dim)
+    if not isinstance(returned, tuple) or len(returned) != 2:
+        what = f"a {type(returned).__name__}" + (f" of {len(returned)}" if isinstance(returned, (tuple, list)) else "")
+        raise TypeError(f"Contact.obstacle: {kind}.fields({dim}) returned {what}: it must return the pair (gap, "
+                        "obstacle normal) (the protocol ngcontact.obstacles.Obstacle)")
+    gap_name, normal_name = (f"Contact.obstacle: the {what} of {kind}.fields({dim})" for what in ("gap", "normal"))
+    gap, normal = as_cf(returned[0], 1, gap_name), as_cf(returned[1], dim, normal_name)
+    uses_only(time, [(gap_name, gap), (normal_name, normal)])
+    return gap, normal
+
+
+def data(obstacle):
+    """{name: value} of the obstacle's public attributes (its data: ``Obstacle``); {} for an
+    object without a ``__dict__``."""
+    return {k: v for k, v in getattr(obstacle, "__dict__", {}).items() if not k.startswith("_")}
+
+
+def named_direction(obstacle):
+    """(the argument the user gave a built-in obstacle's direction as, s = ±1 with n_o = s × it)
+    for the messages of ``check_normal``; None where the obstacle computes n_o itself (a ball, or
+    one of the user's)."""
+    return obstacle._given if isinstance(obstacle, (Plane, SignedDistance)) else None
+
+
+def _class(value):
+    return f"{type(value).__module__}.{type(value).__qualname__}"
 
 
 def _position(dim):
@@ -152,6 +233,7 @@ class SignedDistance:
 
 
 OBSTACLES = (Plane, Ball, SignedDistance)
+"""The obstacles of the package (the fingerprint names them by their class's name alone)."""
 
 
 def check_normal(side, gap, normal, size, given=None):

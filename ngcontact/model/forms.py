@@ -87,12 +87,20 @@ def step_normal_stress_variation(T, v, xi, rate, direction=None):
 
 
 def boundary_stiffness(body, rate):
-    """p² (λ_max(F + Eᵀ C⁻¹ E) + c λ_max(A))/h (N/m³): the stiffness of σ_ν per unit normal
-    displacement at a facet of height h = ``specialcf.mesh_size``, p the order of u, c the
-    scheme's rate coefficient ``rate`` (1/s; 1/dt for backward Euler). The factor p² follows
-    the inverse inequality of degree-p polynomials. Nitsche's γ and the penalty's ε are
-    multiples of it (``Contact.gamma0``, ``Contact.penalty``). With laws it follows their
-    stiffness scales through the run (``MaterialTensors.contact_stiffness``)."""
+    """p² (λ_max(F + Eᵀ C⁻¹ E) + c λ_max(A))/h: the stiffness of σ_ν per unit normal
+    displacement at a facet of height h = ``specialcf.mesh_size`` (Pa/m = N/m³), p the order of
+    u, c the scheme's rate coefficient ``rate`` (1/s; 1/dt for backward Euler). The scale an
+    enforcement method's Γ3 stiffness is measured in, public as
+    ``ngcontact.methods.boundary_stiffness``: Nitsche's γ and the penalty's ε are multiples of
+    it (``Contact.gamma0``, default 10; ``Contact.penalty``, default 1e3), and a method of the
+    user's takes its own as a factor × ``boundary_stiffness(body, coefficients.rate)`` in its
+    ``build`` (and names the factor in its ``stiffness_factors``). The factor p² follows the
+    inverse inequality of degree-p polynomials; with laws it follows their stiffness scales
+    through the run (``MaterialTensors.contact_stiffness``).
+
+    body : the Body.  rate : c (1/s), a number, ngsolve.Parameter or CoefficientFunction.
+    Returns a CoefficientFunction (N/m³) for the integrals on Γ3 (h is the facet's element's height).
+    """
     return body.order ** 2 * body.tensors.contact_stiffness(rate) / ngs.specialcf.mesh_size
 
 

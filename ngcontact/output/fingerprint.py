@@ -14,7 +14,8 @@ never continued with another scene. Its fields (one key each, e.g. ``contact.gam
 * ``contact.*``: every field of ``Contact`` (``contact`` is None without a contact law; the
   method by its name, its parameters in ``theta``, ``gamma0``, ``penalty``, each the Contact's
   default where the method has none, ``UNUSED``) and ``contact.obstacle.*``, the obstacle's
-  own data; a method object of another class than the package's (``enforcement.METHODS``)
+  own data (its public attributes; the obstacle itself by its class's name, with its module
+  for one of the user's); a method object of another class than the package's (``enforcement.METHODS``)
   adds ``contact.method.class`` (its module and qualified name) and
   ``contact.method.parameters.<name>`` for each of its parameters (its ``parameters()`` if it
   has one, else a dataclass's fields, else ``vars()`` without names starting with "_":
@@ -29,7 +30,9 @@ never continued with another scene. Its fields (one key each, e.g. ``contact.gam
   or False, and ``petsc``: the options of ``Simulation(solver={...})`` that tune the solver it
   chose, only where there are any: ``solver_choice.describe``) and
   ``realcompile`` (True, False, or None: by the rule of ``machine_code``);
-  ``scheme``: the time scheme's name (β's update of backward Euler is ``contact.beta_update``);
+  ``scheme``: the time scheme's name (β's update of backward Euler is ``contact.beta_update``),
+  and for a class of the user's (not in ``schemes.SCHEMES``) ``scheme.class``, its module and
+  qualified name;
 * ``run.*`` (``run_options``, added by ``results`` to the fingerprint it stores): the options
   of ``Simulation.run`` that change the results: dt, T, rtol and, with rtol, dt_min and
   event_dt as used (their defaults resolved), without it max_cutbacks and a guess for every
@@ -61,9 +64,11 @@ import numpy as np
 from ngcontact import parallel
 from ngcontact.solve.linalg.solver_choice import describe
 from ngcontact.gamma3.contact import NOT_GIVEN, Contact
+from ngcontact.gamma3 import obstacles
 from ngcontact.gamma3.enforcement import METHODS
 from ngcontact.model.loads import Loads
 from ngcontact.model.materials import Material
+from ngcontact.time.schemes import SCHEMES
 
 SAMPLE_TIMES = 5
 """Times in [0, T] at which data that may depend on time are sampled."""
@@ -111,13 +116,19 @@ def options(newton, scheme, electric, condense, machine_code_rule):
     """The ``options.*`` and ``scheme`` fields of a simulation solved by ``newton`` with the time
     scheme ``scheme``: Newton's rtol, maxit, step limit, globalisation and linear solver as used
     (``solver_choice.describe``), ``electric`` and ``condense`` (as used), and ``realcompile``
-    (None where ``machine_code_rule`` decides, else whether the Γ3 integrand is compiled)."""
+    (None where ``machine_code_rule`` decides, else whether the Γ3 integrand is compiled);
+    ``scheme.class`` for a scheme of the user's."""
     return {"options.rtol": newton.rtol, "options.maxit": newton.maxit, "options.electric": bool(electric),
             "options.predictor": bool(scheme.predictor), "options.limit_steps": newton.step_length is not None,
             "options.globalise": newton.line_search is not None, "options.condense": bool(condense),
             "options.solver": newton.solver_name, **describe(newton.solver),
             "options.realcompile": None if machine_code_rule else bool(scheme.system.machine_code),
-            "scheme": scheme.name}
+            "scheme": scheme.name, **({} if type(scheme) in SCHEMES.values() else {"scheme.class": _class(scheme)})}
+
+
+def _class(value):
+    """The module and qualified name of ``value``'s class."""
+    return f"{type(value).__module__}.{type(value).__qualname__}"
 
 
 RUN_OPTIONS = ("dt", "T", "rtol", "dt_min", "event_dt", "max_cutbacks", "guess")
@@ -202,14 +213,14 @@ def _contact(contact, body, sample):
             method = contact.enforcement_method
             found["contact.method"] = method.name
             if type(method) not in METHODS.values():
-                found["contact.method.class"] = f"{type(method).__module__}.{type(method).__qualname__}"
+                found["contact.method.class"] = _class(method)
                 found.update({f"contact.method.parameters.{k}": v
                               for k, v in _method_parameters(method, lambda v: sample(v, gamma3)).items()})
-        elif f.name == "obstacle":
-            found["contact.obstacle"] = None if value is None else type(value).__name__
+        elif f.name == "obstacle":        # a built-in one by its class's name, one of the user's by its module's too
+            found["contact.obstacle"] = None if value is None else \
+                type(value).__name__ if isinstance(value, obstacles.OBSTACLES) else _class(value)
             if value is not None:
-                found.update({f"contact.obstacle.{k}": sample(v, gamma3) for k, v in vars(value).items()
-                              if not k.startswith("_")})
+                found.update({f"contact.obstacle.{k}": sample(v, gamma3) for k, v in obstacles.data(value).items()})
         elif callable(value) and not isinstance(value, ngs.CoefficientFunction):
             found[f"contact.{f.name}"] = sample.law(value, gamma3, body.size)
         else:

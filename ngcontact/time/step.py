@@ -26,8 +26,8 @@ class Step:
 
     body, loads : the Body and its Loads.
     contact, gamma3 : the Contact and its built Γ3 parts (``gamma3.build.Gamma3``), or None.
-    scheme : the time scheme (its ``system``: the StepSystem; ``newton``: Newton; ``state``:
-        the GridFunction of (u, φ)).
+    scheme : the time scheme (``schemes.TimeScheme``; its ``system``: the StepSystem;
+        ``newton``: Newton; ``state``: the GridFunction of (u, φ)).
     starts : Newton's starts (``solve.starts.Starts``).
     recorder : makes a step's record from the state (``output.observables.Recorder``).
     history : the StepRecords, step 0 first; ``cutbacks``, ``rejections``, ``flags``: the

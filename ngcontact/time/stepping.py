@@ -191,8 +191,7 @@ def controlled_steps(steps, start, T, dt, rtol, after, shown, dt_min, event_dt):
     last = steps.history[-1]
     k = last.dt_next if last.dt_next is not None else dt
     span = T - start
-    if hasattr(steps.scheme, "beta_tolerance"):   # β consistent with u_n to the level the error test asks
-        steps.scheme.beta_tolerance = min(steps.scheme.beta_tolerance, rtol)
+    steps.scheme.control(rtol)                  # its inner tolerances (BDF2's β passes) to the error test's
     rejected, streak = [], []           # streak: (k, err) of the tries rejected for their error at this step
     # the floor of the estimate met in this run (the first step accepted above rtol), from the records: a resume sees it
     # and the step that met it: the next steps at the floor take it again, not a shorter one an event made

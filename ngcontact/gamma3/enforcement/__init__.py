@@ -10,7 +10,8 @@ one line in ``METHODS``. No other module compares a method's name.
 
 A method object of the user's is checked member by member at ``Contact()`` (``check``: a
 TypeError naming the members it lacks and its class), and what its ``build`` returns where the
-simulation first calls it (``built``).
+simulation first calls it (``built``). ``ngcontact.methods`` is this package: the protocols, the
+methods, and ``boundary_stiffness``, the stiffness scale a method's Γ3 terms are measured in.
 """
 import inspect
 import numbers
@@ -18,6 +19,7 @@ import numbers
 import numpy as np
 from typing import Protocol
 
+from ngcontact.model.forms import boundary_stiffness
 from .active_set import NodalConstraint
 from .nitsche import Nitsche
 from .penalty import Penalty
@@ -55,7 +57,8 @@ class Method(Protocol):
 
     def stiffness_factors(self) -> dict:
         """{name (str): factor (real number)} of its Γ3 stiffnesses in multiples of
-        ``forms.boundary_stiffness``."""
+        ``boundary_stiffness`` (Nitsche's γ0, the penalty's factor): a failed step names those
+        above ``admissible.STIFF_CONTACT``."""
 
     def flags(self) -> list:
         """Messages (str) on parameters with which its results may be wrong."""
@@ -70,7 +73,8 @@ class Method(Protocol):
         (CoefficientFunction, m), the time scheme's ``schemes.StepCoefficients`` (the rate
         coefficient c, 1/s, and the anchor û of the viscous stress c A ε(u − û); backward
         Euler: 1/dt and u_{n−1}) and the contact normal (the body's ν, or an obstacle's n_o):
-        u_ν = u·normal, σ_ν = σν·normal."""
+        u_ν = u·normal, σ_ν = σν·normal. A stiffness of its own (a penalty, Nitsche's γ) is a
+        factor times ``boundary_stiffness(body, coefficients.rate)``."""
 
 
 class Enforcement(Protocol):
@@ -235,4 +239,4 @@ def built(method, body, contact, side, *, gap, coefficients, normal):
 
 
 __all__ = ["Method", "Enforcement", "NewtonHook", "METHODS", "CONTACT_FIELDS", "resolve", "check", "built",
-           "Nitsche", "Penalty", "NodalConstraint"]
+           "boundary_stiffness", "Nitsche", "Penalty", "NodalConstraint"]

@@ -66,7 +66,7 @@ class PetscGmres:
     PETSc vectors of A's layout)."""
 
     def __init__(self, matrix):
-        from ngcontact.solve.linalg.petsc_solver import load
+        from ngcontact.solve.linalg.petsc_modules import load
         PETSc, _ = load()
         self.matrix, self.precondition = matrix, None
         A = matrix.mat

@@ -49,7 +49,8 @@ from ngcontact.solve.linalg.petsc_blocks import index_set, node_by_node, petsc_v
 from ngcontact.solve.linalg.petsc_options import given_options, reading_options
 from ngcontact.solve.linalg import gamma3_bulk
 from ngcontact.solve.linalg.krylov import Gmres
-from ngcontact.solve.linalg.petsc_solver import MumpsFactorization, PetscMatrix, load
+from ngcontact.solve.linalg.petsc_modules import load
+from ngcontact.solve.linalg.petsc_solver import MumpsFactorization, PetscMatrix
 
 
 GAMG_OPTIONS = {"pc_gamg_threshold": 0.01}

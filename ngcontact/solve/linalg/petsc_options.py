@@ -20,6 +20,8 @@ import re
 from contextlib import contextmanager
 from dataclasses import dataclass
 
+from ngcontact.solve.linalg.petsc_modules import load
+
 
 def _environment():
     return f"PETSC_OPTIONS = {os.environ.get('PETSC_OPTIONS', '')!r}"
@@ -46,7 +48,6 @@ def _reason(error):
 def reading_options(what):
     """Turn a PETSc error raised while reading PETSc's options (``setFromOptions``, and MUMPS's
     ``-mat_mumps_*`` at the first factorisation) into ``options_error``'s ValueError."""
-    from ngcontact.solve.linalg.petsc_solver import load
     PETSc, _ = load()
     try:
         yield
@@ -193,7 +194,6 @@ def given_options(prefix, options, what=None):
     if not options:
         yield
         return
-    from ngcontact.solve.linalg.petsc_solver import load
     PETSc, _ = load()
     database = PETSc.Options()
     names = [prefix + key for key in options]

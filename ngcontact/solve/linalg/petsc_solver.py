@@ -13,67 +13,24 @@ by ranks included (``ngsPETSc.Matrix``, ``VectorMapping``); the factorisation it
 petsc4py's ``PC`` (type lu/cholesky, solver package mumps), kept across updates of the values
 so that MUMPS reuses its analysis (symbolic factorisation and ordering).
 
-Installing PETSc: PyPI has no binary petsc4py; on Python ≥ 3.12 the ``dolfinx-solver-real``
-wheel ships PETSc 3.25 with MUMPS and its own petsc4py (``INSTALL``); on a cluster, build
-petsc4py against the site's PETSc (docs/cluster.md). Without PETSc, ``solver="mumps"`` is an
-error that says how to install it, before any work (``PetscMissing``). PETSc's options
-(``PETSC_OPTIONS``) reach the factorisation; what they cannot do is named (``petsc_options``).
+Installing PETSc (``petsc_modules``: ``INSTALL``, ``load``, ``available``, names of this module
+too): without it, ``solver="mumps"`` is an error that says how to install it, before any work
+(``PetscMissing``). PETSc's options (``PETSC_OPTIONS``) reach the factorisation; what they
+cannot do is named (``petsc_options``).
 """
 import ngsolve as ngs
 import numpy as np
 
-from ngcontact import mpi_launch
+from ngcontact.solve.linalg.petsc_modules import INSTALL, PetscMissing, available, load  # noqa: F401 (its names)
 from ngcontact.solve.linalg.petsc_options import check_factorisation, given_options, reading_options
 
 NAMES = ("mumps",)
 """The ``inverse=`` names of the PETSc engine."""
-INSTALL = ('on Python >= 3.12: pip install --no-deps dolfinx-solver-real ngsPETSc && pip install packaging '
-           '(or petsc4py built against a PETSc with MUMPS, and ngsPETSc; docs/cluster.md)')
-"""How to install what ``solver="mumps"`` needs."""
-
 WORKSPACE_RELAXATION = 30
 """MUMPS's ICNTL(14): the workspace beyond the analysis's estimate, in % (MUMPS's default 20 for
 LU, 30 for LDLᵀ of an indefinite matrix)."""
 MAX_RELAXATION = 640
 """The largest ICNTL(14) a factorisation that ran out of workspace is retried with (%)."""
-
-_modules = None
-
-
-class PetscMissing(ImportError, ValueError):
-    """What an option needs of PETSc is not installed: an ImportError (a module is missing) and a
-    ValueError (the option's value cannot be used here), so that the command line reports it in
-    one line like any other bad value."""
-
-
-def load(what='solver="mumps"'):
-    """(petsc4py.PETSc, ngsPETSc), imported in the order the wheel needs (mpi4py's MPI first,
-    so that PETSc finds the MPI library); ImportError naming ``what`` needs them, with
-    ``INSTALL``, if missing."""
-    global _modules
-    if _modules is None:
-        # the wheel's MUMPS and BLAS start OpenMP threads on every rank: one each, unless set
-        # (mpiexec -n 2, 34 749 DOFs: 18 factorisations 27-47 s, 5.1 s with one thread each)
-        mpi_launch.one_thread_per_rank()
-        try:
-            from mpi4py import MPI  # noqa: F401  (loads libmpi for petsc4py)
-            from petsc4py import PETSc
-            import ngsPETSc
-        except ImportError as err:
-            raise PetscMissing(f'{what} needs PETSc (petsc4py with MUMPS) and ngsPETSc, which are not '
-                               f'installed ({err}); {INSTALL}') from None
-        _modules = PETSc, ngsPETSc
-    return _modules
-
-
-def available():
-    """True if ``solver="mumps"`` can run here."""
-    try:
-        load()
-    except ImportError:
-        return False
-    return True
-
 
 class PetscMatrix:
     """An NGSolve (parallel) sparse matrix restricted to its free DOFs as a PETSc AIJ matrix

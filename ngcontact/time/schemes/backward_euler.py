@@ -31,7 +31,7 @@ class Checkpoint:
 
 
 class BackwardEuler:
-    """The backward Euler step of a simulation.
+    """The backward Euler step of a simulation (the protocol ``protocol.TimeScheme``).
 
     Parameters
     ----------
@@ -47,8 +47,9 @@ class BackwardEuler:
     name = "backward_euler"
     last_order = 1
     """The order of the formula of the last step."""
-    estimate = None
+    estimates_error = False
     """No local error estimate (``stepping`` needs one to choose steps: "bdf2" has it)."""
+    estimate = None
 
     def __init__(self, coefficients, system, newton, state, beta=None, predictor=False, normal=None):
         self.coefficients, self.system, self.newton, self.state, self.beta = coefficients, system, newton, state, beta
@@ -85,6 +86,9 @@ class BackwardEuler:
 
     def restart(self):
         """Nothing to forget: every step is a one-step backward Euler step."""
+
+    def control(self, rtol):
+        """Nothing to tighten: a step is one Newton solve to Newton's own tolerance."""
 
     def _predict(self, dt):
         """x_n -> x_n + (dt / dt_n)(x_n − x_{n−1}), the start of Newton for step n + 1."""

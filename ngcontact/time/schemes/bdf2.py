@@ -62,6 +62,8 @@ class BDF2(BackwardEuler):
     (``local_error``); ``orders``: the formula's order of every step."""
 
     name = "bdf2"
+    estimates_error = True
+    """After each BDF2 step that follows two more, ``estimate`` holds its local error (``local_error``)."""
     beta_tolerance = BETA_TOL
     """Another pass of β_n from u_n is made while β_n changes by more than this (β ∈ [0, 1])."""
 
@@ -85,6 +87,10 @@ class BDF2(BackwardEuler):
         """Forget the earlier states: the next step is a backward Euler one (after an event,
         a kink in time that a second-order formula would straddle)."""
         self._past = []
+
+    def control(self, rtol):
+        """β consistent with u_n to the level the error test asks: ``beta_tolerance`` at most rtol."""
+        self.beta_tolerance = min(self.beta_tolerance, rtol)
 
     def advance(self, dt, *, step=None, timer=None, start=None, target=None):
         """One BDF2 step of length dt (s) to ``target`` (default t + dt), or a backward Euler one
