@@ -1387,9 +1387,17 @@ def demo_base(tmp_path_factory):
     return str(directory)
 
 
+LONG = {"extreme:gamma0=1e+30", "extreme:gamma0=1e-06", "extreme:compliance=1e+30", "extreme:compliance=law 1e30[r]+",
+        "extreme:foundation_potential=1e+30", "extreme:foundation_potential=1e+300", "scheme:bdf2 nitsche",
+        "scheme:demo --scheme", "laws:law reversing beyond the samples (smooth)",
+        "laws:ProjectionLaw(1e30, VonMisesBall(1e-5))", "cli:python -m ngcontact convergence --levels 100",
+        "cli:python -m ngcontact demo --maxh 1e-6"}
+"""Cases of 2.5 s or more whose class has cheaper cases of the same kind: CI's long leg runs them."""
+
+
 def _params():
     marks = {False: [], True: [pytest.mark.slow], "long": [pytest.mark.long]}
-    return [pytest.param(c, id=c.id, marks=marks[c.slow]) for c in CASES]
+    return [pytest.param(c, id=c.id, marks=marks["long" if c.id in LONG and not c.slow else c.slow]) for c in CASES]
 
 
 @pytest.mark.parametrize("found", _params())
