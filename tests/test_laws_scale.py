@@ -66,7 +66,7 @@ def test_a_law_steeper_beyond_its_samples_runs_and_meets_the_closed_form():
             assert rescaled[0][2] == pytest.approx(1.0, rel=1e-3) and rescaled[0][3] == pytest.approx(4.0, rel=1e-6)
             assert body.tensors.F_law.scale.Get() == pytest.approx(4.0, rel=1e-6)
         else:
-            assert rescaled == [] and body.tensors.F_law.scale.Get() == body.tensors.F_law.lipschitz
+            assert rescaled == () and body.tensors.F_law.scale.Get() == body.tensors.F_law.lipschitz
 
 
 def test_the_penalty_follows_the_law_slope_at_the_run_strains():
