@@ -38,7 +38,7 @@ from ngcontact.output.progress import bar
 from ngcontact.output.records import History, StepRecord
 from ngcontact.time.schemes import DEFAULT, StepCoefficients, TimeScheme, scheme_class
 from ngcontact.time.schemes.protocol import check_built
-from ngcontact.solve.linalg.solver_choice import as_options, check_simulation, resolve
+from ngcontact.solve.linalg.solver_choice import as_options, check_simulation, describe, resolve
 from ngcontact.solve.nested import COARSE_OPTIONS, coarse_body
 from ngcontact.solve.starts import Approach, Starts
 from ngcontact.time.step import Step
@@ -244,6 +244,40 @@ class Simulation:
     keep_states = property(lambda self: self.steps.keep_states, doc="Whether records keep (u, φ).")
     solver = property(lambda self: self.newton.solver_name,
                       doc="The linear solver of the Newton corrections, as it is actually used.")
+
+    # what ran, read-only: for tests, studies and users who check which solver and laws acted
+    @property
+    def solver_detail(self) -> str:
+        """The linear solver object of the Newton corrections as built, as its repr (its kind,
+        factorisation and symmetry, e.g. ``"DirectSolver('mumps', symmetric=True)"``)."""
+        return repr(self.newton.solver)
+
+    @property
+    def solver_options(self) -> dict:
+        """The linear solver as used, in the fields a run's fingerprint records
+        (``options.inverse``, ``options.reuse_factorization``, ``options.iterative``, and
+        ``options.petsc`` for tuned PETSc options); a copy."""
+        return dict(describe(self.newton.solver))
+
+    @property
+    def rescaled_laws(self) -> tuple:
+        """The laws the law watch rescaled so far, in order: (step, the law's name, its new
+        scale, the slope that made it) for each rescaling (``solve.law_watch``); empty where
+        none was."""
+        return tuple(self.system.laws.rescaled)
+
+    @property
+    def matrix_changes(self) -> int:
+        """How many times the bulk matrix K (with the rate coefficient c) changed: after each
+        change a kept factorisation is made anew."""
+        return self.system.generation
+
+    def pieces(self) -> dict | None:
+        """The pieces of the laws of Γ3 at the current state, a fresh dict: for each law (e.g.
+        ``"the contact set"``) the integer piece at the Gauss points of each facet of Γ3
+        (``gamma3.switches``); None without contact."""
+        switches = self.newton.switches
+        return None if switches is None else switches()
 
     def _start(self, u0):
         """Step 0: u0 (checked), φ0 from the electric equation at t = 0, and its record."""

@@ -96,7 +96,7 @@ summary = dict(force=h.contact_column("force").tolist(), charge=h.contact_column
                           for name in h[-1].boundary_reaction},
                probe_u=[u for u, _ in probes], probe_phi=[phi for _, phi in probes],
                newton=h.newton_iterations.tolist(), krylov_failures=sum(r.krylov_failures for r in h),
-               solver=repr(sim.newton.solver),
+               solver=sim.solver_detail,
                ranks=parallel.world().size if parallel.world() else 1,
                u_block_size=parallel.every(sim.body.mesh, sim.newton.solver.fields[0].getBlockSize())
                if solver == "gamg" else None)

@@ -48,7 +48,7 @@ def register(h):
             sim.run(0.5, 1.0)
             points = [(W / 2, H), (0.2 * W, 0.7 * H), (0.8 * W, 0.2 * H)]
             strains = {f"strain{i}": float(sim.u(body.mesh(x, y))[1] / y) for i, (x, y) in enumerate(points)}
-            return dict(strains, phi=float(sim.phi(body.mesh(W / 2, H))), rescaled=len(sim.system.laws.rescaled))
+            return dict(strains, phi=float(sim.phi(body.mesh(W / 2, H))), rescaled=len(sim.rescaled_laws))
         return call
 
     def closed(expected, potential=None):
@@ -80,7 +80,7 @@ def register(h):
             sim = h.scene.simulation(1, 0.01, material=ngc.pzt5a(relaxation_time=h.scene.RELAXATION_TIME)
                                      .with_elasticity(law()))
             sim.run(0.05, T, max_cutbacks=0)
-            return dict(h.measure(sim, h.applied(sim.t)), target=T, rescaled=len(sim.system.laws.rescaled))
+            return dict(h.measure(sim, h.applied(sim.t)), target=T, rescaled=len(sim.rescaled_laws))
         return call
 
     def equilibrium(v, references):

@@ -255,7 +255,7 @@ def test_a_python_started_without_its_bin_on_path_compiles(tmp_path):
         failed = [str(w.message) for w in caught if "realcompile failed" in str(w.message)]
         print("PATH", os.environ["PATH"])
         print("FAILED", failed)
-        print("MACHINE", sim.system.boundary.machine_code)
+        print("MACHINE", sim.realcompile)
     """)
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=600, cwd=tmp_path,
                           env={**os.environ, "PATH": "/usr/bin:/bin"})

@@ -300,7 +300,7 @@ def test_the_iterative_3d_solver_with_a_law_equals_the_direct_one():
         sim = reference.simulation(1, 0.02, 1, dim=3, material=material, keep_states=False, solver=solver)
         sim.run(0.02, 0.06)
         runs.append((sim.gfu.vec.FV().NumPy().copy(), list(sim.history.newton_iterations)))
-        assert ("Multigrid" in repr(sim.newton.solver)) == (solver == "iterative")
+        assert ("Multigrid" in sim.solver_detail) == (solver == "iterative")
     (direct, its_direct), (multigrid, its_multigrid) = runs
     assert np.abs(direct - multigrid).max() <= 1e-9 * np.abs(direct).max()
     assert len(its_direct) == len(its_multigrid)
@@ -406,7 +406,7 @@ def test_a_law_is_held_to_its_hypotheses_at_the_run_strains():
     for scale in (1e-5, 1e-4):
         sim = _plate(base.with_elasticity(laws.ProjectionLaw(1e13, laws.VonMisesBall(1e-4), strain_scale=scale)))
         sim.run(0.05, 0.1, max_cutbacks=0)
-        stiff.append((sim.history[-1].contact.force[1], sim.system.laws.rescaled, sim.body.tensors.F_law))
+        stiff.append((sim.history[-1].contact.force[1], list(sim.rescaled_laws), sim.body.tensors.F_law))
     (force, rescaled, bound), (covered, none, sampled) = stiff
     assert none == [] and [entry[0] for entry in rescaled] == [1], rescaled
     assert rescaled[0][3] > 2 * bound.lipschitz and bound.scale.Get() == rescaled[0][3]

@@ -59,14 +59,14 @@ def test_a_law_steeper_beyond_its_samples_runs_and_meets_the_closed_form():
         expected = inverse(E, zeta, r, P)
         assert expected == pytest.approx(target, rel=1e-12)
         assert np.allclose(_strains(sim, body), expected, rtol=1e-9, atol=0), (_strains(sim, body), expected)
-        rescaled = sim.system.laws.rescaled
+        rescaled = sim.rescaled_laws
         assert len(sim.history) == 5
         if raised:
             assert [entry[0] for entry in rescaled] == [1], rescaled
             assert rescaled[0][2] == pytest.approx(1.0, rel=1e-3) and rescaled[0][3] == pytest.approx(4.0, rel=1e-6)
             assert body.tensors.F_law.scale.Get() == pytest.approx(4.0, rel=1e-6)
         else:
-            assert rescaled == [] and body.tensors.F_law.scale.Get() == body.tensors.F_law.lipschitz
+            assert rescaled == () and body.tensors.F_law.scale.Get() == body.tensors.F_law.lipschitz
 
 
 def test_the_penalty_follows_the_law_slope_at_the_run_strains():
@@ -114,7 +114,7 @@ def test_a_piezoelectric_column_with_a_hardening_law_meets_its_closed_form(uniax
     assert np.allclose(_strains(sim, body), eps, rtol=1e-9, atol=0)
     assert sim.phi(body.mesh(W / 2, H)) == pytest.approx(E33 * eps * H / EPS33, rel=1e-9)
     assert body.tensors.F_law.scale.Get() == pytest.approx(4 * C33, rel=1e-6)
-    assert [entry[0] for entry in sim.system.laws.rescaled] == [1]
+    assert [entry[0] for entry in sim.rescaled_laws] == [1]
 
 
 def _pressed(factor=10.0):
@@ -139,7 +139,7 @@ def test_the_raised_scale_is_kept_by_a_resumed_run_and_a_new_simulation_starts_a
     sim, guess = _pressed()
     sim.step(0.25, guess=guess)                             # touching: then each step starts from the last
     sim.run(0.25, 1.0, out=tmp_path / "a")
-    assert [entry[0] for entry in sim.system.laws.rescaled] == [3], sim.system.laws.rescaled
+    assert [entry[0] for entry in sim.rescaled_laws] == [3], sim.rescaled_laws
     whole = [r.state.copy() for r in sim.history]
     again = ngc.Simulation(sim.body, sim.loads, time=sim.time, contact=sim.contact)
     again.step(0.25, guess=guess)
@@ -152,7 +152,7 @@ def test_the_raised_scale_is_kept_by_a_resumed_run_and_a_new_simulation_starts_a
     resumed.resume(tmp_path / "a")
     assert resumed.body.tensors.F_law.scale.Get() == pytest.approx(4.0, rel=1e-6)
     resumed.run(0.25, 1.0, out=tmp_path / "a")
-    assert resumed.system.laws.rescaled == []
+    assert resumed.rescaled_laws == ()
     assert len(resumed.history) == 5 and all(np.array_equal(a.state, b) for a, b in zip(resumed.history, whole))
 
 
@@ -176,5 +176,5 @@ def test_a_viscosity_steeper_beyond_its_samples_follows_backward_euler(uniaxial)
     expected = viscous_slab_column(P, TAU, C33, zeta, q, k, n)
     assert sum((b - a) / k < -q for a, b in zip(expected, expected[1:])) >= 2
     assert np.allclose(strains, expected, rtol=1e-9, atol=1e-9 * P / C33)
-    assert [entry[0] for entry in sim.system.laws.rescaled] == [1], sim.system.laws.rescaled
+    assert [entry[0] for entry in sim.rescaled_laws] == [1], sim.rescaled_laws
     assert body.tensors.A_law.scale.Get() == pytest.approx(4 * TAU * C33, rel=1e-6)

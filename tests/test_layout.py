@@ -398,3 +398,113 @@ def test_docstrings_say_what_and_why_not_what_a_run_measured():
     assert MEASUREMENT.search("It saves 3-8 % of the iterations of the reference run at dt = 2.5 ms")
     assert MEASUREMENT.search("(Hertz P2, 14 298 DOFs, 28 iterations: 0.30 s against 0.28–0.39 s)")
     assert not MEASUREMENT.search("dt : nominal time step, s; at most 0.5 s / steps (free DOFs only)")
+
+
+INTERNALS = ("newton", "system")
+"""A Simulation's parts a test or study reads only through its public records and counters."""
+TESTS = ROOT / "tests"
+
+
+def internal_reads(path):
+    """(function, line, text) of each ``X.newton`` / ``X.system`` in the file at ``path``: the
+    function is the top-level function or class it is in ("" at module level). ``self.newton``
+    (an object's own part, e.g. a scheme of the test's) and a chain rooted at an imported name
+    (``os.system``, ``ngcontact.solve.newton``) are not a Simulation's."""
+    tree = ast.parse(path.read_text())
+    imported = {(alias.asname or alias.name).split(".")[0] for node in ast.walk(tree)
+                if isinstance(node, (ast.Import, ast.ImportFrom)) for alias in node.names}
+    found = []
+    for top in tree.body:
+        where = getattr(top, "name", "")
+        for node in ast.walk(top):
+            if not (isinstance(node, ast.Attribute) and node.attr in INTERNALS):
+                continue
+            root = node.value
+            while isinstance(root, (ast.Attribute, ast.Call, ast.Subscript)):
+                root = root.func if isinstance(root, ast.Call) else root.value
+            if isinstance(root, ast.Name) and (root.id == "self" or root.id in imported):
+                continue
+            found.append((where, node.lineno, ast.unparse(node)))
+    return found
+
+
+INTERNALS_ALLOWED = {
+    # unit tests of the layer they reach
+    ("tests/test_step.py", "test_failed_step_leaves_the_state_bitwise_and_the_retry_matches"):
+        "Newton's maxit lowered between steps to make one step fail and the retry succeed",
+    ("tests/test_step.py", "test_interrupted_step_is_rolled_back"): "the step system's Apply interrupted mid-step",
+    ("tests/test_step.py", "test_kept_factorisation_solves_by_gmres_and_refactorises_when_it_pays"):
+        "the kept factorisation driven on the step system's own matrix",
+    ("tests/test_step.py", "test_factorisation_is_updated_in_place"): "a factorisation of the step system's matrix",
+    ("tests/test_step.py", "test_gmres_that_does_not_converge_falls_back_to_a_fresh_factorisation"):
+        "GMRES driven on the step system's matrix",
+    ("tests/test_step.py", "test_eisenstat_walker_forcing_asks_for_no_more_than_the_contraction_can_use"):
+        "Newton's forcing read on its own solver",
+    ("tests/test_step.py", "test_a_failed_solve_keeps_the_linear_solvers_history"):
+        "Newton's maxit lowered to make a solve fail",
+    ("tests/test_certified.py", "_verdict"): "the stopping rule applied to Newton's own residual and norm",
+    ("tests/test_certified.py", "test_a_wrong_state_fails_the_test_at_any_scale"): "the stopping rule at set states",
+    ("tests/test_certified.py", "test_the_scale_comes_from_loads_and_bulk_forces_not_from_the_contact_terms"):
+        "the step system's force scale in Newton's norm",
+    ("tests/test_certified.py", "test_a_perturbed_rigid_motion_is_refused"): "the round-off floor on Newton's free DOFs",
+    ("tests/test_scales.py", "_field_residuals"): "the step system's residual in Newton's block norms",
+    ("tests/test_petsc.py", "test_a_fallback_factorisation_that_would_not_fit_is_not_made"):
+        "GAMG's own counters (oversized solves, Γ3 factorisations), which the records do not split",
+    ("tests/test_petsc.py", "test_gamg_compiles_its_preconditioner_forms_on_large_meshes"):
+        "the GAMG solver's preconditioner forms",
+    ("tests/test_petsc.py", "test_gamg_orders_u_node_by_node"): "the GAMG solver's PETSc blocks against the step system's",
+    ("tests/test_petsc.py", "test_gamg_preconditioner_follows_the_rate_coefficient"):
+        "the GAMG preconditioner against the step system's rate coefficient",
+    ("tests/test_petsc.py", "test_gamg_preconditioner_is_the_surface_bulk_surface_product"):
+        "the GAMG solver's preconditioner parts",
+    ("tests/test_petsc.py", "test_rigid_motions_from_the_vertices_are_the_interpolated_motions"):
+        "GAMG's near null space against the step system's stiffness",
+    ("tests/test_petsc_options.py", "test_a_gamg_dict_reaches_the_preconditioners_and_no_other_simulation"):
+        "PETSc's options read back from the GAMG solver's own KSP objects",
+    ("tests/test_multigrid.py", "test_preconditioner_carries_the_gamma3_terms"):
+        "the multigrid preconditioner built on the solver's hierarchy and the step system's matrix",
+    ("tests/test_contact.py", "test_reduces_to_chouly_hild"): "the step system's residual against a hand-written form",
+    ("tests/test_supports.py", "test_a_step_starts_from_the_last_state_away_from_the_supports"):
+        "the step system's begin_step on the state",
+    # instruments: a public read would expose mutable internals
+    ("tests/test_globalisation.py", "test_a_search_given_up_names_the_laws_that_changed"):
+        "the continuation path removed to reach the line search's last resort",
+    ("tests/test_globalisation.py", "test_the_path_stops_its_stages_at_their_reduction_and_the_last_at_the_tolerance"):
+        "Newton's tries wrapped to see each stage's reduction",
+    ("tests/test_speed.py", "test_a_solve_that_starts_touching_cuts_deeper"):
+        "the step length's cut set to an earlier one, its touching state read",
+    ("tests/test_speed.py", "test_realcompiled_contact_terms_agree"): "machine code switched on mid-run, as its rule does",
+    ("tests/distributed_scenes.py", ""): "the PETSc block size of u on each rank (a distributed run's GAMG)",
+    ("ngcontact/studies/bench.py", "one_linear_solve"): "times one of Newton's own corrections",
+    ("ngcontact/studies/bench.py", "measure"): "a solver's setup time (no solver sets setup_s: the column is 0)",
+    ("ngcontact/studies/cluster_case.py", "factorisations"):
+        "the step system's Jacobian and Newton's free DOFs factorised by MUMPS and UMFPACK",
+    ("ngcontact/studies/stability/electrode_map.py", "_solve"): "the step length's cut of an earlier release set",
+    # not a Simulation's
+    ("ngcontact/studies/adaptivity.py", "study"): "a level's count of Newton iterations",
+}
+"""(file, function) → why it may read a Simulation's ``newton``/``system``: unit tests of the
+layer they reach (they build its objects through the Simulation), and instruments that a public
+read would have to expose mutable internals for."""
+
+
+def test_tests_and_studies_read_records_not_newton_or_system():
+    """Tests and studies read what a run did through the public records and counters
+    (``history``'s StepRecords, ``solver``, ``solver_detail``, ``solver_options``,
+    ``realcompile``, ``rescaled_laws``, ``matrix_changes``, ``pieces()``), never a Simulation's
+    ``.newton`` or ``.system``, except where ``INTERNALS_ALLOWED`` names the file and function with
+    its reason. An AST scan of tests/*.py and ngcontact/studies/ (``internal_reads``; on the tree
+    before the public reads existed it found 126 reads)."""
+    paths = sorted(TESTS.glob("*.py")) + files("*.py")
+    found, used = [], set()
+    for path in paths:
+        if path.is_relative_to(PACKAGE) and "studies" not in path.relative_to(PACKAGE).parts:
+            continue
+        name = path.relative_to(ROOT).as_posix()
+        for where, line, text in internal_reads(path):
+            if (name, where) in INTERNALS_ALLOWED:
+                used.add((name, where))
+            else:
+                found.append(f"{name}:{line} ({where}): {text}")
+    assert not found, f"{len(found)} reads of .newton/.system:\n" + "\n".join(found)
+    assert used == set(INTERNALS_ALLOWED), f"allowed but unused: {sorted(set(INTERNALS_ALLOWED) - used)}"

@@ -196,6 +196,6 @@ def test_equal_nominal_steps_are_one_step_size():
     from ngcontact.scenes import reference
     sim = reference.simulation(1, 0.01, keep_states=False)
     sim.run(0.005, 0.1)
-    assert sim.system.generation == 2 and sim.scheme.coefficients.rate.Get() == 200.0
+    assert sim.matrix_changes == 2 and sim.scheme.coefficients.rate.Get() == 200.0
     assert sum(r.factorizations for r in sim.history[1:]) <= 3
     assert [r.time for r in sim.history] == [n * 0.005 for n in range(20)] + [0.1]

@@ -83,7 +83,7 @@ def run_case(scene, order, level, solver, steps, dt, threads=None, realcompile=T
     records = sim.history[1:]
     memory = parallel.every(sim.body.mesh, peak_mib())
     return dict(kind="run", scene=scene, dim=dim, order=order, level=level, solver=solver, steps=steps, dt=dt,
-                ranks=parallel.size(), ndof=ndof, solver_used=repr(sim.newton.solver), threads=threads,
+                ranks=parallel.size(), ndof=ndof, solver_used=sim.solver_detail, threads=threads,
                 realcompile=sim.realcompile,
                 notes=list(sim.parallel_notes), build_s=build_s, time=[r.time for r in records],
                 step_s=[r.wall_s for r in records], newton=[r.newton_iterations for r in records],
@@ -126,7 +126,7 @@ def factorisations(scene, order, level, rounds, dt, seed=0):
         del made
     return dict(kind="factorisations", scene=scene, dim=dim, order=order, level=level, ndof=sim.body.ndof,
                 free=int(free.NumSet()), nonzeros=int(matrix.nze), rounds=rounds, build_s=build_s,
-                step_s=sim.history[-1].wall_s, peak_mib=peak_mib(), solver_used=repr(sim.newton.solver),
+                step_s=sim.history[-1].wall_s, peak_mib=peak_mib(), solver_used=sim.solver_detail,
                 threads_at_start=THREADS,
                 **times, **diffs)
 

@@ -108,7 +108,7 @@ def checked(cases, order):
 
 def _case(dt, maxh, order):
     sim = reference.simulation(order, maxh, keep_states=False)
-    contact_set = sim.newton.switches
+    contact_set = sim.pieces
     steps, previous, failure = [], None, ""
     try:
         for _ in range(int(round(T_END / dt))):
