@@ -109,10 +109,11 @@ def _cli(argv, capsys):
     ("--tol 0.1 --scene reference", "--tol solves one step to a tolerance; the reference plate is a load history: "
                                     "run it without --tol"),
 ])
-def test_adapt_to_a_tolerance_refuses_before_any_work(arguments, words, capsys, monkeypatch):
+def test_adapt_to_a_tolerance_refuses_before_any_work(arguments, words, capsys, monkeypatch, tmp_path):
     """Each option of ``adapt --tol`` is checked (the --tol floor, adaptive stopping, the
     fraction, scenes and orders that leave nothing to solve) before any scene is built."""
     from ngcontact.studies import adaptivity
+    monkeypatch.chdir(tmp_path)                 # the default --out is ./adapt
     monkeypatch.setattr(adaptivity.adapt, "solve", lambda *a, **k: pytest.fail("solved"))
     code, lines, _ = _cli(["adapt", *arguments.split()], capsys)
     assert code == 2 and lines == [f"ngcontact adapt: error: {words}"]
@@ -124,8 +125,9 @@ def test_adapt_to_a_tolerance_refuses_before_any_work(arguments, words, capsys, 
                                                                      fraction=0.7)),
     ("--marking averaging", dict(marking="averaging")),
 ])
-def test_adapt_to_a_tolerance_honours_marking_and_adaptive_stopping(arguments, given, capsys, monkeypatch):
+def test_adapt_to_a_tolerance_honours_marking_and_adaptive_stopping(arguments, given, capsys, monkeypatch, tmp_path):
     from ngcontact.studies import adaptivity
+    monkeypatch.chdir(tmp_path)                 # the default --out is ./adapt
     calls = []
 
     def solve(scene, mesh, tol, **options):
