@@ -336,7 +336,7 @@ class Simulation:
         """Step from the current time to T (s) with nominal steps dt (s); returns the History.
         The nominal steps are equal and reach T exactly: when dt does not divide T − t, they
         are (T − t)/⌈(T − t)/dt⌉, shorter than dt, and a ``TimeStepWarning`` names dt asked
-        and dt used (``run(dt=0.3, T=1)`` steps by 0.25 s, four times).
+        and dt used.
         With ``rtol`` (a relative local error per step, for a scheme with an error estimate:
         "bdf2") the steps are chosen by it instead, dt the first (``stepping``): rejected tries
         in ``rejections``, events located to ``event_dt`` (default 1e-3 dt), no step below

@@ -405,9 +405,9 @@ def pzt5a(relaxation_time=0.0):
 
     c11 = 121, c12 = 75.4, c13 = 75.2, c33 = 111, c44 = 21.1, c66 = 22.6 GPa;
     e31 = -5.4, e33 = 15.8, e15 = 12.3 C/m²; ε11^S = 916 ε0, ε33^S = 830 ε0.
-    (Checked against a second tabulation, the FreeFem piezoelectricity module, which
-    agrees to within 1 % on c and ε and exactly on e; not checked against the primary
-    text.) Viscosity A = τ F with τ = ``relaxation_time`` (s).
+    (Checked against a second tabulation, the FreeFem piezoelectricity module:
+    docs/measurements.md, section ngcontact/model/materials.py; not checked against the
+    primary text.) Viscosity A = τ F with τ = ``relaxation_time`` (s).
     """
     c = transversely_isotropic_stiffness(121e9, 75.4e9, 75.2e9, 111e9, 21.1e9, 22.6e9)
     return Material(c, transversely_isotropic_piezo(-5.4, 15.8, 12.3),

@@ -7,7 +7,8 @@ half-width a ≈ 0.1 R) in one step; the curved side ("contact") meets the plane
 conducting foundation at 0 V with the conductance ψ of ``Contact`` (k_e = ``conductance``, ramp
 ``ramp_width``), or insulating (``conductance=0``). Elastic, no glue. Hertz's solution holds
 with the effective modulus of the piezoelectric half-plane (``piezo_hertz``): larger for an
-insulating contact (1.44× the uncoupled one for PZT-5A) than for an equipotential one (1.10×).
+insulating contact than for an equipotential one (PZT-5A's ratios to the uncoupled modulus:
+docs/measurements.md, section ngcontact/scenes/electrode.py).
 """
 import ngsolve as ngs
 

@@ -67,8 +67,8 @@ class Hierarchy:
     the hierarchy at a cut-back. ``realcompile``: compile the integrands to machine code (the
     3D Voigt-matrix integrands assemble faster: docs/measurements.md, section
     ngcontact/solve/linalg/multigrid.py). ``displacement=False``: the φ part only
-    (the potential at t = 0 solves for φ with u held: no u hierarchy, ~9× the φ one's size,
-    is built for it; ``pre_u`` is then None)."""
+    (the potential at t = 0 solves for φ with u held: no u hierarchy, larger than the φ
+    one, is built for it; ``pre_u`` is then None)."""
 
     def __init__(self, body, rate, realcompile=False, displacement=True):
         self.kind = bulk_kind(body)
