@@ -185,3 +185,34 @@ def refined(mesh, marked, polygonal=False):
     if curve > 1:
         copy.Curve(curve)
     return copy
+
+
+# ---------------------------------------------------------------------- facets: edges in 2D, faces in 3D
+
+def facets(mesh):
+    """The facets of ``mesh``: its edges in 2D, its faces in 3D."""
+    return mesh.edges if mesh.dim == 2 else mesh.faces
+
+
+def facets_of(mesh, element):
+    """The facets of a volume or boundary element of ``mesh`` (edges in 2D, faces in 3D)."""
+    return element.edges if mesh.dim == 2 else element.faces
+
+
+def facet_kind(mesh):
+    """The NodeType of the facets of ``mesh``: ``ngs.EDGE`` in 2D, ``ngs.FACE`` in 3D."""
+    return ngs.EDGE if mesh.dim == 2 else ngs.FACE
+
+
+def facet_shape(mesh):
+    """The ElementType of the facets of ``mesh``: a segment in 2D, a triangle in 3D."""
+    return ngs.SEGM if mesh.dim == 2 else ngs.TRIG
+
+
+def facet_sample_weights(mesh, order):
+    """The barycentric weights of sample points on a facet: 2 ``order`` + 1 equidistant points
+    on an edge in 2D; the vertices, the centroid and the edge midpoints of a triangle in 3D."""
+    if mesh.dim == 2:
+        s = np.linspace(0, 1, 2 * order + 1)
+        return np.stack([1 - s, s], axis=1)
+    return np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [1 / 3] * 3, [.5, .5, 0], [0, .5, .5], [.5, 0, .5]])

@@ -49,7 +49,7 @@ def field(side, **kwargs):
 # ---------------------------------------------------------------------------------- Γ3, B^h, P_B
 
 def test_beta_is_not_zero_inside_skeleton_forms(side):
-    """∫_Γ3 β x over side.ds (LinearForm and BilinearForm) = ∫ over plain ds, and ≠ 0."""
+    """∫_Γ3 β x over side.on_facets (LinearForm and BilinearForm) = ∫ over plain ds, and ≠ 0."""
     mesh = side.mesh
     beta = ngs.GridFunction(side.B)
     beta.vec.FV().NumPy()[:] = side.project(1 + ngs.x)
@@ -64,21 +64,21 @@ def test_beta_is_not_zero_inside_skeleton_forms(side):
     u, v = V.TnT()
     ones = ngs.GridFunction(V).vec
     ones[:] = 1.0                                                    # Σ of all hat functions
-    lf = ngs.LinearForm(beta * ngs.x * v * side.ds).Assemble()
-    bf = ngs.BilinearForm(beta * ngs.x * u * v * side.ds).Assemble()
+    lf = ngs.LinearForm(side.on_facets(beta * ngs.x * v)).Assemble()
+    bf = ngs.BilinearForm(side.on_facets(beta * ngs.x * u * v)).Assemble()
     assert ngs.InnerProduct(lf.vec, ones) == pytest.approx(plain, rel=1e-12)
     assert ngs.InnerProduct(ones, bf.mat * ones) == pytest.approx(plain, rel=1e-12)
 
 
 def test_the_trap_exists_for_a_space_defined_on_gamma3_only(side):
-    """The check above has teeth: SurfaceL2(definedon=Γ3) integrates to 0 over side.ds
+    """The check above has teeth: SurfaceL2(definedon=Γ3) integrates to 0 over side.on_facets
     (NGSolve 6.2.2608). If this fails, NGSolve fixed the trap upstream."""
     mesh = side.mesh
     gamma3 = mesh.Boundaries("bottom")
     beta = ngs.GridFunction(ngs.SurfaceL2(mesh, order=0, definedon=gamma3))
     beta.Set(1 + ngs.x, definedon=gamma3)
     v = ngs.H1(mesh, order=1).TestFunction()
-    lf = ngs.LinearForm(beta * ngs.x * v * side.ds).Assemble()
+    lf = ngs.LinearForm(side.on_facets(beta * ngs.x * v)).Assemble()
     assert ngs.Integrate(beta * ngs.x * ngs.ds(definedon=gamma3), mesh) > 0.5
     assert np.abs(lf.vec.FV().NumPy()).max() == 0
 

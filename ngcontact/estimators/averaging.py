@@ -75,7 +75,7 @@ class AveragingIndicator:
             r = sigma_n - traction
             form = ngs.LinearForm(tests)
             integrand = (side.indicator * compliance_max * scale * ngs.InnerProduct(r, r)).Compile()
-            form += integrand * tests.TestFunction() * side.dx_at
+            form += side.on_layer(integrand * tests.TestFunction(), weighted=False)
             squares["contact"] = np.maximum(form.Assemble().vec.FV().NumPy().copy(), 0.0)
         indicators = np.sqrt(sum(squares.values()))
         values = {name: float(np.sqrt(v.sum())) for name, v in squares.items()}

@@ -44,6 +44,7 @@ from dataclasses import dataclass, field
 import ngsolve as ngs
 import numpy as np
 
+from ngcontact.gamma3 import integrands
 from ngcontact.model import forms
 from ngcontact import parallel
 from ngcontact.model.loads import as_cf
@@ -285,7 +286,7 @@ class EquilibratedEstimator:
         if steps.contact is None:
             return 0.0
         g = steps.gamma3
-        lam = g.enforcement.multiplier(steps.u, steps.phi, forms.adhesion_traction(steps.contact, g.beta.gf, steps.u * g.normal))
+        lam = g.enforcement.multiplier(steps.u, steps.phi, integrands.adhesion_traction(steps.contact, g.beta.gf, steps.u * g.normal))
         opening = steps.u * g.normal - g.gap
         value = g.side.integrate(lam * ngs.IfPos(opening, opening, -opening))
         return float(np.sqrt(max(value, 0.0)))
@@ -313,7 +314,7 @@ def element_diameters(mesh):
 def pointwise_data(steps):
     """(T_h, j_h): the traction on the body and the charge flux out of it that the Γ3 terms of
     the step residual give at each point of Γ3 at the current state — the coefficients of v and
-    ξ in the integrand of R_Γ3 (``forms.contact_terms``) with ∇v = ∇ξ = 0: −λ_h ν and the
+    ξ in the integrand of R_Γ3 (``integrands.contact_terms``) with ∇v = ∇ξ = 0: −λ_h ν and the
     glue's and the layer's pull and push, and the conduction flux ψ φ_L (CFs of dim and 1
     components). Nitsche's θ-term tests ∇v and is not among them."""
     body, dim = steps.body, steps.body.dim
@@ -326,11 +327,11 @@ def pointwise_data(steps):
     for i in range(dim):
         e_i = ngs.GridFunction(V1)
         e_i.Set(ngs.CF(tuple(1.0 if k == i else 0.0 for k in range(dim))))
-        traction.append(-forms.contact_terms(steps.contact, g.enforcement, g.beta.gf, g.gap, g.foundation_potential,
+        traction.append(-integrands.contact_terms(steps.contact, g.enforcement, g.beta.gf, g.gap, g.foundation_potential,
                                              state, (e_i, zero_s), g.normal))
     one = ngs.GridFunction(W1)
     one.Set(1.0)
-    flux = -forms.contact_terms(steps.contact, g.enforcement, g.beta.gf, g.gap, g.foundation_potential, state,
+    flux = -integrands.contact_terms(steps.contact, g.enforcement, g.beta.gf, g.gap, g.foundation_potential, state,
                                 (zero_v, one), g.normal)
     return ngs.CF(tuple(traction)), flux
 

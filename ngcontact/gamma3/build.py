@@ -2,7 +2,7 @@
 bonding field β, the enforcement method, and the Γ3 terms of the step residual.
 
 ``build`` checks the data of Γ3 at t = 0 (finite, a gap >= 0, an obstacle normal pointing
-into the obstacle) and adds the terms j_a + S − j_e of ``forms.contact_terms`` to the
+into the obstacle) and adds the terms j_a + S − j_e of ``integrands.contact_terms`` to the
 ``StepSystem``; it returns the ``Gamma3`` the rest of the simulation reads and
 the ``admissible.GapCheck`` that checks a time-dependent gap at every step.
 """
@@ -11,8 +11,8 @@ from dataclasses import dataclass
 import ngsolve as ngs
 import numpy as np
 
-from ngcontact.model import forms
 from ngcontact import parallel
+from ngcontact.gamma3 import integrands
 from ngcontact.gamma3.adhesion import BondingField
 from ngcontact.model.admissible import GapCheck
 from ngcontact.gamma3.contact_side import ContactSide
@@ -83,7 +83,6 @@ def build(body, contact, system, realcompile=False):
                         normal=normal)                    # checked: the Enforcement protocol
 
     def terms(state, test):
-        return body.weighted(forms.contact_terms(contact, enforcement, beta.gf, gap, foundation_potential, state,
-                                                 test, normal))
+        return integrands.contact_terms(contact, enforcement, beta.gf, gap, foundation_potential, state, test, normal)
     system.add_boundary_terms(terms, side, realcompile=realcompile)
     return Gamma3(side, contact, enforcement, beta, gap, foundation_potential, normal, sampled_normal), gap_check

@@ -10,28 +10,35 @@ P_B of a CoefficientFunction is its facet average, assembled as a LinearForm ove
 import ngsolve as ngs
 import numpy as np
 
+from ngcontact import meshes
+
 
 def elements_at(mesh, region):
     """BitArray of the volume elements that have a facet on the boundary ``region``."""
     elements = ngs.BitArray(mesh.ne)
     elements.Clear()
     for el in region.Elements():
-        for facet in (el.edges if mesh.dim == 2 else el.faces):
+        for facet in meshes.facets_of(mesh, el):
             for volume in mesh[facet].elements:
                 elements.Set(volume.nr)
     return elements
 
 
-def element_boundary_layer(mesh, region, bonus_intorder=0):
-    """(dx, indicator) for integrals over the boundary ``region`` that need the volume
-    element's gradients and may be statically condensed: ``indicator * f * dx`` integrates
-    f over the element boundaries of the volume elements at ``region`` (dx with
-    ``element_boundary=True``, ``bonus_intorder`` more quadrature orders), where the indicator
-    (order-0 facet GridFunction) is 1 on the facets of ``region`` and 0 elsewhere."""
+def element_boundary_layer(kinematics, mesh, region, bonus_intorder=0):
+    """(integral, indicator) for integrals over the boundary ``region`` that need the volume
+    element's gradients and may be statically condensed: ``integral(indicator * f)``
+    integrates f over the element boundaries of the volume elements at ``region`` on the
+    ``kinematics``' measure (``Kinematics.dx`` with ``element_boundary=True``,
+    ``bonus_intorder`` more quadrature orders), where the indicator (order-0 facet
+    GridFunction) is 1 on the facets of ``region`` and 0 elsewhere."""
     elements = elements_at(mesh, region)
     indicator = ngs.GridFunction(ngs.FacetFESpace(mesh, order=0), name="indicator")
     indicator.Set(1.0, definedon=region)
-    return ngs.dx(element_boundary=True, definedonelements=elements, bonus_intorder=bonus_intorder), indicator
+
+    def integral(integrand, weighted=True):
+        return kinematics.dx(integrand, weighted=weighted, element_boundary=True, definedonelements=elements,
+                             bonus_intorder=bonus_intorder)
+    return integral, indicator
 
 
 class ContactSide:
@@ -42,20 +49,22 @@ class ContactSide:
         if not names:
             raise ValueError("the body has no contact side Γ3: pass contact_side='...' to Body")
         self.mesh, self.dim = mesh, body.dim
-        self._weighted = body.weighted           # 2π r for a body of revolution
+        self.kinematics = kin = body.kinematics
         self.axisymmetric = body.axisymmetric
-        self.ds = ngs.ds(skeleton=True, definedon=body.region("contact_side"))
+        region = body.region("contact_side")
         # the same integrals over the volume elements at Γ3 only: ∫ indicator · f on their
         # element boundaries (ds(skeleton=True) visits every facet of the mesh, 2 µs each)
-        self.dx_at, self.indicator = element_boundary_layer(mesh, body.region("contact_side"))
-        self.elements = elements_at(mesh, body.region("contact_side"))     # the volume elements at Γ3
-        # P_B and the recorded integrals: exact for polynomials of degree 2p + 2 on a facet
-        self._ds_exact = ngs.ds(skeleton=True, definedon=body.region("contact_side"),
-                                bonus_intorder=2 * body.order + 2)
-        # the quadrature of the residual's Γ3 terms (order 2p: NGSolve's default for a test
-        # function of order p), for the recorded contact pressure to integrate to the force
-        self._ds_residual = ngs.ds(skeleton=True, definedon=body.region("contact_side"),
-                                   bonus_intorder=2 * max(body.order, body.order_phi))
+        self.on_layer, self.indicator = element_boundary_layer(kin, mesh, region)
+        self.elements = elements_at(mesh, region)     # the volume elements at Γ3
+        # P_B and the recorded integrals: exact for polynomials of degree 2p + 2 on a facet;
+        # the residual's Γ3 terms: order 2p, NGSolve's default for a test function of order p
+        # (the recorded contact pressure then integrates to the force)
+        orders = {"default": 0, "exact": 2 * body.order + 2, "residual": 2 * max(body.order, body.order_phi)}
+
+        def on_facets(integrand, quadrature="default", weighted=True):
+            return kin.ds(integrand, weighted=weighted, skeleton=True, definedon=region,
+                          bonus_intorder=orders[quadrature])
+        self.on_facets = on_facets
         facets = ngs.FacetFESpace(mesh, order=0)
         active = ngs.BitArray(facets.ndof)
         active.Clear()
@@ -81,12 +90,12 @@ class ContactSide:
         self.facet_vertices = points[self.facet_vertex_numbers]
         self.midpoints = self.facet_vertices.mean(axis=1)
         # the Gauss points of the residual's order 2p on each facet (B^h's order)
-        rule = ngs.IntegrationRule(ngs.SEGM if self.dim == 2 else ngs.TRIG, 2 * max(body.order, body.order_phi))
+        rule = ngs.IntegrationRule(meshes.facet_shape(mesh), 2 * max(body.order, body.order_phi))
         self._gauss, self.gauss_points = self._mapped(rule, elements, facets, order)
         weights = np.array(rule.weights)
         self.gauss_weights = np.outer(self.measure, weights / weights.sum())   # m (m² in 3D) per point
-        if body.axisymmetric:                    # m² per point: the ring 2π r ds it stands for
-            self.gauss_weights = self.gauss_weights * 2 * np.pi * self.gauss_points[..., 0]
+        # m² per point for a body of revolution: the ring 2π r ds it stands for
+        self.gauss_weights = self.gauss_weights * kin.point_weights(self.gauss_points)
         n = ngs.specialcf.normal(self.dim)
         self.normals = np.array([self.project(n[i]) for i in range(self.dim)]).T
         # sample points: 2p + 1 equidistant points per edge in 2D; vertices, centroid and
@@ -94,12 +103,7 @@ class ContactSide:
         # reference facet onto each facet of Γ3, so that they lie on a curved facet (not on its
         # chord, where a point search fails) and belong to their own facet (there
         # ``specialcf.normal`` is the facet's normal, as in a gap written with it)
-        if self.dim == 2:
-            s = np.linspace(0, 1, 2 * body.order + 1)
-            weights = np.stack([1 - s, s], axis=1)
-        else:
-            weights = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [1 / 3] * 3,
-                                [.5, .5, 0], [0, .5, .5], [.5, 0, .5]])
+        weights = meshes.facet_sample_weights(mesh, body.order)
         # the reference segment has vertex 0 at x = 1, the reference triangle its vertices at
         # (1, 0), (0, 1), (0, 0)
         sample_rule = ngs.IntegrationRule([tuple(w[:self.dim - 1]) for w in weights], [1.0] * len(weights))
@@ -124,8 +128,7 @@ class ContactSide:
         residual integrates it). For a body of revolution da = 2π r ds (the body's integral),
         unless not ``weighted``."""
         lf = ngs.LinearForm(self.B)
-        integrand = self._weighted(cf) if weighted else cf
-        lf += integrand.Compile() * self._mu * (self._ds_exact if quadrature == "exact" else self._ds_residual)
+        lf += self.on_facets(cf.Compile() * self._mu, quadrature, weighted)
 
         def assemble():
             lf.Assemble()

@@ -10,7 +10,7 @@ where (``newton.NewtonError``).
 import ngsolve as ngs
 import numpy as np
 
-from ngcontact.model import forms
+from ngcontact.gamma3 import integrands
 from ngcontact import parallel
 
 HINTS = {
@@ -33,7 +33,7 @@ class Switches:
         u, phi = state.components
         u_n = u * g.normal
         r = u_n - g.gap
-        traction = forms.adhesion_traction(contact, g.beta.gf, u_n)
+        traction = integrands.adhesion_traction(contact, g.beta.gf, u_n)
         step = lambda cf: ngs.IfPos(cf, 1, 0)                     # noqa: E731
         cfs = {"the contact set": g.enforcement.active(u, phi, traction)}
         if callable(contact.compliance) or contact.compliance > 0:
@@ -41,7 +41,7 @@ class Switches:
         if contact.adhesion > 0:
             cfs["the glue R_ν"] = step(u_n + contact.bond_length) + step(u_n)
         if contact.conducts:
-            r = forms.conduction_distance(contact, g.enforcement, u, phi, g.gap, g.normal, traction)
+            r = integrands.conduction_distance(contact, g.enforcement, u, phi, g.gap, g.normal, traction)
             cfs["the conduction ψ"] = step(contact.psi(r)) if callable(contact.conductance) else \
                 step(r + contact.ramp_width) + step(r)
             drop = phi - g.foundation_potential

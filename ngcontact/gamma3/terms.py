@@ -1,20 +1,20 @@
 """The Γ3 part of the step residual, R_Γ3(x), and its Jacobian R_Γ3'(x), as NGSolve forms.
 
-For an integrand ``terms((u, φ), (v, ξ))`` (``forms.contact_terms``: j_a + S − j_e, linear in
+For an integrand ``terms((u, φ), (v, ξ))`` (``integrands.contact_terms``: j_a + S − j_e, linear in
 the test functions) on the ContactSide Γ3, R_Γ3 is a LinearForm in a copy of the state and
 R_Γ3' a BilinearForm in the trial functions (NGSolve linearises it). Two ways to integrate:
 
-* interpreted (``Compile()``) on ``side.ds`` (``ds(skeleton=True)`` on Γ3): NGSolve visits every
+* interpreted (``Compile()``) on ``side.on_facets`` (``ds(skeleton=True)`` on Γ3): NGSolve visits every
   facet of the mesh and evaluates the integrand on Γ3's only;
 * compiled to machine code on the element boundaries of the volume elements at Γ3 only
-  (``side.dx_at``, the integrand times the Γ3 indicator): the integrand is evaluated on every
+  (``side.on_layer``, the integrand times the Γ3 indicator): the integrand is evaluated on every
   facet of those elements, which interpreted costs more than the visit of the whole mesh
   (docs/measurements.md, sections ngcontact/gamma3/terms.py and ngcontact/model/machine_code.py),
   compiled far less.
 
 The Jacobian is compiled once a simulation's Newton iterations pay for it
 (``machine_code.MachineCode``, ``use_machine_code``); the residual too where the mesh has at
-least ``COMPILED_RESIDUAL_FACETS`` facets; compiled on ``dx_at`` it gives the same vector as
+least ``COMPILED_RESIDUAL_FACETS`` facets; compiled on ``on_layer`` it gives the same vector as
 on ``ds`` to round-off.
 """
 import ngsolve as ngs
@@ -51,18 +51,18 @@ class Gamma3Terms:
         form = ngs.BilinearForm(self.X, symmetric=False)
         integrand = self.terms(self.X.TrialFunction(), self.X.TestFunction())
         if realcompile:
-            form += compiled(self.side.indicator * integrand, True, maxderiv=1) * self.side.dx_at
+            form += self.side.on_layer(compiled(self.side.indicator * integrand, True, maxderiv=1))
         else:
-            form += integrand.Compile() * self.side.ds
+            form += self.side.on_facets(integrand.Compile())
         return form
 
     def _residual_form(self, realcompile):
         form = ngs.LinearForm(self.X)
         integrand = self.terms(self.state.components, self.X.TestFunction())
         if realcompile:
-            form += compiled(self.side.indicator * integrand, True, maxderiv=0) * self.side.dx_at
+            form += self.side.on_layer(compiled(self.side.indicator * integrand, True, maxderiv=0))
         else:
-            form += integrand.Compile() * self.side.ds
+            form += self.side.on_facets(integrand.Compile())
         return form
 
     def use_machine_code(self):

@@ -41,7 +41,8 @@ def check_initial_displacement(body, u0, gamma3=None):
     if not np.isfinite(whole):
         raise ValueError("u0 is not finite (NaN or inf) in the body")
     if body.boundaries["clamped"]:
-        on_gamma1 = parallel.sum(mesh, ngs.Integrate(square * ngs.ds(body.region("clamped")), mesh))
+        on_gamma1 = parallel.sum(mesh, ngs.Integrate(body.kinematics.ds(square, body.region("clamped"), weighted=False),
+                                                      mesh))
         if on_gamma1 > 1e-20 * (1 + whole):                            # (all ranks' sums)
             raise ValueError(f"u0 must vanish on the clamped boundary Γ1 ({body.region_names('clamped')!r})")
     if gamma3 is not None:

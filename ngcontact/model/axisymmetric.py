@@ -185,9 +185,9 @@ def _zero(body, entry, on, tolerance):
         return abs(float(entry)) <= tolerance
     if not isinstance(entry, ngs.CoefficientFunction) or checks.parameters(entry):
         return False
-    region = ngs.ds(body.mesh.Boundaries("|".join(on)))
-    square = parallel.sum(body.mesh, ngs.Integrate(entry * entry * region, body.mesh))
-    length = parallel.sum(body.mesh, ngs.Integrate(ngs.CF(1.0) * region, body.mesh))
+    region = body.mesh.Boundaries("|".join(on))
+    square = parallel.sum(body.mesh, ngs.Integrate(body.kinematics.ds(entry * entry, region, weighted=False), body.mesh))
+    length = parallel.sum(body.mesh, ngs.Integrate(body.kinematics.ds(ngs.CF(1.0), region, weighted=False), body.mesh))
     return square <= tolerance * tolerance * length
 
 

@@ -18,6 +18,7 @@ import numpy as np
 
 from ngcontact import checks, meshes, parallel
 from ngcontact.model import axisymmetric as axisymmetric_model
+from ngcontact.model import kinematics as kinematics_model
 from ngcontact.model.materials import Material
 from ngcontact.model.supports import dirichlet_flags
 from ngcontact.model.supports import parse as parse_supports
@@ -98,11 +99,9 @@ class Body:
             hierarchy.check_finest(mesh, self.size)
         self.dim = mesh.dim
         self.material = material
-        self.axisymmetric = checks.flag("axisymmetric", axisymmetric)
-        if self.axisymmetric and self.dim != 2:
-            raise ValueError(f"axisymmetric: the mesh must be 2D, the (r, z) half-plane of the body's meridian "
-                             f"section, got a {self.dim}D mesh")
-        self.tensors = material.tensors(self.dim, self.axisymmetric)
+        self.kinematics = kinematics_model.of(self.dim, checks.flag("axisymmetric", axisymmetric))
+        """How u makes the strain and how integrals are taken (``model.kinematics``)."""
+        self.tensors = material.tensors(self.kinematics)
         self.order, self.order_phi = int(order), int(order_phi)
         existing = set(mesh.GetBoundaries())
         self.boundaries = {}
@@ -148,10 +147,15 @@ class Body:
             return supports
         return {**(supports or {}), "|".join(free): "x"}
 
+    @property
+    def axisymmetric(self):
+        """True for a body of revolution (``kinematics.Axisymmetric``)."""
+        return isinstance(self.kinematics, kinematics_model.Axisymmetric)
+
     def weighted(self, integrand):
         """``integrand`` times the measure's weight: 2π r for a body of revolution, else as it is
-        (its integral over the mesh is then the integral over the body)."""
-        return integrand * axisymmetric_model.weight() if self.axisymmetric else integrand
+        (``Kinematics.weighted``)."""
+        return self.kinematics.weighted(integrand)
 
     def _spaces(self):
         V = ngs.VectorH1(self.mesh, order=self.order,

@@ -11,6 +11,8 @@ For u, v in V^h (displacements, zero on Γ1) and φ, ξ in W^h (potentials, pres
   j_a(β, u, v) = ∫_Γ3 (p(u_ν) − γ_ν β² R_ν(u_ν)) v_ν da            compliant layer, glue (2.28)
   j_e(u, φ, ξ) = ∫_Γ3 ψ(u_ν − g) φ_L(φ − φ_Γ) ξ da                 conductive foundation (2.29)
 
+(j_a, j_e and the Signorini term live with Γ3: ``ngcontact.gamma3.integrands``).
+
 Step n of the scheme (4.3)-(4.5) finds x = (u, φ) = (u_n, φ_n) such that for all (v, ξ)
 
   R(x; v, ξ) = a((u − u_{n−1})/dt, v) + b(u, v) + e(v, φ) + j_a(β_n, u, v) + S(x; v, ξ)
@@ -21,25 +23,28 @@ and (F(ε(u)), ε(v)) (``nonlinear_bulk``).
 
 with the electric equation negated (its Jacobian is then symmetric quasi-definite) and S
 the Signorini term of the enforcement method (``ngcontact.gamma3.enforcement``). ``StepSystem``
-assembles R in the parts ``bulk`` (b + e + e − c), ``a``, ``f`` and ``contact_terms``.
+assembles R in the parts ``bulk`` (b + e + e − c), ``a``, ``f`` and the Γ3 part
+(``gamma3.integrands.contact_terms``), each on the body's measures (``Kinematics.dx``, ``ds``).
 
 Strains and stresses are Voigt vectors with engineering shear, so that σ : ε(v) is the dot
-product of the Voigt vectors. The dimension is read off the arguments (``u.dim``).
+product of the Voigt vectors, in the representation of the tensors' kinematics
+(``MaterialTensors.kinematics``: plane strain, 3D, a body of revolution).
 """
 import ngsolve as ngs
 import numpy as np
 
 from ngcontact.model.loads import as_cf
-from ngcontact.model.voigt import matrix_cf, strain_vector, stress_matrix
+from ngcontact.model import kinematics
+from ngcontact.model.voigt import matrix_cf
 
 
 def strain(u, T=None):
-    """ε(u) as a Voigt vector: (ε11, ε22, 2ε12) in 2D, (ε11, ε22, ε33, 2ε23, 2ε13, 2ε12) in 3D;
-    with the MaterialTensors ``T``, the vector they act on (``MaterialTensors.strain``: for a
-    body of revolution (ε_rr, ε_zz, 2ε_rz, ε_θθ))."""
+    """ε(u) as the Voigt vector the MaterialTensors ``T`` act on (``MaterialTensors.strain``:
+    (ε11, ε22, 2ε12) in plane strain, six components in 3D, (ε_rr, ε_zz, 2ε_rz, ε_θθ) for a
+    body of revolution); without ``T``, that of a plane or solid body of u's dimension."""
     if T is not None:
         return T.strain(u)
-    return strain_vector(ngs.Sym(ngs.Grad(u)), u.dim)
+    return kinematics.of(u.dim).strain(u)
 
 
 def stress(T, u, phi, strain_rate=None):
@@ -60,10 +65,10 @@ def electric_displacement(T, u, phi):
     return matrix_cf(T.E) * strain(u, T) - matrix_cf(T.C) * ngs.grad(phi)
 
 
-def normal_stress(sigma, n, direction=None):
-    """σ_ν = σν · ν from a Voigt stress vector and the unit normal n; with ``direction``
-    (an obstacle normal n_o) the traction's component σν · n_o."""
-    return (n if direction is None else direction) * (stress_matrix(sigma, n.dim) * n)
+def normal_stress(T, sigma, n, direction=None):
+    """σ_ν = σν · ν from a Voigt stress vector of the tensors ``T``'s kinematics and the unit
+    normal n; with ``direction`` (an obstacle normal n_o) the traction's component σν · n_o."""
+    return (n if direction is None else direction) * T.kinematics.traction(sigma, n)
 
 
 def step_normal_stress(T, u, phi, rate, anchor=None, direction=None):
@@ -72,7 +77,7 @@ def step_normal_stress(T, u, phi, rate, anchor=None, direction=None):
     backward Euler: 1/dt and u_{n−1}). ``anchor=None``: the variation σ_ν(v, ξ) in the test
     functions, c A ε(v) included. ``direction``: the traction's component along it (n_o)."""
     rate = rate * (strain(u, T) - strain(anchor, T)) if anchor is not None else rate * strain(u, T)
-    return normal_stress(stress(T, u, phi, rate), ngs.specialcf.normal(u.dim), direction)
+    return normal_stress(T, stress(T, u, phi, rate), ngs.specialcf.normal(u.dim), direction)
 
 
 def step_normal_stress_variation(T, v, xi, rate, direction=None):
@@ -143,14 +148,14 @@ def preconditioner_forms(body, u, v, phi, xi, rate):
     """The SPD forms that block preconditioners of the step Jacobian approximate (``multigrid``,
     ``petsc_iterative``), integrands on Ω: for u, (F̃ ε(u), ε(v)) + c (A ε(u), ε(v)) with the
     piezo-stiffened F̃ = F + Eᵀ C⁻¹ E (c = ``rate``, 1/s; the linear tensors, a law's tangent at
-    0); for φ, (C ∇φ, ∇ξ). Returns (u integrand, φ integrand), with the body's measure weight
-    (``Body.weighted``)."""
+    0); for φ, (C ∇φ, ∇ξ). Returns (u integrand, φ integrand), to be integrated on the body's
+    measure (``Kinematics.dx``)."""
     T = body.tensors
     stiffened = T.F + T.E.T @ np.linalg.solve(T.C, T.E) if body.coupled else T.F
     integrand = ngs.InnerProduct(matrix_cf(stiffened) * strain(u, T), strain(v, T))
     if T.viscous:
         integrand = integrand + rate * a(T, u, v)
-    return body.weighted(integrand), body.weighted(c(T, phi, xi))
+    return integrand, c(T, phi, xi)
 
 
 def c(T, phi, xi):
@@ -172,63 +177,18 @@ def bulk(T, trial, test):
 
 def f(body, loads, test):
     """f(v, ξ) = (f0, v) + (f2, v)_Γ2 + (q0, ξ) + (qb, ξ)_Γb (2.26)-(2.27), as a list of
-    integrals (integrand times dx or ds) for a LinearForm."""
-    (v, xi), mesh, dim, weighted = test, body.mesh, body.dim, body.weighted
+    integrals on the body's measures (``Kinematics.dx``, ``ds``) for a LinearForm."""
+    (v, xi), mesh, dim, kin = test, body.mesh, body.dim, body.kinematics
     integrals = []
     if loads.f0 is not None:
-        integrals.append(weighted(as_cf(loads.f0, dim, "f0") * v) * ngs.dx)
+        integrals.append(kin.dx(as_cf(loads.f0, dim, "f0") * v))
     if loads.q0 is not None:
-        integrals.append(weighted(as_cf(loads.q0, 1, "q0") * xi) * ngs.dx)
+        integrals.append(kin.dx(as_cf(loads.q0, 1, "q0") * xi))
     for names, f2 in loads.f2.items():
-        integrals.append(weighted(as_cf(f2, dim, f"f2[{names!r}]") * v) * ngs.ds(mesh.Boundaries(names)))
+        integrals.append(kin.ds(as_cf(f2, dim, f"f2[{names!r}]") * v, mesh.Boundaries(names)))
     for names, qb in loads.qb.items():
-        integrals.append(weighted(as_cf(qb, 1, f"qb[{names!r}]") * xi) * ngs.ds(mesh.Boundaries(names)))
+        integrals.append(kin.ds(as_cf(qb, 1, f"qb[{names!r}]") * xi, mesh.Boundaries(names)))
     return integrals
-
-
-# ------------------------------------------------------------------------ the forms on Γ3
-
-def adhesion_traction(contact, beta, u_normal):
-    """p(u_ν) − γ_ν β² R_ν(u_ν) (Pa): the compliant layer's push minus the glue's pull, the
-    integrand of j_a (2.28) per unit v_ν."""
-    return contact.p(u_normal) - contact.adhesion * beta ** 2 * contact.R(u_normal)
-
-
-def conduction_distance(contact, enforcement, u, phi, gap, n, traction):
-    """The argument r of ψ on Γ3 (m): u_ν − g, the paper's (2.7) (``Contact.gating = "gap"``),
-    or, with ``gating = "pressure"``, the enforcement's own contact state
-    (``contact_distance``: Nitsche's −P_γ/γ = (u_ν − g) − σ̃_ν/γ), which equals u_ν − g
-    wherever the Signorini conditions hold and is >= 0 exactly where the method presses."""
-    if contact.gating == "pressure" and enforcement is not None:
-        return enforcement.contact_distance(u, phi, traction)
-    return u * n - gap
-
-
-def charge_flux_density(contact, u, phi, gap, foundation_potential, n, enforcement=None, traction=None):
-    """ψ(r) φ_L(φ − φ_Γ) = D·ν on Γ3 (2.7), C/m²: the charge flux out of the body; r the
-    ``conduction_distance`` (u_ν − g with u_ν = u·n, n the contact normal: ν, or an obstacle's
-    n_o; with pressure gating the ``enforcement``'s contact state at the ``traction`` of j_a)."""
-    r = conduction_distance(contact, enforcement, u, phi, gap, n, traction)
-    return contact.psi(r) * contact.phi_L(phi - foundation_potential)
-
-
-def j_e(contact, u, phi, xi, gap, foundation_potential, n, enforcement=None, traction=None):
-    """j_e(u, φ, ξ) (2.29), integrand on Γ3."""
-    return charge_flux_density(contact, u, phi, gap, foundation_potential, n, enforcement, traction) * xi
-
-
-def contact_terms(contact, enforcement, beta, gap, foundation_potential, state, test, n):
-    """The Γ3 part of R: j_a(β, u, v) + S(x; v, ξ) − j_e(u, φ, ξ), for the state
-    x = (u, φ) (trial functions or GridFunctions) and test = (v, ξ); S is the
-    ``enforcement`` method's Signorini term, which may use the traction of j_a. ``n`` is
-    the contact normal: the body's ν (``specialcf.normal``) or an obstacle's n_o, so that
-    u_ν = u·n and v_ν = v·n."""
-    (u, phi), (v, xi) = state, test
-    traction = adhesion_traction(contact, beta, u * n)
-    terms = traction * (v * n) + enforcement.signorini(u, phi, v, xi, traction)     # j_a + S
-    if contact.conducts:
-        terms = terms - j_e(contact, u, phi, xi, gap, foundation_potential, n, enforcement, traction)
-    return terms
 
 
 # ------------------------------------------------------------------------ weak normal supports
@@ -250,11 +210,11 @@ def weak_normal_support(T, order, trial, test, gamma0):
     gamma_el, _ = _support_gammas(T, order, gamma0)
     tangent = T.tangent()
     own = stress(T, u, phi) if T.F_law is None else matrix_cf(T.E).trans * ngs.grad(phi)
-    elastic = (-normal_stress(own, n) * (v * n) - normal_stress(stress(tangent, v, xi), n) * (u * n)
+    elastic = (-normal_stress(T, own, n) * (v * n) - normal_stress(T, stress(tangent, v, xi), n) * (u * n)
                + gamma_el * (u * n) * (v * n))
     if not T.viscous or T.A_law is not None:
         return elastic, None
-    return elastic, -normal_stress(matrix_cf(T.A) * strain(u, T), n) * (v * n) + _viscous_support(T, order, gamma0, u, v)
+    return elastic, -normal_stress(T, matrix_cf(T.A) * strain(u, T), n) * (v * n) + _viscous_support(T, order, gamma0, u, v)
 
 
 def _viscous_support(T, order, gamma0, w, v):
@@ -262,7 +222,7 @@ def _viscous_support(T, order, gamma0, w, v):
     per unit rate coefficient, A the linear tensor (a law's tangent at 0)."""
     n = ngs.specialcf.normal(v.dim)
     _, gamma_A = _support_gammas(T, order, gamma0)
-    return -normal_stress(matrix_cf(T.A) * strain(v, T), n) * (w * n) + gamma_A * (w * n) * (v * n)
+    return -normal_stress(T, matrix_cf(T.A) * strain(v, T), n) * (w * n) + gamma_A * (w * n) * (v * n)
 
 
 def weak_normal_support_laws(T, order, u, v, rate, anchor, gamma0):
@@ -274,9 +234,9 @@ def weak_normal_support_laws(T, order, u, v, rate, anchor, gamma0):
     n = ngs.specialcf.normal(u.dim)
     terms = None
     if T.F_law is not None:
-        terms = -normal_stress(T.elastic_stress(strain(u, T)), n) * (v * n)
+        terms = -normal_stress(T, T.elastic_stress(strain(u, T)), n) * (v * n)
     if T.A_law is not None:
-        viscous = -normal_stress(T.viscous_stress(rate * (strain(u, T) - strain(anchor, T))), n) * (v * n) \
+        viscous = -normal_stress(T, T.viscous_stress(rate * (strain(u, T) - strain(anchor, T))), n) * (v * n) \
             + rate * _viscous_support(T, order, gamma0, u - anchor, v)
         terms = viscous if terms is None else terms + viscous
     return terms

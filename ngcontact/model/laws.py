@@ -1,8 +1,10 @@
 """Nonlinear elasticity F and viscosity A: Lipschitz, strongly monotone maps of the strain
 (the paper's hypotheses (2.16)-(2.17)), given as Python functions of CoefficientFunctions.
 
-A law maps the strain (or the strain rate) ε, a symmetric dim × dim matrix
-CoefficientFunction, to the stress, a symmetric dim × dim matrix CoefficientFunction (Pa):
+A law maps the strain (or the strain rate) ε, a symmetric matrix CoefficientFunction, to the
+stress, a symmetric matrix CoefficientFunction of the same size (Pa): 2 × 2 in plane strain,
+3 × 3 in 3D and on the meridian section of a body of revolution, in the frame (e_r, e_z, e_θ)
+with ε_rθ = ε_zθ = 0 (``model.kinematics``):
 
     Material.with_elasticity(lambda eps: ...)          F(ε)
     Material.with_viscosity(lambda rate: ...)           A(ε̇)   (a number: A = τ F, as before)
@@ -48,7 +50,7 @@ import ngsolve as ngs
 import numpy as np
 
 from ngcontact.checks import number
-from ngcontact.model.voigt import matrix_cf, strain_matrix, strain_vector, stress_matrix, stress_vector
+from ngcontact.model.voigt import matrix_cf
 
 SAMPLES = 64
 """Pairs of strains at which a law's hypotheses are checked."""
@@ -143,10 +145,11 @@ class StrainLaw:
         except (TypeError, ValueError):            # a builtin without a signature: ε only
             return 1
 
-    def bind(self, linear, dim, what):
-        """The law for a ``dim``-D model whose material's linear tensor (Voigt, model
-        dimension) is ``linear``: checked, its constants and tangent at 0 found."""
-        return BoundLaw(self, np.asarray(linear, dtype=float), dim, what)
+    def bind(self, linear, kinematics, what):
+        """The law for a body of ``kinematics`` (``model.kinematics``) whose material's linear
+        tensor (Voigt, in that kinematics) is ``linear``: checked, its constants and tangent at
+        0 found."""
+        return BoundLaw(self, np.asarray(linear, dtype=float), kinematics, what)
 
     def __repr__(self):
         return f"StrainLaw({self.name!r})"
@@ -187,7 +190,7 @@ class PowerViscosity(StrainLaw):
 
 
 class BoundLaw:
-    """A StrainLaw for one model dimension and one material: ``voigt_stress(strain_voigt)`` the
+    """A StrainLaw for one kinematics and one material: ``voigt_stress(strain_voigt)`` the
     Voigt stress CF; ``linear`` the tangent at 0 (Voigt); ``lipschitz``, ``monotonicity``.
 
     Its stress at ``FINGERPRINT`` sampled strains is kept: each later call (``matrix_stress``)
@@ -198,13 +201,15 @@ class BoundLaw:
     the contact stiffness (``MaterialTensors.contact_stiffness``), L at first, raised by the
     law watch to the steepest slope measured at the run's strains where L was estimated."""
 
-    def __init__(self, law, linear, dim, what):
-        self.law, self.dim, self.what, self.name = law, dim, what, law.name
+    def __init__(self, law, linear, kinematics, what):
+        self.law, self.kinematics, self.what, self.name = law, kinematics, what, law.name
+        self.dim = kinematics.matrix_size
+        """The size of the strain matrices the law acts on."""
 
         def linear_stress(eps):
-            return stress_matrix(matrix_cf(linear) * strain_vector(eps, dim), dim)
+            return kinematics.stress_matrix(matrix_cf(linear) * kinematics.strain_vector(eps))
         self._linear_stress = linear_stress
-        self.basis = strain_basis(dim)
+        self.basis = strain_basis(kinematics.pairs, self.dim)
         self._check()
 
     def describe(self):
@@ -234,7 +239,8 @@ class BoundLaw:
 
     def voigt_stress(self, strain_voigt):
         """The Voigt stress of a Voigt strain CF (``forms.strain``)."""
-        return stress_vector(self.matrix_stress(strain_matrix(strain_voigt, self.dim)), self.dim)
+        kinematics = self.kinematics
+        return kinematics.stress_vector(self.matrix_stress(kinematics.strain_matrix(strain_voigt)))
 
     # ---------------------------------------------------------------- the law as checked
     def verify(self, fresh=True):
@@ -303,9 +309,8 @@ class BoundLaw:
         self.tangent_bound = max(float(np.linalg.norm(self.jacobian(a), 2)) for a in [0 * strains[0]] + strains)
         # the tangent at 0 (Voigt, engineering strain): central differences of σ(0 ± h e_J)
         h = 1e-6 * scale
-        n = len(self._pairs)
-        tangent = np.zeros((n, n))
-        order = [(0, 0), (1, 1), (0, 1)] if dim == 2 else [(0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1)]
+        order = self.kinematics.pairs
+        tangent = np.zeros((len(order), len(order)))
         for J, (k, l) in enumerate(order):
             e = np.zeros((dim, dim))
             e[k, l] = e[l, k] = h / (1 if k == l else 2)         # engineering shear h
@@ -320,10 +325,11 @@ class BoundLaw:
         dim, name = self.dim, self.describe()
         top = 1.0 if largest is None else math.log10(largest / scale)
         m, L, strains = math.inf, 0.0, []
+        project = self.kinematics.project
         for k in range(SAMPLES):
-            a, b = (_sample(rng, dim, scale, top) for _ in range(2))
+            a, b = (_sample(rng, dim, scale, top, project) for _ in range(2))
             if k % 4 == 0:
-                b = a + _sample(rng, dim, scale * 1e-3, top)    # close pairs: the local slopes
+                b = a + _sample(rng, dim, scale * 1e-3, top, project)    # close pairs: the local slopes
             sa, sb = self.evaluate(a), self.evaluate(b)
             for strain, stress in ((a, sa), (b, sb)):
                 if not np.all(np.isfinite(stress)):
@@ -332,6 +338,11 @@ class BoundLaw:
                 if not np.allclose(stress, stress.T, rtol=1e-9, atol=1e-12 * (np.abs(stress).max() + 1e-300)):
                     raise ValueError(f"{name} gives a non-symmetric stress {stress.tolist()} "
                                      f"at the strain {strain.tolist()}{where}")
+                if np.abs(stress - project(stress)).max() > 1e-9 * (np.abs(stress).max() + 1e-300):
+                    raise ValueError(f"{name} gives the stress {stress.tolist()} at the strain {strain.tolist()}"
+                                     f"{where}: its entries outside {self.kinematics.name}'s components "
+                                     f"{list(self.kinematics.pairs)} are not 0 (a law of a body of revolution "
+                                     "must not couple its torsion-free strains to twist)")
             d, ds = a - b, sa - sb
             norm2 = float(np.sum(d * d))
             slope = float(np.sum(ds * d)) / norm2
@@ -367,15 +378,14 @@ FINGERPRINT = 8
 """Sampled strains at which a law's stress is kept when checked (``BoundLaw.verify``)."""
 
 
-def strain_basis(dim):
-    """An orthonormal basis (Frobenius) of the symmetric dim × dim matrices (numpy): e_i ⊗ e_i
-    and (e_i ⊗ e_j + e_j ⊗ e_i)/√2."""
+def strain_basis(pairs, dim):
+    """An orthonormal basis (Frobenius) of the symmetric dim × dim matrices with entries at
+    ``pairs`` (i, j) only (numpy): e_i ⊗ e_i and (e_i ⊗ e_j + e_j ⊗ e_i)/√2."""
     basis = []
-    for i in range(dim):
-        for j in range(i, dim):
-            B = np.zeros((dim, dim))
-            B[i, j] = B[j, i] = 1.0 if i == j else math.sqrt(0.5)
-            basis.append(B)
+    for i, j in sorted(pairs):
+        B = np.zeros((dim, dim))
+        B[i, j] = B[j, i] = 1.0 if i == j else math.sqrt(0.5)
+        basis.append(B)
     return basis
 
 
@@ -399,10 +409,14 @@ def _point_mesh():
     return _MESH
 
 
-def _sample(rng, dim, scale, top=1.0):
+def _sample(rng, dim, scale, top=1.0, project=None):
+    """A random symmetric strain of size 1e-3 to 10**top × ``scale`` (only the entries
+    ``project`` keeps)."""
     size = scale * 10 ** rng.uniform(-3, top)
     a = rng.standard_normal((dim, dim))
     a = 0.5 * (a + a.T)
+    if project is not None:
+        a = project(a)
     return size * a / np.linalg.norm(a)
 
 

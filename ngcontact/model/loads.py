@@ -70,15 +70,15 @@ class Loads:
     def nonfinite(self, body):
         """The name of the first entry that is not finite on its region at the current value of
         the time Parameter, or None."""
-        mesh = body.mesh
-        entries = [("f0", self.f0, ngs.dx), ("q0", self.q0, ngs.dx)]
+        mesh, kin = body.mesh, body.kinematics
+        entries = [("f0", self.f0, kin.dx, ()), ("q0", self.q0, kin.dx, ())]
         for entry in ("f2", "qb", "potential", "displacement"):
-            entries += [(f"{entry}[{key!r}]", value, ngs.ds(mesh.Boundaries(key)))
+            entries += [(f"{entry}[{key!r}]", value, kin.ds, (mesh.Boundaries(key),))
                         for key, value in getattr(self, entry).items()]
-        for name, value, measure in entries:
+        for name, value, integral, region in entries:
             if value is not None:
                 cf = as_cf(value, None, f"Loads.{name}")
-                if not np.isfinite(ngs.Integrate(ngs.InnerProduct(cf, cf) * measure, mesh)):
+                if not np.isfinite(ngs.Integrate(integral(ngs.InnerProduct(cf, cf), *region, weighted=False), mesh)):
                     return f"Loads.{name}"
         return None
 

@@ -8,11 +8,11 @@ Data are entered as in data sheets, in 3D Voigt notation with the order
 * ``e``   -- piezoelectric stress constants e_iJ, 3x6, C/m² (the paper's E);
 * ``eps`` -- permittivity at constant strain ε_ij, 3x3, F/m (the paper's C).
 
-Axis 3 of the data is the poling direction. ``Material.tensors(dim)`` turns the data
+Axis 3 of the data is the poling direction. ``Material.tensors(kinematics)`` turns the data
 into the matrices the forms use: the material axes are rotated (cyclically, a proper
-rotation) so that axis 3 points along ``poling``, and for ``dim == 2`` the plane-strain
-reduction keeps the in-plane rows and columns -- ε_zz = ε_xz = ε_yz = 0 and E_z = 0 --
-so F is 3x3 on (11, 22, 12), E is 2x3 and C is 2x2.
+rotation) so that axis 3 points along ``poling``, and the kinematics keeps its own rows and
+columns (``Kinematics.indices_3d``): in plane strain the in-plane ones -- ε_zz = ε_xz = ε_yz = 0
+and E_z = 0 -- so F is 3x3 on (11, 22, 12), E is 2x3 and C is 2x2.
 
 With ``σ = A ε(u̇) + F ε(u) + Eᵀ∇φ`` and ``D = E ε(u) − C∇φ`` (docs/model.md), a column
 loaded along its poling axis is stiffer open-circuit than short-circuit:
@@ -25,8 +25,9 @@ import numpy as np
 
 from ngcontact.checks import number
 from ngcontact.model import axisymmetric as axisymmetric_model
+from ngcontact.model import kinematics as kinematics_model
 from ngcontact.model.laws import StrainLaw
-from ngcontact.model.voigt import matrix_cf, strain_vector
+from ngcontact.model.voigt import matrix_cf
 
 EPS0 = 8.8541878128e-12
 """Vacuum permittivity ε0 in F/m."""
@@ -112,15 +113,19 @@ class MaterialTensors:
     """A nonlinear elasticity (``laws.BoundLaw``) or None; F is then its tangent at ε = 0."""
     A_law: object = None
     """A nonlinear viscosity (``laws.BoundLaw``) or None; A is then its tangent at ε̇ = 0."""
-    axisymmetric: bool = False
-    """Tensors of a body of revolution (``model.axisymmetric``): strains (rr, zz, rz, θθ)."""
+    kinematics: kinematics_model.Kinematics = None
+    """The representation the tensors act in (``model.kinematics``)."""
+
+    @property
+    def axisymmetric(self):
+        """Tensors of a body of revolution (strains (rr, zz, rz, θθ))."""
+        return isinstance(self.kinematics, kinematics_model.Axisymmetric)
 
     def strain(self, u):
-        """ε(u) as the Voigt vector these tensors act on: (ε11, ε22, 2ε12) in 2D, six
-        components in 3D, (ε_rr, ε_zz, 2ε_rz, ε_θθ) for a body of revolution."""
-        if self.axisymmetric:
-            return axisymmetric_model.strain(u)
-        return strain_vector(ngs.Sym(ngs.Grad(u)), u.dim)
+        """ε(u) as the Voigt vector these tensors act on (``Kinematics.strain``): (ε11, ε22,
+        2ε12) in plane strain, six components in 3D, (ε_rr, ε_zz, 2ε_rz, ε_θθ) for a body of
+        revolution."""
+        return self.kinematics.strain(u)
 
     @property
     def viscous(self):
@@ -277,18 +282,16 @@ class Material:
         laws add to this material's c. ``None``: back to the linear c."""
         return replace(self, elasticity_law=None if law is None else _law(law))
 
-    def tensors(self, dim, axisymmetric=False):
-        """F, A, E, C for a ``dim``-dimensional model (plane strain for dim 2); with
-        ``axisymmetric`` (dim 2) for a body of revolution about the mesh's y axis
-        (``model.axisymmetric``: components (rr, zz, rz, θθ), the poling along the axis)."""
-        if dim not in (2, 3):
-            raise ValueError(f"dim must be 2 or 3, got {dim}")
-        if axisymmetric and dim != 2:
-            raise ValueError(f"axisymmetric: the mesh must be 2D (the (r, z) half-plane), got dim {dim}")
-        poling = self.poling or ("y" if dim == 2 else "z")
-        if dim == 2 and poling == "z":
+    def tensors(self, kinematics, axisymmetric=False):
+        """F, A, E, C in the representation of ``kinematics`` (``model.kinematics``; or a mesh
+        dimension 2 or 3, plane strain for 2, with ``axisymmetric`` a body of revolution about
+        the mesh's y axis, components (rr, zz, rz, θθ), the poling along the axis)."""
+        kinematics = kinematics_model.of(kinematics, axisymmetric)
+        dim = kinematics.mesh_dim
+        poling = self.poling or kinematics.default_poling
+        if "xyz".index(poling) >= dim:
             raise ValueError("Material: poling must be 'x' or 'y' in 2D (plane strain in the x-y plane)")
-        if axisymmetric and poling != "y":
+        if kinematics.default_poling != poling and isinstance(kinematics, kinematics_model.Axisymmetric):
             raise ValueError(f"Material: poling must be along the axis of revolution ('y', the mesh's axis) for an "
                              f"axisymmetric body, got {poling!r}")
         Q = _rotation(poling)
@@ -301,10 +304,7 @@ class Material:
         e = np.einsum("ga,hb,kc,abc->ghk", Q, Q, Q, _full3(self.e))
         e = np.array([[e[i, k, l] for (k, l) in VOIGT] for i in range(3)])
         eps = Q @ self.eps @ Q.T
-        if axisymmetric:
-            if self.elasticity_law is not None or self.viscosity_law is not None:
-                raise ValueError("axisymmetric bodies take linear materials only (no elasticity_law or "
-                                 "viscosity_law yet)")
+        if isinstance(kinematics, kinematics_model.Axisymmetric):
             twist = axisymmetric_model.twist_coupling(c3, eta3, e, eps)
             if twist:
                 raise ValueError(f"Material {self.name or ''}: its data couple the axisymmetric fields to twist "
@@ -312,19 +312,17 @@ class Material:
                                  "axisymmetric fields would not be in balance; an axisymmetric body needs a "
                                  "material transversely isotropic about its poling axis (isotropic, or a poled "
                                  "ceramic, class 6mm), read in the frame (e_r, e_z, e_θ) at each point")
-            F, A, E, C = axisymmetric_model.restricted(c3, eta3, e, eps)
-            return MaterialTensors(F=F, A=A, E=E, C=C, axisymmetric=True)
-        idx = [I for I, (i, j) in enumerate(VOIGT) if i < dim and j < dim]
-        # 2D Voigt order is (11, 22, 12): the kept indices come as (11, 22, 12) already
+        idx = kinematics.indices_3d
         F, A = c3[np.ix_(idx, idx)], eta3[np.ix_(idx, idx)]
         F_law = A_law = None
         if self.elasticity_law is not None:
-            F_law = self.elasticity_law.bind(F, dim, "elasticity")
+            F_law = self.elasticity_law.bind(F, kinematics, "elasticity")
             F = F_law.linear
         if self.viscosity_law is not None:
-            A_law = self.viscosity_law.bind(A, dim, "viscosity")
+            A_law = self.viscosity_law.bind(A, kinematics, "viscosity")
             A = A_law.linear
-        return MaterialTensors(F=F, A=A, E=e[:dim][:, idx], C=eps[:dim, :dim], F_law=F_law, A_law=A_law)
+        return MaterialTensors(F=F, A=A, E=e[:dim][:, idx], C=eps[:dim, :dim], F_law=F_law, A_law=A_law,
+                               kinematics=kinematics)
 
 
 def frobenius_norm(M):

@@ -25,20 +25,15 @@ AXES = "xyz"
 
 
 def motions(body):
-    """The rigid motions of ``body``'s dimension as (CoefficientFunction, name): translations
-    along the axes, rotations about the centre of the mesh's bounding box divided by the body's
-    size."""
+    """The rigid motions of ``body``'s kinematics as (CoefficientFunction, name)
+    (``Kinematics.rigid_motions``): translations along the axes, rotations about the centre of
+    the mesh's bounding box divided by the body's size; for a body of revolution the translation
+    along its axis alone."""
     dim = body.dim
     coordinates = np.asarray(body.mesh.ngmesh.Coordinates()).reshape(-1, dim)   # none on MPI's rank 0
     high = [parallel.maximum(body.mesh, coordinates[:, i]) for i in range(dim)]       # on every rank: collective
     low = [parallel.minimum(body.mesh, coordinates[:, i]) for i in range(dim)]
-    x = [(ngs.x, ngs.y, ngs.z)[i] - (high[i] + low[i]) / 2 for i in range(dim)]
-    result = [(ngs.CF(tuple(float(i == j) for j in range(dim))), f"translation along {AXES[i]}") for i in range(dim)]
-    for i, j in [(0, 1)] if dim == 2 else [(1, 2), (2, 0), (0, 1)]:
-        field = [ngs.CF(0.0)] * dim
-        field[i], field[j] = -x[j] / body.size, x[i] / body.size
-        result.append((ngs.CF(tuple(field)), f"rotation about {'z' if dim == 2 else AXES[3 - i - j]}"))
-    return result
+    return body.kinematics.rigid_motions([(high[i] + low[i]) / 2 for i in range(dim)], body.size)
 
 
 def free_motions(body):
@@ -59,11 +54,13 @@ def free_motions(body):
     gram = parallel.sum(mesh, values @ values.T) / max(1, parallel.sum(mesh, held.sum()))
     weak = [n for s in body.supports if s.normal for n in s.names]
     if weak:
-        ds = ngs.ds(mesh.Boundaries("|".join(weak)))
+        region = mesh.Boundaries("|".join(weak))
+
+        def integral(f):
+            return ngs.Integrate(body.kinematics.ds(f, region, weighted=False), mesh)
         normal = [ngs.InnerProduct(field, ngs.specialcf.normal(body.dim)) for field, _ in fields]
-        area = parallel.sum(mesh, ngs.Integrate(ngs.CF(1.0) * ds, mesh))
-        gram = gram + parallel.sum(mesh, np.array([[ngs.Integrate(a * b * ds, mesh) for b in normal]
-                                                   for a in normal])) / area
+        area = parallel.sum(mesh, integral(ngs.CF(1.0)))
+        gram = gram + parallel.sum(mesh, np.array([[integral(a * b) for b in normal] for a in normal])) / area
     eigenvalues, vectors = np.linalg.eigh(gram)
     return fields, vectors[:, eigenvalues < TOLERANCE * max(1.0, eigenvalues.max())]
 

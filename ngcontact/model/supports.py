@@ -29,6 +29,7 @@ import ngsolve as ngs
 import numpy as np
 
 from ngcontact import parallel
+from ngcontact.model.kinematics import mesh_ds
 
 AXES = "xyz"
 SLIP_GAMMA0 = 10.0            # Nitsche parameter of weak "normal" supports (coercive from ~2)
@@ -98,8 +99,8 @@ def _normal_axis(mesh, names, tol=1e-10):
     else (None, 1.0)."""
     region = mesh.Boundaries("|".join(names))
     n = ngs.specialcf.normal(mesh.dim)
-    area = parallel.sum(mesh, ngs.Integrate(ngs.CF(1.0) * ngs.ds(region), mesh))   # the ranks' parts
-    mean = parallel.sum(mesh, np.array([ngs.Integrate(n[i] * ngs.ds(region), mesh) for i in range(mesh.dim)])) / area
+    area = parallel.sum(mesh, ngs.Integrate(mesh_ds(ngs.CF(1.0), region), mesh))   # the ranks' parts
+    mean = parallel.sum(mesh, np.array([ngs.Integrate(mesh_ds(n[i], region), mesh) for i in range(mesh.dim)])) / area
     for i in range(mesh.dim):
         if abs(abs(mean[i]) - 1) < tol:             # |mean| = 1 only if ν = ±e_i everywhere
             return i, float(np.sign(mean[i]))

@@ -12,6 +12,7 @@ import numpy as np
 
 from ngcontact.model import forms
 from ngcontact import parallel
+from ngcontact.gamma3 import integrands
 from ngcontact.gamma3.contact_side import element_boundary_layer
 from ngcontact.output.records import ContactRecord, StepRecord
 from ngcontact.model.supports import SLIP_GAMMA0
@@ -77,11 +78,11 @@ class Recorder:
         for support in body.supports:
             if support.normal:
                 for name in support.names:
-                    dx, indicator = element_boundary_layer(body.mesh, body.mesh.Boundaries(name))
+                    integral, indicator = element_boundary_layer(body.kinematics, body.mesh, body.mesh.Boundaries(name))
                     coefficients = self.system.coefficients           # the time scheme's c and û
                     lam = forms.support_multiplier(body.tensors, body.order, u, phi, coefficients.anchor,
                                                    coefficients.rate, SLIP_GAMMA0)
-                    weak[name] = [body.weighted(indicator * lam * n[i]).Compile() * dx for i in range(body.dim)]
+                    weak[name] = [integral((indicator * lam * n[i]).Compile()) for i in range(body.dim)]
         return weak
 
     def boundary_reaction(self, residual):
@@ -113,14 +114,14 @@ class Recorder:
         g = self.gamma3
         u, phi = self.state.components
         n = g.normal
-        traction = forms.adhesion_traction(g.contact, g.beta.gf, u * n)
+        traction = integrands.adhesion_traction(g.contact, g.beta.gf, u * n)
         lam = g.enforcement.multiplier(u, phi, traction)
         pressure = lam + traction                               # −σ_ν = λ_h + p − γ_ν β² R_ν
         opening = u * n - g.gap
         self._threshold, self._pressure = ngs.Parameter(0.0), pressure.Compile()
         self._noise = CONTACT_NOISE * self.body.tensors.stiffness()
         fields = dict(pressure=pressure, multiplier=lam, potential=phi,
-                      charge_flux_density=forms.charge_flux_density(g.contact, u, phi, g.gap, g.foundation_potential,
+                      charge_flux_density=integrands.charge_flux_density(g.contact, u, phi, g.gap, g.foundation_potential,
                                                                     n, g.enforcement, traction),
                       contact_area=ngs.IfPos(pressure - self._threshold, 1, 0),
                       complementarity=ngs.IfPos(lam * opening, lam * opening, -lam * opening))

@@ -29,7 +29,6 @@ from ngcontact import parallel
 from ngcontact.gamma3.contact_side import element_boundary_layer
 from ngcontact.solve.law_watch import CHANGED_HINT, LawViolation, LawWatch
 from ngcontact.solve.linalg.matrices import csr, matching_positions
-from ngcontact.model.voigt import strain_matrix
 
 
 BONUS_ORDER_PER_DEGREE = 1
@@ -50,32 +49,33 @@ class LawTerms:
 
     def __init__(self, T, X, coefficients, supports=(), order=1, gamma0=0.0):
         (u, _), (v, _) = X.TnT()
+        kin = T.kinematics                              # its measures: 2π r for a body of revolution
         self.form = ngs.BilinearForm(X, symmetric=False)
         bonus = BONUS_ORDER_PER_DEGREE * X.components[0].globalorder     # on NGSolve's 2(p − 1)
-        self.form += forms.nonlinear_bulk(T, u, v, coefficients.rate, coefficients.anchor).Compile() \
-            * ngs.dx(bonus_intorder=bonus)
+        self.form += kin.dx(forms.nonlinear_bulk(T, u, v, coefficients.rate, coefficients.anchor).Compile(),
+                            bonus_intorder=bonus)
         for region in supports:                         # the weak normal supports' boundary regions
-            dx, indicator = element_boundary_layer(X.mesh, region, bonus)
+            integral, indicator = element_boundary_layer(kin, X.mesh, region, bonus)
             term = forms.weak_normal_support_laws(T, order, u, v, coefficients.rate, coefficients.anchor, gamma0)
-            self.form += (indicator * term).Compile() * dx
+            self.form += integral((indicator * term).Compile())
         self.scales = ngs.BilinearForm(X, symmetric=False)          # the laws' tangents at 0
         tangent = 0
         if T.F_law is not None:
             tangent = tangent + forms.b(T, u, v)
         if T.A_law is not None:
             tangent = tangent + coefficients.rate * forms.a(T, u, v)
-        self.scales += tangent * ngs.dx
+        self.scales += kin.dx(tangent)
         self.residual = ngs.GridFunction(X).vec
         self.linearized = False
         self._positions = {}
         state = ngs.GridFunction(X)                    # a copy of the state the watches read
-        u, dim = state.components[0], X.mesh.dim
+        u = state.components[0]
         self.watches = []
         if T.F_law is not None:
-            self.watches.append(LawWatch(T.F_law, state, strain_matrix(forms.strain(u), dim),
+            self.watches.append(LawWatch(T.F_law, state, kin.strain_matrix(forms.strain(u, T)),
                                          quadrature_order(order)))
         if T.A_law is not None:
-            rate = strain_matrix(coefficients.rate * (forms.strain(u) - forms.strain(coefficients.anchor)), dim)
+            rate = kin.strain_matrix(coefficients.rate * (forms.strain(u, T) - forms.strain(coefficients.anchor, T)))
             self.watches.append(LawWatch(T.A_law, state, rate, quadrature_order(order)))
         self._state, self._time, self._verified_at = state, coefficients.time, None
         for watch in self.watches:                     # this run's scales start from the laws as checked

@@ -11,7 +11,7 @@ assembled once, the residual of the step to t_n at x = (u, φ) is
 
 where the time scheme sets t_n, the rate coefficient c (1/s) and the anchor û of x̂ = (û, 0)
 (``schemes.StepCoefficients``; backward Euler: c = 1/k, û = u_{n−1}), and only R_Γ3
-(``forms.contact_terms``) is nonlinear. Its Jacobian is K = K_el + c K_A plus R_Γ3'(x):
+(``gamma3.integrands.contact_terms``) is nonlinear. Its Jacobian is K = K_el + c K_A plus R_Γ3'(x):
 each Newton iteration assembles the Γ3 terms only and adds matrices of one sparsity pattern.
 
 Laws (``laws``, (2.16)-(2.17)) move their parts out of K_el, K_A into N(x) (``law_terms``),
@@ -31,7 +31,7 @@ import ngsolve as ngs
 import numpy as np
 
 from ngcontact.model import forms
-from ngcontact import parallel
+from ngcontact import meshes, parallel
 from ngcontact.gamma3.contact_side import element_boundary_layer
 from ngcontact.model.loads import as_cf
 from ngcontact.solve.linalg.matrices import csr, matching_positions
@@ -50,7 +50,7 @@ def keep_interior_dofs(space, region):
     """Mark the element-interior (LOCAL) DOFs of the volume elements with a facet in the
     boundary ``region`` as coupling DOFs of ``space``, so that condensation leaves them."""
     mesh = space.mesh
-    facets = {f.nr for el in region.Elements() for f in (el.edges if mesh.dim == 2 else el.faces)}
+    facets = {f.nr for el in region.Elements() for f in meshes.facets_of(mesh, el)}
     for nr in facets:
         for element in mesh.facets[nr].elements:
             for dof in space.GetDofNrs(element):
@@ -90,17 +90,17 @@ class StepSystem:
             if self.condense:
                 raise ValueError("condense=True needs linear tensors: a nonlinear law makes the interiors nonlinear")
         self.K_el = ngs.BilinearForm(X, symmetric=False)
-        weighted = body.weighted                   # 2π r for a body of revolution, else nothing
-        self.K_el += weighted(forms.bulk(T, trial, test) if T.linear else forms.linear_bulk(T, trial, test)) * ngs.dx
+        kin = body.kinematics                     # its measures: 2π r for a body of revolution
+        self.K_el += kin.dx(forms.bulk(T, trial, test) if T.linear else forms.linear_bulk(T, trial, test))
         self.K_A = None
         if T.viscous and T.A_law is None:
             self.K_A = ngs.BilinearForm(X, symmetric=False)
-            self.K_A += weighted(forms.a(T, trial[0], test[0])) * ngs.dx
+            self.K_A += kin.dx(forms.a(T, trial[0], test[0]))
         weak_supports = self._weak_supports(trial, test)
-        for elastic, viscous, dx in weak_supports:
-            self.K_el += elastic * dx
+        for elastic, viscous, integral in weak_supports:
+            self.K_el += integral(elastic)
             if viscous is not None:
-                self.K_A += viscous * dx
+                self.K_A += integral(viscous)
         self.laws = None                 # N(x): (2.16)-(2.17), on Ω and on the weak supports
         if not T.linear:
             self.laws = LawTerms(T, X, coefficients, weak_regions(self.body.mesh, self.body.supports), body.order, SLIP_GAMMA0)
@@ -112,9 +112,9 @@ class StepSystem:
             bulk = forms.bulk(T, trial, test)
             if T.viscous:
                 bulk = bulk + coefficients.rate * forms.a(T, trial[0], test[0])
-            self._K_condensed += weighted(bulk) * ngs.dx
-            for elastic, viscous, dx in weak_supports:
-                self._K_condensed += (elastic if viscous is None else elastic + coefficients.rate * viscous) * dx
+            self._K_condensed += kin.dx(bulk)
+            for elastic, viscous, integral in weak_supports:
+                self._K_condensed += integral(elastic if viscous is None else elastic + coefficients.rate * viscous)
             self._schur = None
         self.f = ngs.LinearForm(X)
         for integral in forms.f(body, loads, test):
@@ -139,16 +139,15 @@ class StepSystem:
 
     # ----------------------------------------------------------------------- building
     def _weak_supports(self, trial, test):
-        """(elastic, viscous, dx) of the Nitsche terms of each weak normal support
-        (``forms.weak_normal_support``; with laws their linear part, the rest in N(x)), on the
-        element boundaries at the support."""
+        """(elastic, viscous, integral) of the Nitsche terms of each weak normal support
+        (``forms.weak_normal_support``; with laws their linear part, the rest in N(x)), and the
+        integral on the element boundaries at the support."""
         terms = []
         for region in weak_regions(self.body.mesh, self.body.supports):
-            dx, indicator = element_boundary_layer(self.body.mesh, region)
+            integral, indicator = element_boundary_layer(self.body.kinematics, self.body.mesh, region)
             elastic, viscous = forms.weak_normal_support(self.body.tensors, self.body.order, trial, test,
                                                          SLIP_GAMMA0)
-            weighted = self.body.weighted
-            terms.append((weighted(indicator * elastic), None if viscous is None else weighted(indicator * viscous), dx))
+            terms.append((indicator * elastic, None if viscous is None else indicator * viscous, integral))
         return terms
 
     def add_boundary_terms(self, terms, side, realcompile=False):

@@ -81,7 +81,7 @@ class Enforcement(Protocol):
     """The protocol of a method's Γ3 expressions (``Method.build``).
 
     ``traction`` below is p(u_ν) − γ_ν β² R_ν(u_ν) (Pa), the integrand of j_a (2.28), so that
-    σ̃_ν = σ_ν + traction; j_a itself is in ``forms.contact_terms``.
+    σ̃_ν = σ_ν + traction; j_a itself is in ``integrands.contact_terms``.
     """
 
     newton_hook: object

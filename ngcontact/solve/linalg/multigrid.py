@@ -88,10 +88,10 @@ class Hierarchy:
         self.form_u = self.pre_u = None
         if displacement:
             self.form_u = ngs.BilinearForm(self.V, symmetric=True)
-            self.form_u += compiled(integrand, realcompile) * ngs.dx
+            self.form_u += body.kinematics.dx(compiled(integrand, realcompile))
             self.pre_u = ngs.Preconditioner(self.form_u, self.kind)
         self.form_phi = ngs.BilinearForm(self.W, symmetric=True)
-        self.form_phi += compiled(phi_integrand, realcompile) * ngs.dx
+        self.form_phi += body.kinematics.dx(compiled(phi_integrand, realcompile))
         self.pre_phi = ngs.Preconditioner(self.form_phi, self.kind)
         self._assemble()
         self.levels = 1

@@ -142,7 +142,7 @@ class GamgSolver:
             self._integrand = compiled(u_integrand + phi_integrand,
                                        compile_bulk(self.realcompile, self.body.mesh.ne))
         form = ngs.BilinearForm(self.system.X, symmetric=True)
-        form += self._integrand * ngs.dx
+        form += self.body.kinematics.dx(self._integrand)
         form.Assemble()
         P = PetscMatrix(form.mat, freedofs).mat
         blocks = []
