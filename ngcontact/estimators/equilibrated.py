@@ -44,11 +44,11 @@ from dataclasses import dataclass, field
 import ngsolve as ngs
 import numpy as np
 
-from ngcontact.model import forms
+from ngcontact.model import axisymmetric as axisymmetric_model, forms
 from ngcontact import parallel
 from ngcontact.model.loads import as_cf
 from ngcontact.time.step import Step
-from .equilibration import Equilibration, Patches
+from .equilibration import BONUS, Equilibration, Patches
 
 
 RAISE = 0
@@ -61,6 +61,13 @@ SKEW_WEIGHT = 10.0
 least-squares weak symmetry. Fitted to measurements on a manufactured elastic square
 (docs/measurements.md, section ngcontact/estimators/equilibrated.py): a smaller weight leaves a
 larger skew part and a looser estimate, a larger one the same skew part and a larger symmetric one."""
+
+
+AXIS_FLOOR = 1e-12
+"""On a body of revolution, 1/r is evaluated with r at least this times the body's size (padded
+quadrature points of weight 0 may sit on the axis)."""
+SECTION_BONUS = 2
+"""Extra quadrature order of the element integrals on a body of revolution (integrands in 1/r)."""
 
 
 @dataclass
@@ -114,9 +121,6 @@ def check(sim):
     body = steps.body
     parallel.serial_only(body.mesh, "the equilibrated error estimator", "its vertex patches cross the ranks' "
                          "parts and are solved as one scipy system of one process")
-    if body.axisymmetric:
-        raise ValueError("the equilibrated estimator does not take bodies of revolution (Body(axisymmetric=True)) "
-                         "yet: its equilibrated stresses would need the hoop stress and the weight 2π r")
     if not body.tensors.linear:
         raise ValueError("the equilibrated estimator needs linear tensors: with a nonlinear law "
                          f"({(body.tensors.F_law or body.tensors.A_law).name}) its energy norm is not defined")
@@ -197,6 +201,8 @@ class EquilibratedEstimator:
         elif rate != self._rate:
             self._stress.set_weight(self._stress_weight(S, SKEW_WEIGHT * s_max))
         self._rate = rate
+        if body.axisymmetric:
+            return self._section(T, rate, S, s_max)
         u, phi = steps.u, steps.phi
         strain_rate = rate * (forms.strain(u) - forms.strain(coefficients.anchor)) if T.viscous else None
         sigma_h = _stress_matrix(forms.stress(T, u, phi, strain_rate), dim)
@@ -221,15 +227,71 @@ class EquilibratedEstimator:
         indicators = dict(zip(parts_K, _element_integrals(list(parts_K.values()), mesh, order)))
         indicators["oscillation"] = self._oscillation(f0 if loads.f0 is not None else None,
                                                       q0 if loads.q0 is not None else None, s_max, T) ** 2
-        total_sq = sum(indicators.values())
-        contact = self._contact_term()
-        parts = {name: float(np.sqrt(v.sum())) for name, v in indicators.items()}
-        parts.setdefault("flux", 0.0)                        # no electric unknown
-        parts["contact"] = contact
-        per_element = (np.sqrt(indicators["stress"] + indicators.get("flux", 0.0)) + np.sqrt(indicators["skew"])
-                       + np.sqrt(indicators["oscillation"]))
-        total = np.sqrt(np.sum(per_element ** 2)) + contact
-        return Estimate(total=float(total), parts=parts, indicators=np.sqrt(total_sq), fields=fields)
+        return _estimate(indicators, self._contact_term(), fields)
+
+    def _section(self, T, rate, S, s_max):
+        """The ``Estimate`` of a body of revolution (module docstring, section "Bodies of
+        revolution"): the weighted fluxes τ = w σ̃ (rows) and w D, w = 2π r, equilibrated with
+        the sources (w f_r − 2π σ_h,θθ, w f_z) and w q0 and the data w t, w q; σ̃* = τ/w, D* =
+        τ_D/w, the hoop stress σ*_θθ = div τ_r/(2π) + r f_r; every norm weighted by w."""
+        steps, body, mesh = self.steps, self.body, self.body.mesh
+        coefficients, loads = steps.system.coefficients, steps.loads
+        u, phi = steps.u, steps.phi
+        w = axisymmetric_model.weight()
+        inverse_w = 1.0 / (2 * np.pi * ngs.IfPos(ngs.x - AXIS_FLOOR * body.size, ngs.x, AXIS_FLOOR * body.size))
+        strain_rate = rate * (forms.strain(u, T) - forms.strain(coefficients.anchor, T)) if T.viscous else None
+        sigma_h = forms.stress(T, u, phi, strain_rate)                    # (rr, zz, rz, θθ)
+        f0 = as_cf(loads.f0, 2) if loads.f0 is not None else ngs.CF((0.0, 0.0))
+        t_mech, t_elec = self._boundary_data()
+        source = ngs.CF((w * f0[0] - 2 * np.pi * sigma_h[3], w * f0[1]))
+        rows = self._stress.gridfunctions(self._stress(w * _stress_matrix(sigma_h, 2), source, w * t_mech))
+        tau = ngs.CF(tuple(rows), dims=(2, 2))
+        hoop = ngs.div(rows[0]) / (2 * np.pi) + ngs.x * f0[0]           # the r row in balance exactly
+        sigma_star = inverse_w * tau
+        diff = ngs.CF((sigma_star[0, 0], sigma_star[1, 1], 0.5 * (sigma_star[0, 1] + sigma_star[1, 0]), hoop)) \
+            - sigma_h
+        parts_K = {"stress": w * ngs.InnerProduct(_matrix(S) * diff, diff),
+                   "skew": w * s_max * _skew_square(sigma_star, 2)}
+        fields = dict(sigma_star=ngs.CF((sigma_star[0, 0], sigma_star[0, 1], sigma_star[1, 0], sigma_star[1, 1]),
+                                        dims=(2, 2)), sigma_h=_stress_matrix(sigma_h, 2), hoop_star=hoop,
+                      hoop_h=sigma_h[3])
+        q0 = as_cf(loads.q0, 1) if loads.q0 is not None else ngs.CF(0.0)
+        if self._flux is not None:
+            D_h = forms.electric_displacement(T, u, phi)
+            (tau_D,) = self._flux.gridfunctions(self._flux(ngs.CF(w * D_h, dims=(1, 2)), w * q0, w * t_elec))
+            dD = inverse_w * tau_D - D_h
+            parts_K["flux"] = w * ngs.InnerProduct(_matrix(np.linalg.inv(T.C)) * dD, dD)
+            fields.update(D_star=inverse_w * tau_D, D_h=D_h)
+        order = 2 * (max(body.order, body.order_phi) + RAISE) + 2 + SECTION_BONUS
+        indicators = dict(zip(parts_K, _element_integrals(list(parts_K.values()), mesh, order)))
+        indicators["oscillation"] = self._section_oscillation(
+            w * f0[1] if loads.f0 is not None else None, w * q0 if loads.q0 is not None else None,
+            inverse_w, s_max, T) ** 2
+        return _estimate(indicators, self._contact_term(), fields)
+
+    def _section_oscillation(self, g_z, g_q, inverse_w, s_max, T):
+        """η_osc,K = (h_K/π)(λ_min(C_c)^{−½}‖(g_z − Π_p g_z)/w‖_K + λ_min(C)^{−½}‖(g_q − Π_p g_q)/w‖_K)
+        per element (norms weighted by w = 2π r), g_z = w f_z and g_q = w q0 the sources of the
+        z row and of the charge (None: none): the weighted Poincaré inequality on a convex element
+        (module docstring)."""
+        body, mesh = self.body, self.body.mesh
+        out = np.zeros(mesh.ne)
+        if g_z is None and g_q is None:
+            return out
+        if self._diameters is None:
+            self._diameters = element_diameters(mesh)
+        h = self._diameters
+        for data, order, weight in ((g_z, body.order + RAISE, s_max), (g_q, body.order_phi + RAISE,
+                                                               float(np.linalg.eigvalsh(np.linalg.inv(T.C)).max()))):
+            if data is None:
+                continue
+            projected = ngs.GridFunction(ngs.L2(mesh, order=order))
+            projected.Set(data, bonus_intorder=BONUS)
+            rest = data - projected
+            norm = np.sqrt(np.maximum(ngs.Integrate((rest * rest * inverse_w).Compile(), mesh, ngs.VOL,
+                                                    order=2 * order + 6, element_wise=True).NumPy(), 0.0))
+            out += h / np.pi * np.sqrt(weight) * norm
+        return out
 
     def _boundary_data(self):
         """The Neumann data of σ* and D* on the boundary (CFs of dim and 1 components): the
@@ -289,6 +351,18 @@ class EquilibratedEstimator:
         opening = steps.u * g.normal - g.gap
         value = g.side.integrate(lam * ngs.IfPos(opening, opening, -opening))
         return float(np.sqrt(max(value, 0.0)))
+
+
+def _estimate(indicators, contact, fields):
+    """The ``Estimate`` from the element parts (squares) and the Γ3 term (module docstring)."""
+    total_sq = sum(indicators.values())
+    parts = {name: float(np.sqrt(v.sum())) for name, v in indicators.items()}
+    parts.setdefault("flux", 0.0)                        # no electric unknown
+    parts["contact"] = contact
+    per_element = (np.sqrt(indicators["stress"] + indicators.get("flux", 0.0)) + np.sqrt(indicators["skew"])
+                   + np.sqrt(indicators["oscillation"]))
+    total = np.sqrt(np.sum(per_element ** 2)) + contact
+    return Estimate(total=float(total), parts=parts, indicators=np.sqrt(total_sq), fields=fields)
 
 
 def _element_integrals(cfs, mesh, order):
@@ -376,6 +450,8 @@ class Representative:
         # onto SurfaceL2 of order p, so that every later form reads them cheaply; the projection
         # keeps their moments against the hat functions, which is all the patch problems see
         T_h, j_h = pointwise_data(steps)
+        if body.axisymmetric:                            # the data of the weighted fluxes w σ̃, w D
+            T_h, j_h = body.weighted(T_h), body.weighted(j_h)
         surface = ngs.SurfaceL2(mesh, order=body.order, definedon=self.region)
         self._traction = ngs.GridFunction(surface ** dim if dim > 1 else surface)
         self._flux = ngs.GridFunction(surface)
