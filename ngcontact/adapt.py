@@ -77,7 +77,8 @@ def mark(indicators, fraction=0.5):
 
 def energy(sim, reference=None):
     """|||x_h||| = ((C_c ε(u_h), ε(u_h)) + (C ∇φ_h, ∇φ_h))^½ of the current state, C_c = F + c A
-    with the step's rate coefficient c (J^½; (J/m)^½ in 2D); with ``reference`` (u_ref, φ_ref:
+    with the step's rate coefficient c (J^½; (J/m)^½ in 2D; a body of revolution's weighted by
+    2π r, in J^½); with ``reference`` (u_ref, φ_ref:
     GridFunctions, possibly of another mesh, found point by point; φ_ref None without φ) the
     norm of the difference x_h − x_ref, integrated on the simulation's mesh."""
     T, body = sim.body.tensors, sim.body

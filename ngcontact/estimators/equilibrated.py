@@ -35,7 +35,21 @@ so that, bounding each term element by element and summing (Cauchy–Schwarz ove
   conduction's ψ(u_ν − g) cross term is of higher order and left out.
 
 So η is an upper bound of the energy error when Korn's constant is 1 and the contact term is
-exact; ``report`` gives every part. Element indicators η_K² = η_σ,K² + η_D,K² + η_skew,K² +
+exact; ``report`` gives every part.
+
+Bodies of revolution (``model.axisymmetric``; norms weighted by w = 2π r, the whole body's).
+With σ̃ = (σ_rr σ_rz; σ_zr σ_zz) and the meridian divergence, equilibrium reads
+div(w σ̃_r) = 2π σ_θθ − w f_r, div(w σ̃_z) = −w f_z, div(w D) = −w q0. The rows τ = w σ̃ and
+τ_D = w D are equilibrated in RT_p with the sources (w f_r − 2π σ_h,θθ, w f_z), w q0, the data
+w t, w q (and the weighted Γ3 representative), the flux w σ_h; then σ̃* = τ/w, D* = τ_D/w and
+the hoop stress σ*_θθ = div τ_r/(2π) + r f_r, which balances the r row exactly (it is Π_p σ_h,θθ).
+The identity above holds with every integral weighted by w: η_σ, η_D, η_skew of σ̃*, σ*_θθ, D*;
+the z row's and the charge's data oscillation g = w f_z − Π_p(w f_z) (g ⊥ 1 on K) by the
+weighted Poincaré inequality (weight r, log-concave on a convex K: constant h_K/π),
+η_osc,K = (h_K/π) λ_min^{−½} ‖g/w‖_K. At the axis τ need not vanish, so τ/w is not square
+integrable on the elements with an edge on it: there the element quadrature (points off the
+axis) gives a finite value that is not a proven bound; the bound is checked there numerically
+(docs/adaptivity.md). Element indicators η_K² = η_σ,K² + η_D,K² + η_skew,K² +
 η_osc,K² mark elements for refinement (``adapt``). Measured effectivities (η / the true error on
 manufactured solutions): docs/adaptivity.md.
 """
@@ -72,7 +86,8 @@ SECTION_BONUS = 2
 
 @dataclass
 class Estimate:
-    """An error estimate of one step in the energy norm |||·||| (J^½ in 3D, (J/m)^½ in 2D).
+    """An error estimate of one step in the energy norm |||·||| (J^½ in 3D and on a body of
+    revolution, (J/m)^½ in 2D).
 
     total : η, the bound (module docstring: the element-wise sum).
     parts : {"stress": η_σ, "flux": η_D, "skew": η_skew, "oscillation": η_osc, "contact": η_Γ3}.
@@ -137,8 +152,8 @@ class EquilibratedEstimator:
 
     Parameters
     ----------
-    sim : a Simulation (2D or 3D, any order), or its ``steps`` (``time.step.Step``): its body,
-        loads, contact and state are read.
+    sim : a Simulation (2D, 3D or a body of revolution, any order), or its ``steps``
+        (``time.step.Step``): its body, loads, contact and state are read.
     """
 
     def __init__(self, sim):
