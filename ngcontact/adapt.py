@@ -77,12 +77,13 @@ def mark(indicators, fraction=0.5):
 
 def energy(sim, reference=None):
     """|||x_h||| = ((C_c ε(u_h), ε(u_h)) + (C ∇φ_h, ∇φ_h))^½ of the current state, C_c = F + c A
-    with the step's rate coefficient c (J^½; (J/m)^½ in 2D); with ``reference`` (u_ref, φ_ref:
+    with the step's rate coefficient c (J^½; (J/m)^½ in 2D; a body of revolution's weighted by
+    2π r, in J^½); with ``reference`` (u_ref, φ_ref:
     GridFunctions, possibly of another mesh, found point by point; φ_ref None without φ) the
     norm of the difference x_h − x_ref, integrated on the simulation's mesh."""
-    T = sim.body.tensors
+    T, body = sim.body.tensors, sim.body
     rate = sim.system.coefficients.rate.Get() if T.viscous else 0.0
-    e, order = forms.strain(sim.u), 2 * sim.body.order
+    e, order = forms.strain(sim.u, T), 2 * sim.body.order
     g = ngs.grad(sim.phi) if sim.electric else None
     if reference is not None:
         if not isinstance(reference, (tuple, list)) or len(reference) != 2 \
@@ -93,13 +94,15 @@ def energy(sim, reference=None):
         u_ref, phi_ref = reference
         if sim.electric and phi_ref is None:
             raise ValueError("energy: reference needs φ_ref (the simulation solves for φ), got None")
-        e = e - forms.strain(u_ref)
+        e = e - forms.strain(u_ref, T)
         g = g - ngs.grad(phi_ref) if sim.electric else None
         order += 4
     C_c = forms.matrix_cf(T.F + rate * T.A if T.viscous else T.F)
     value = ngs.InnerProduct(C_c * e, e)
     if sim.electric:
         value = value + ngs.InnerProduct(forms.matrix_cf(T.C) * g, g)
+    if body.kinematics.weight is not None:       # the whole body's: the weight 2π r
+        value, order = body.weighted(value), order + 1
     return float(np.sqrt(max(ngs.Integrate(value.Compile(), sim.body.mesh, order=order), 0.0)))
 
 

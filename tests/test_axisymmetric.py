@@ -286,12 +286,6 @@ def test_what_a_body_of_revolution_cannot_be_is_refused():
                  grounded="top", axisymmetric=True)
 
 
-def test_the_estimator_refuses_a_body_of_revolution(sphere):
-    from ngcontact.estimators.equilibrated import EquilibratedEstimator
-    with pytest.raises(ValueError, match="bodies of revolution"):
-        EquilibratedEstimator(sphere)
-
-
 def _viscous_section(scheme):
     t = ngs.Parameter(0.0)
     mesh = hertz.mesh(2, h_contact=0.02, axisymmetric=True)

@@ -18,13 +18,14 @@ averages see no boundary data and the contact zone's ends are where a step's err
 It is **not a bound** (no constant is known for it), but it costs a projection and two
 integrals per step, about a tenth of the equilibrated estimate (``equilibrated``), and it marks
 the same places: ``adapt`` marks by it and asks the equilibrated estimate for the certificate
-(``marking="averaging"``). The electric charge flux on Γ3 has no residual term here.
+(``marking="averaging"``). The electric charge flux on Γ3 has no residual term here. On a body
+of revolution σ_h holds the hoop stress too and every integral is weighted by 2π r.
 """
 import ngsolve as ngs
 import numpy as np
 
 from ngcontact.model import forms
-from .equilibrated import Estimate, _stress_matrix, check, pointwise_data
+from .equilibrated import Estimate, check, pointwise_data
 
 
 class AveragingIndicator:
@@ -38,8 +39,7 @@ class AveragingIndicator:
         body = steps.body
         self.steps, self.body = steps, body
         mesh = body.mesh
-        voigt = 3 if body.dim == 2 else 6
-        self._sigma = ngs.GridFunction(ngs.H1(mesh, order=max(body.order, 1)) ** voigt)
+        self._sigma = ngs.GridFunction(ngs.H1(mesh, order=max(body.order, 1)) ** body.kinematics.size)
         self._D = ngs.GridFunction(ngs.H1(mesh, order=max(body.order_phi, 1)) ** body.dim) if steps.electric else None
         self._order = 2 * max(body.order, body.order_phi)
         self._gamma3 = None
@@ -55,7 +55,7 @@ class AveragingIndicator:
         T, mesh = body.tensors, body.mesh
         coefficients = steps.system.coefficients
         rate = coefficients.rate.Get() if T.viscous else 0.0
-        strain_rate = rate * (forms.strain(steps.u) - forms.strain(coefficients.anchor)) if T.viscous else None
+        strain_rate = rate * (forms.strain(steps.u, T) - forms.strain(coefficients.anchor, T)) if T.viscous else None
         sigma_h = forms.stress(T, steps.u, steps.phi, strain_rate).Compile()
         self._sigma.Set(sigma_h)
         compliance = forms.matrix_cf(np.linalg.inv(T.F + rate * T.A if T.viscous else T.F))
@@ -66,16 +66,16 @@ class AveragingIndicator:
             self._D.Set(D_h)
             dD = ngs.CF(self._D) - D_h
             parts["flux"] = ngs.InnerProduct(forms.matrix_cf(np.linalg.inv(T.C)) * dD, dD)
-        squares = {name: np.maximum(ngs.Integrate(cf.Compile(), mesh, ngs.VOL, order=self._order,
+        squares = {name: np.maximum(ngs.Integrate(body.weighted(cf).Compile(), mesh, ngs.VOL, order=self._order,
                                                   element_wise=True).NumPy(), 0.0) for name, cf in parts.items()}
         if self._gamma3 is not None:
             traction, side, scale, tests = self._gamma3
             compliance_max = float(np.linalg.eigvalsh(np.linalg.inv(T.F + rate * T.A if T.viscous else T.F)).max())
-            sigma_n = _stress_matrix(sigma_h, body.dim) * ngs.specialcf.normal(body.dim)
+            sigma_n = body.kinematics.traction(sigma_h, ngs.specialcf.normal(body.dim))
             r = sigma_n - traction
             form = ngs.LinearForm(tests)
             integrand = (side.indicator * compliance_max * scale * ngs.InnerProduct(r, r)).Compile()
-            form += side.on_layer(integrand * tests.TestFunction(), weighted=False)
+            form += side.on_layer(integrand * tests.TestFunction())
             squares["contact"] = np.maximum(form.Assemble().vec.FV().NumPy().copy(), 0.0)
         indicators = np.sqrt(sum(squares.values()))
         values = {name: float(np.sqrt(v.sum())) for name, v in squares.items()}

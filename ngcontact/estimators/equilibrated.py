@@ -35,7 +35,21 @@ so that, bounding each term element by element and summing (Cauchy–Schwarz ove
   conduction's ψ(u_ν − g) cross term is of higher order and left out.
 
 So η is an upper bound of the energy error when Korn's constant is 1 and the contact term is
-exact; ``report`` gives every part. Element indicators η_K² = η_σ,K² + η_D,K² + η_skew,K² +
+exact; ``report`` gives every part.
+
+Bodies of revolution (``model.axisymmetric``; norms weighted by w = 2π r, the whole body's).
+With σ̃ = (σ_rr σ_rz; σ_zr σ_zz) and the meridian divergence, equilibrium reads
+div(w σ̃_r) = 2π σ_θθ − w f_r, div(w σ̃_z) = −w f_z, div(w D) = −w q0. The rows τ = w σ̃ and
+τ_D = w D are equilibrated in RT_p with the sources (w f_r − 2π σ_h,θθ, w f_z), w q0, the data
+w t, w q (and the weighted Γ3 representative), the flux w σ_h; then σ̃* = τ/w, D* = τ_D/w and
+the hoop stress σ*_θθ = div τ_r/(2π) + r f_r, which balances the r row exactly (it is Π_p σ_h,θθ).
+The identity above holds with every integral weighted by w: η_σ, η_D, η_skew of σ̃*, σ*_θθ, D*;
+the z row's and the charge's data oscillation g = w f_z − Π_p(w f_z) (g ⊥ 1 on K) by the
+weighted Poincaré inequality (weight r, log-concave on a convex K: constant h_K/π),
+η_osc,K = (h_K/π) λ_min^{−½} ‖g/w‖_K. At the axis τ need not vanish, so τ/w is not square
+integrable on the elements with an edge on it: there the element quadrature (points off the
+axis) gives a finite value that is not a proven bound; the bound is checked there numerically
+(docs/adaptivity.md). Element indicators η_K² = η_σ,K² + η_D,K² + η_skew,K² +
 η_osc,K² mark elements for refinement (``adapt``). Measured effectivities (η / the true error on
 manufactured solutions): docs/adaptivity.md.
 """
@@ -45,11 +59,12 @@ import ngsolve as ngs
 import numpy as np
 
 from ngcontact.gamma3 import integrands
-from ngcontact.model import forms
+from ngcontact.model import forms, kinematics
+from ngcontact.model.kinematics import mesh_ds
 from ngcontact import parallel
 from ngcontact.model.loads import as_cf
 from ngcontact.time.step import Step
-from .equilibration import Equilibration, Patches
+from .equilibration import BONUS, Equilibration, Patches
 
 
 RAISE = 0
@@ -64,9 +79,17 @@ least-squares weak symmetry. Fitted to measurements on a manufactured elastic sq
 larger skew part and a looser estimate, a larger one the same skew part and a larger symmetric one."""
 
 
+AXIS_FLOOR = 1e-12
+"""On a body of revolution, 1/r is evaluated with r at least this times the body's size (padded
+quadrature points of weight 0 may sit on the axis)."""
+SECTION_BONUS = 2
+"""Extra quadrature order of the element integrals on a body of revolution (integrands in 1/r)."""
+
+
 @dataclass
 class Estimate:
-    """An error estimate of one step in the energy norm |||·||| (J^½ in 3D, (J/m)^½ in 2D).
+    """An error estimate of one step in the energy norm |||·||| (J^½ in 3D and on a body of
+    revolution, (J/m)^½ in 2D).
 
     total : η, the bound (module docstring: the element-wise sum).
     parts : {"stress": η_σ, "flux": η_D, "skew": η_skew, "oscillation": η_osc, "contact": η_Γ3}.
@@ -82,28 +105,6 @@ def _matrix(M):
     return ngs.CF(tuple(float(v) for v in np.asarray(M).flat), dims=np.shape(M))
 
 
-def _voigt(S, dim):
-    """The symmetric part of a dim × dim matrix CF as a Voigt vector (stress convention: no
-    factor 2 on the shear)."""
-    if dim == 2:
-        return ngs.CF((S[0, 0], S[1, 1], 0.5 * (S[0, 1] + S[1, 0])))
-    return ngs.CF((S[0, 0], S[1, 1], S[2, 2], 0.5 * (S[1, 2] + S[2, 1]), 0.5 * (S[0, 2] + S[2, 0]),
-                   0.5 * (S[0, 1] + S[1, 0])))
-
-
-def _skew_square(S, dim):
-    """|skew S|² (Frobenius) of a dim × dim matrix CF."""
-    pairs = [(0, 1)] if dim == 2 else [(0, 1), (0, 2), (1, 2)]
-    return sum(0.5 * (S[i, j] - S[j, i]) ** 2 for i, j in pairs)
-
-
-def _stress_matrix(voigt, dim):
-    s = voigt
-    if dim == 2:
-        return ngs.CF((s[0], s[2], s[2], s[1]), dims=(2, 2))
-    return ngs.CF((s[0], s[5], s[4], s[5], s[1], s[3], s[4], s[3], s[2]), dims=(3, 3))
-
-
 def check(sim):
     """The ``time.step.Step`` of ``sim`` (an ngcontact.Simulation's ``steps``, or a Step) after
     refusing what the estimator cannot estimate (``adapt`` asks before each level's solve):
@@ -115,9 +116,6 @@ def check(sim):
     body = steps.body
     parallel.serial_only(body.mesh, "the equilibrated error estimator", "its vertex patches cross the ranks' "
                          "parts and are solved as one scipy system of one process")
-    if body.axisymmetric:
-        raise ValueError("the equilibrated estimator does not take bodies of revolution (Body(axisymmetric=True)) "
-                         "yet: its equilibrated stresses would need the hoop stress and the weight 2π r")
     if not body.tensors.linear:
         raise ValueError("the equilibrated estimator needs linear tensors: with a nonlinear law "
                          f"({(body.tensors.F_law or body.tensors.A_law).name}) its energy norm is not defined")
@@ -134,8 +132,8 @@ class EquilibratedEstimator:
 
     Parameters
     ----------
-    sim : a Simulation (2D or 3D, any order), or its ``steps`` (``time.step.Step``): its body,
-        loads, contact and state are read.
+    sim : a Simulation (2D, 3D or a body of revolution, any order), or its ``steps``
+        (``time.step.Step``): its body, loads, contact and state are read.
     """
 
     def __init__(self, sim):
@@ -168,7 +166,7 @@ class EquilibratedEstimator:
         (``Equilibration``): Voigt(τ)ᵀ S Voigt(σ) + skew Σ_{i<j} ½ (σ_ij − σ_ji)(τ_ij − τ_ji)."""
         dim = self.dim
         voigt = np.zeros((len(S), dim * dim))
-        pairs = [(0, 1)] if dim == 2 else [(1, 2), (0, 2), (0, 1)]
+        pairs = kinematics.of(dim).pairs[dim:]                     # the shear entries of the Voigt order
         for a in range(dim):
             voigt[a, a * dim + a] = 1.0
         for a, (i, j) in enumerate(pairs):
@@ -198,9 +196,11 @@ class EquilibratedEstimator:
         elif rate != self._rate:
             self._stress.set_weight(self._stress_weight(S, SKEW_WEIGHT * s_max))
         self._rate = rate
+        if body.axisymmetric:
+            return self._section(T, rate, S, s_max)
         u, phi = steps.u, steps.phi
-        strain_rate = rate * (forms.strain(u) - forms.strain(coefficients.anchor)) if T.viscous else None
-        sigma_h = _stress_matrix(forms.stress(T, u, phi, strain_rate), dim)
+        strain_rate = rate * (forms.strain(u, T) - forms.strain(coefficients.anchor, T)) if T.viscous else None
+        sigma_h = body.kinematics.plane_stress_matrix(forms.stress(T, u, phi, strain_rate))
         loads, n = steps.loads, ngs.specialcf.normal(dim)
         f0 = as_cf(loads.f0, dim) if loads.f0 is not None else ngs.CF((0.0,) * dim)
         t_mech, t_elec = self._boundary_data()
@@ -208,9 +208,10 @@ class EquilibratedEstimator:
         rows = self._stress.gridfunctions(values)
         sigma_star = ngs.CF(tuple(rows), dims=(dim, dim))
         mesh, order = body.mesh, 2 * (max(body.order, body.order_phi) + RAISE) + 2     # (exact on straight elements)
-        diff = _voigt(sigma_star, dim) - _voigt(sigma_h, dim)
+        kin = body.kinematics
+        diff = kin.symmetric_vector(sigma_star) - kin.symmetric_vector(sigma_h)
         parts_K = {"stress": ngs.InnerProduct(_matrix(S) * diff, diff),
-                   "skew": s_max * _skew_square(sigma_star, dim)}
+                   "skew": s_max * kin.skew_square(sigma_star)}
         fields = dict(sigma_star=sigma_star, sigma_h=sigma_h)
         q0 = as_cf(loads.q0, 1) if loads.q0 is not None else ngs.CF(0.0)
         if self._flux is not None:
@@ -222,15 +223,72 @@ class EquilibratedEstimator:
         indicators = dict(zip(parts_K, _element_integrals(list(parts_K.values()), mesh, order)))
         indicators["oscillation"] = self._oscillation(f0 if loads.f0 is not None else None,
                                                       q0 if loads.q0 is not None else None, s_max, T) ** 2
-        total_sq = sum(indicators.values())
-        contact = self._contact_term()
-        parts = {name: float(np.sqrt(v.sum())) for name, v in indicators.items()}
-        parts.setdefault("flux", 0.0)                        # no electric unknown
-        parts["contact"] = contact
-        per_element = (np.sqrt(indicators["stress"] + indicators.get("flux", 0.0)) + np.sqrt(indicators["skew"])
-                       + np.sqrt(indicators["oscillation"]))
-        total = np.sqrt(np.sum(per_element ** 2)) + contact
-        return Estimate(total=float(total), parts=parts, indicators=np.sqrt(total_sq), fields=fields)
+        return _estimate(indicators, self._contact_term(), fields)
+
+    def _section(self, T, rate, S, s_max):
+        """The ``Estimate`` of a body of revolution (module docstring, section "Bodies of
+        revolution"): the weighted fluxes τ = w σ̃ (rows) and w D, w = 2π r, equilibrated with
+        the sources (w f_r − 2π σ_h,θθ, w f_z) and w q0 and the data w t, w q; σ̃* = τ/w, D* =
+        τ_D/w, the hoop stress σ*_θθ = div τ_r/(2π) + r f_r; every norm weighted by w."""
+        steps, body, mesh = self.steps, self.body, self.body.mesh
+        coefficients, loads = steps.system.coefficients, steps.loads
+        u, phi = steps.u, steps.phi
+        kin = body.kinematics
+        w = kin.weight
+        inverse_w = 1.0 / (2 * np.pi * ngs.IfPos(ngs.x - AXIS_FLOOR * body.size, ngs.x, AXIS_FLOOR * body.size))
+        strain_rate = rate * (forms.strain(u, T) - forms.strain(coefficients.anchor, T)) if T.viscous else None
+        sigma_h = forms.stress(T, u, phi, strain_rate)                    # (rr, zz, rz, θθ)
+        f0 = as_cf(loads.f0, 2) if loads.f0 is not None else ngs.CF((0.0, 0.0))
+        t_mech, t_elec = self._boundary_data()
+        source = ngs.CF((w * f0[0] - 2 * np.pi * sigma_h[3], w * f0[1]))
+        rows = self._stress.gridfunctions(self._stress(w * kin.plane_stress_matrix(sigma_h), source, w * t_mech))
+        tau = ngs.CF(tuple(rows), dims=(2, 2))
+        hoop = ngs.div(rows[0]) / (2 * np.pi) + ngs.x * f0[0]           # the r row in balance exactly
+        sigma_star = inverse_w * tau
+        diff = ngs.CF((sigma_star[0, 0], sigma_star[1, 1], 0.5 * (sigma_star[0, 1] + sigma_star[1, 0]), hoop)) \
+            - sigma_h
+        parts_K = {"stress": w * ngs.InnerProduct(_matrix(S) * diff, diff),
+                   "skew": w * s_max * kinematics.of(2).skew_square(sigma_star)}
+        fields = dict(sigma_star=ngs.CF((sigma_star[0, 0], sigma_star[0, 1], sigma_star[1, 0], sigma_star[1, 1]),
+                                        dims=(2, 2)), sigma_h=kin.plane_stress_matrix(sigma_h), hoop_star=hoop,
+                      hoop_h=sigma_h[3])
+        q0 = as_cf(loads.q0, 1) if loads.q0 is not None else ngs.CF(0.0)
+        if self._flux is not None:
+            D_h = forms.electric_displacement(T, u, phi)
+            (tau_D,) = self._flux.gridfunctions(self._flux(ngs.CF(w * D_h, dims=(1, 2)), w * q0, w * t_elec))
+            dD = inverse_w * tau_D - D_h
+            parts_K["flux"] = w * ngs.InnerProduct(_matrix(np.linalg.inv(T.C)) * dD, dD)
+            fields.update(D_star=inverse_w * tau_D, D_h=D_h)
+        order = 2 * (max(body.order, body.order_phi) + RAISE) + 2 + SECTION_BONUS
+        indicators = dict(zip(parts_K, _element_integrals(list(parts_K.values()), mesh, order)))
+        indicators["oscillation"] = self._section_oscillation(
+            w * f0[1] if loads.f0 is not None else None, w * q0 if loads.q0 is not None else None,
+            inverse_w, s_max, T) ** 2
+        return _estimate(indicators, self._contact_term(), fields)
+
+    def _section_oscillation(self, g_z, g_q, inverse_w, s_max, T):
+        """η_osc,K = (h_K/π)(λ_min(C_c)^{−½}‖(g_z − Π_p g_z)/w‖_K + λ_min(C)^{−½}‖(g_q − Π_p g_q)/w‖_K)
+        per element (norms weighted by w = 2π r), g_z = w f_z and g_q = w q0 the sources of the
+        z row and of the charge (None: none): the weighted Poincaré inequality on a convex element
+        (module docstring)."""
+        body, mesh = self.body, self.body.mesh
+        out = np.zeros(mesh.ne)
+        if g_z is None and g_q is None:
+            return out
+        if self._diameters is None:
+            self._diameters = element_diameters(mesh)
+        h = self._diameters
+        for data, order, weight in ((g_z, body.order + RAISE, s_max), (g_q, body.order_phi + RAISE,
+                                                               float(np.linalg.eigvalsh(np.linalg.inv(T.C)).max()))):
+            if data is None:
+                continue
+            projected = ngs.GridFunction(ngs.L2(mesh, order=order))
+            projected.Set(data, bonus_intorder=BONUS)
+            rest = data - projected
+            norm = np.sqrt(np.maximum(ngs.Integrate((rest * rest * inverse_w).Compile(), mesh, ngs.VOL,
+                                                    order=2 * order + 6, element_wise=True).NumPy(), 0.0))
+            out += h / np.pi * np.sqrt(weight) * norm
+        return out
 
     def _boundary_data(self):
         """The Neumann data of σ* and D* on the boundary (CFs of dim and 1 components): the
@@ -290,6 +348,18 @@ class EquilibratedEstimator:
         opening = steps.u * g.normal - g.gap
         value = g.side.integrate(lam * ngs.IfPos(opening, opening, -opening))
         return float(np.sqrt(max(value, 0.0)))
+
+
+def _estimate(indicators, contact, fields):
+    """The ``Estimate`` from the element parts (squares) and the Γ3 term (module docstring)."""
+    total_sq = sum(indicators.values())
+    parts = {name: float(np.sqrt(v.sum())) for name, v in indicators.items()}
+    parts.setdefault("flux", 0.0)                        # no electric unknown
+    parts["contact"] = contact
+    per_element = (np.sqrt(indicators["stress"] + indicators.get("flux", 0.0)) + np.sqrt(indicators["skew"])
+                   + np.sqrt(indicators["oscillation"]))
+    total = np.sqrt(np.sum(per_element ** 2)) + contact
+    return Estimate(total=float(total), parts=parts, indicators=np.sqrt(total_sq), fields=fields)
 
 
 def _element_integrals(cfs, mesh, order):
@@ -353,7 +423,7 @@ class Representative:
         self.P1 = ngs.H1(mesh, order=1, definedon=self.region)
         self.w = self.P1.TestFunction()
         mass = ngs.BilinearForm(self.P1)
-        mass += self.P1.TrialFunction() * self.w * ngs.ds(self.region)
+        mass += mesh_ds(self.P1.TrialFunction() * self.w, self.region)
         self.inverse = mass.Assemble().mat.Inverse(self.P1.FreeDofs(), inverse="sparsecholesky")
         X = steps.X
         V, W = X.components
@@ -371,12 +441,14 @@ class Representative:
             targets[dim].append(X.Range(1).start + W.GetDofNrs(node)[0])
         self.local = np.array(local, dtype=np.int64)
         self.targets = [np.array(t, dtype=np.int64) for t in targets]
-        self.quadrature = ngs.ds(self.region, bonus_intorder=2 * body.order + 2)
+        self.quadrature = dict(definedon=self.region, bonus_intorder=2 * body.order + 2)
         # the pointwise data need the volume element's stress at Γ3 (on a plain ds NGSolve would
         # take the surface gradient): evaluated from the volume, then projected facet by facet
         # onto SurfaceL2 of order p, so that every later form reads them cheaply; the projection
         # keeps their moments against the hat functions, which is all the patch problems see
         T_h, j_h = pointwise_data(steps)
+        if body.axisymmetric:                            # the data of the weighted fluxes w σ̃, w D
+            T_h, j_h = body.weighted(T_h), body.weighted(j_h)
         surface = ngs.SurfaceL2(mesh, order=body.order, definedon=self.region)
         self._traction = ngs.GridFunction(surface ** dim if dim > 1 else surface)
         self._flux = ngs.GridFunction(surface)
@@ -398,7 +470,7 @@ class Representative:
         corrections = []
         for i in range(dim + 1):
             given = ngs.LinearForm(self.P1)
-            given += (T_h[i] if i < dim else j_h) * self.w * self.quadrature
+            given += mesh_ds((T_h[i] if i < dim else j_h) * self.w, **self.quadrature)
             given = given.Assemble().vec.FV().NumPy()
             rhs = ngs.GridFunction(self.P1)
             values = rhs.vec.FV().NumPy()

@@ -35,6 +35,8 @@ import ngsolve as ngs
 import numpy as np
 import scipy.sparse as sp
 
+from ngcontact import meshes
+from ngcontact.model.kinematics import mesh_ds, mesh_dx
 from ngcontact.solve.linalg.matrices import csr
 from .block_diagonal import BlockDiagonal
 
@@ -45,14 +47,6 @@ BONUS = 4
 def _entries(matrix, rows, cols):
     """matrix[rows[k], cols[k]] for every k (a CSR matrix; 0 where it has no entry)."""
     return np.asarray(matrix[rows, cols]).ravel() if len(rows) else np.zeros(0)
-
-
-def _facet_kind(mesh):
-    return ngs.EDGE if mesh.dim == 2 else ngs.FACE
-
-
-def _facets_of(mesh, el):
-    return el.edges if mesh.dim == 2 else el.faces
 
 
 def _element_blocks(form, mesh, trial, test):
@@ -90,7 +84,7 @@ def _facet_dofs(S, mesh, patches):
     facet by facet."""
     el_dofs = _element_dofs(S)
     first = list(el_dofs[0])
-    local = [[first.index(d) for d in S.GetDofNrs(f)] for f in _facets_of(mesh, mesh[ngs.ElementId(ngs.VOL, 0)])]
+    local = [[first.index(d) for d in S.GetDofNrs(f)] for f in meshes.facets_of(mesh, mesh[ngs.ElementId(ngs.VOL, 0)])]
     table = np.full((len(patches.facet_vertices), len(local[0])), -1, dtype=np.int64)
     for k, positions in enumerate(local):
         table[patches.element_facets[:, k]] = el_dofs[:, positions]
@@ -110,14 +104,14 @@ class Patches:
 
     def __init__(self, mesh):
         self.mesh = mesh
-        self.facet_kind = _facet_kind(mesh)
+        self.facet_kind = meshes.facet_kind(mesh)
         self.boundary_name = {}                       # facet number -> boundary name
         for el in mesh.Elements(ngs.BND):
-            self.boundary_name[_facets_of(mesh, el)[0].nr] = el.mat
+            self.boundary_name[meshes.facets_of(mesh, el)[0].nr] = el.mat
         elements = list(mesh.Elements(ngs.VOL))
         self.element_vertices = np.array([[v.nr for v in el.vertices] for el in elements], dtype=np.int64)
-        self.element_facets = np.array([[f.nr for f in _facets_of(mesh, el)] for el in elements], dtype=np.int64)
-        facets = mesh.edges if mesh.dim == 2 else mesh.faces
+        self.element_facets = np.array([[f.nr for f in meshes.facets_of(mesh, el)] for el in elements], dtype=np.int64)
+        facets = meshes.facets(mesh)
         self.facet_vertices = np.array([[v.nr for v in f.vertices] for f in facets], dtype=np.int64)
         self._elements = {}
 
@@ -145,11 +139,11 @@ class ElementData:
         for l in range(d):
             for k in range(l + 1):
                 form = ngs.BilinearForm(Sd)
-                form += sigma[k] * tau[l] * ngs.dx
+                form += mesh_dx(sigma[k] * tau[l])
                 mass[l][k] = _element_blocks(form.Assemble(), mesh, Sd, Sd)
                 mass[k][l] = np.transpose(mass[l][k], (0, 2, 1))
         div = ngs.BilinearForm(trialspace=Sd, testspace=self.Q)
-        div += ngs.div(sigma) * self.Q.TestFunction() * ngs.dx
+        div += mesh_dx(ngs.div(sigma) * self.Q.TestFunction())
         self.el_sdofs = _element_dofs(self.S)
         self.el_qdofs = _element_dofs(self.Q)
         self.facet_dofs = _facet_dofs(self.S, mesh, patches)             # (facets, w), -1: no DOFs
@@ -346,7 +340,7 @@ class Equilibration:
             n = ngs.specialcf.normal(mesh.dim)
             sigma, tau = self.S.TnT()
             boundary = ngs.BilinearForm(self.S)
-            boundary += (sigma.Trace() * n) * (tau.Trace() * n) * ngs.ds
+            boundary += mesh_ds((sigma.Trace() * n) * (tau.Trace() * n))
             Mb = csr(boundary.Assemble().mat, copy=True)
             # the normal-trace mass matrix of every prescribed facet (w × w), inverted once; the
             # prescribed values come in groups of w (one pair, row and facet)
@@ -386,15 +380,15 @@ class Equilibration:
         compiled = ngs.CF(flux.Compile(), dims=(rows, d))    # (uncompiled: 6x the assembly below in 3D)
         for i in range(rows):
             form = ngs.BilinearForm(trialspace=self.P1, testspace=self.S)
-            form += psi * ngs.InnerProduct(weighted[i], tau) * ngs.dx
+            form += mesh_dx(psi * ngs.InnerProduct(weighted[i], tau))
             rhs_w.append(csr(form.Assemble().mat, copy=True))
             form = ngs.BilinearForm(trialspace=self.P1, testspace=self.Q)
-            form += (ngs.InnerProduct(compiled[i, :], ngs.grad(psi)) - psi * source[i]) * q \
-                * ngs.dx(bonus_intorder=BONUS)
+            form += mesh_dx((ngs.InnerProduct(compiled[i, :], ngs.grad(psi)) - psi * source[i]) * q,
+                            bonus_intorder=BONUS)
             rhs_div.append(csr(form.Assemble().mat, copy=True))
             if len(self.fixed_facet):
                 form = ngs.BilinearForm(trialspace=self.P1, testspace=self.S)
-                form += psi * traction[i] * (tau.Trace() * n) * ngs.ds(bonus_intorder=BONUS)
+                form += mesh_ds(psi * traction[i] * (tau.Trace() * n), bonus_intorder=BONUS)
                 rhs_t.append(csr(form.Assemble().mat, copy=True))
         rhs_w, rhs_div = sp.vstack(rhs_w, format="csr"), sp.vstack(rhs_div, format="csr")
         hat_of_pair = self.hats[self.pair_patch]

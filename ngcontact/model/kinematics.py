@@ -90,9 +90,23 @@ class Kinematics:
                 entries.append(ngs.CF(0.0) if k is None else s[k] / divisor if divisor != 1 else s[k])
         return ngs.CF(tuple(entries), dims=(n, n))
 
+    def plane_stress_matrix(self, s):
+        """The stress matrix CF of a Voigt stress vector ``s`` in the mesh's own dimensions (its
+        rows are the fluxes whose divergence balances the loads)."""
+        return self.stress_matrix(s)
+
     def traction(self, s, n):
         """σn for a Voigt stress vector ``s`` and a vector ``n`` of the mesh's dimension."""
-        return self.stress_matrix(s) * n
+        return self.plane_stress_matrix(s) * n
+
+    def symmetric_vector(self, S):
+        """The Voigt vector (stress convention: no factor 2) of the symmetric part of a square
+        matrix CF ``S`` of this kinematics' size."""
+        return ngs.CF(tuple(S[i, j] if i == j else 0.5 * (S[i, j] + S[j, i]) for i, j in self.pairs))
+
+    def skew_square(self, S):
+        """|skew S|² (Frobenius) of a square matrix CF ``S`` of this kinematics' size."""
+        return sum(0.5 * (S[i, j] - S[j, i]) ** 2 for i, j in sorted(self.pairs) if i != j)
 
     def project(self, strain):
         """A strain matrix (numpy) with the entries this kinematics has no component for set
@@ -188,9 +202,9 @@ class Axisymmetric(Kinematics):
     def point_weights(self, points):
         return 2 * np.pi * np.asarray(points)[..., 0]
 
-    def traction(self, s, n):
-        """σn in the meridian plane (the hoop stress has no part in it)."""
-        return ngs.CF((s[0], s[2], s[2], s[1]), dims=(2, 2)) * n
+    def plane_stress_matrix(self, s):
+        """The meridian block (σ_rr, σ_rz; σ_rz, σ_zz): the hoop stress has no flux."""
+        return ngs.CF((s[0], s[2], s[2], s[1]), dims=(2, 2))
 
     def rigid_motions(self, centre, size):
         """The translation along the axis (a radial translation or a rotation of the section
