@@ -508,3 +508,67 @@ def test_tests_and_studies_read_records_not_newton_or_system():
                 found.append(f"{name}:{line} ({where}): {text}")
     assert not found, f"{len(found)} reads of .newton/.system:\n" + "\n".join(found)
     assert used == set(INTERNALS_ALLOWED), f"allowed but unused: {sorted(set(INTERNALS_ALLOWED) - used)}"
+
+
+# ------------------------------------------------------------------ the kinematics own the representation
+DIMENSION_BRANCH = re.compile(r"\b(?:dim|\.dim)\s*(?:[=!]=|[<>]=?)\s*[23]\b")
+DIMENSION_BRANCHES_ALLOWED = {
+    "ngcontact/model/kinematics.py": "the owner: which kinematics a mesh dimension gives",
+    "ngcontact/meshes.py": "mesh topology: a facet is an edge in 2D, a face in 3D",
+    "ngcontact/model/laws.py": "a law's 2 × 2 strain is plane strain, whose ε33 = 0 enters |dev ε|",
+    "ngcontact/output/paraview.py": "VTK: vectors have 3 components; Γ3's cells are lines in 2D, triangles in 3D",
+    "ngcontact/solve/linalg/solver_choice.py": "a solver heuristic: sparse factorisations fill in more in 3D",
+    "ngcontact/solve/linalg/linear_solver.py": "a solver heuristic: when a kept factorisation is worth it",
+    "ngcontact/solve/linalg/petsc_iterative.py": "a solver heuristic: the memory a factorisation needs",
+    "ngcontact/solve/linalg/petsc_blocks.py": "GAMG's near null space: the rigid modes of a VectorH1 space",
+}
+
+
+def _core_files():
+    return [path for name, path in modules() if layer(name) == "core"]
+
+
+def test_only_the_kinematics_branch_on_the_dimension():
+    """No module of the core decides a representation by the mesh dimension: the strain, the
+    Voigt maps, the measures and the rigid motions come from the body's kinematics
+    (``model.kinematics``); ``DIMENSION_BRANCHES_ALLOWED`` names the few that branch for another
+    reason, and each of them still does."""
+    found = {}
+    for path in _core_files():
+        hits = [i + 1 for i, line in enumerate(path.read_text().splitlines())
+                if DIMENSION_BRANCH.search(line.split("#")[0]) and not line.lstrip().startswith(('"', "'"))]
+        if hits:
+            found[str(path.relative_to(ROOT))] = hits
+    unexpected = {p: lines for p, lines in found.items() if p not in DIMENSION_BRANCHES_ALLOWED}
+    assert not unexpected, f"dimension branches outside the kinematics: {unexpected}"
+    assert set(found) == set(DIMENSION_BRANCHES_ALLOWED), \
+        f"allowed but without a branch: {sorted(set(DIMENSION_BRANCHES_ALLOWED) - set(found))}"
+
+
+MEASURE = re.compile(r"\b(?:ngs|ngsolve)\.d[sx]\b|from ngsolve import[^\n]*\bd[sx]\b")
+
+
+def test_measures_are_built_by_the_kinematics():
+    """Every ``dx``/``ds`` of the core is built by ``model.kinematics`` (``Kinematics.dx``/``ds``
+    with the body's weight, 2π r for a body of revolution; ``mesh_dx``/``mesh_ds`` over the mesh
+    as it is): an integral cannot forget the weight."""
+    offenders = [str(path.relative_to(ROOT)) for path in _core_files()
+                 if path.name != "kinematics.py" and MEASURE.search(path.read_text())]
+    assert not offenders, f"measures built outside the kinematics: {offenders}"
+
+
+GAMMA3_INTEGRANDS = ("adhesion_traction", "conduction_distance", "charge_flux_density", "j_a", "j_e",
+                     "contact_terms")
+
+
+def test_the_gamma3_integrands_live_in_the_gamma3_layer():
+    """j_a, j_e, the adhesion traction and the whole Γ3 part of the residual are defined in
+    ``ngcontact.gamma3`` only (``gamma3.integrands``), not in the layer below it."""
+    where = {}
+    for name, path in modules():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.FunctionDef) and node.name in GAMMA3_INTEGRANDS:
+                where.setdefault(node.name, []).append(name)
+    assert where, "no Γ3 integrand found"
+    outside = {f: owners for f, owners in where.items() if any(not o.startswith("ngcontact.gamma3") for o in owners)}
+    assert not outside, f"Γ3 integrands outside ngcontact.gamma3: {outside}"

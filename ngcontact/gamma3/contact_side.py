@@ -80,7 +80,7 @@ class ContactSide:
         # |facet| per dof of B^h (m; m² in 3D), and its measure in the body's integrals (for a
         # body of revolution the area 2π ∫ r ds the facet sweeps)
         self.measure = self.facet_integrals(ngs.CF(1.0), weighted=False)()
-        self.weighted_measure = self._integrate(ngs.CF(1.0)) if body.axisymmetric else self.measure
+        self.weighted_measure = self.measure if kin.weight is None else self._integrate(ngs.CF(1.0))
         # per dof of B^h: vertex numbers and coordinates of its facet
         order = {d: i for i, d in enumerate(np.flatnonzero(np.array(list(active))))}
         points = np.array([v.point for v in mesh.vertices]) if mesh.nv else np.zeros((0, self.dim))

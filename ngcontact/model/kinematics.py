@@ -132,6 +132,17 @@ class Kinematics:
         """∫_∂Ω integrand: ``integrand * ngs.ds(*args, **options)`` with the weight folded in."""
         return (self.weighted(integrand) if weighted else integrand) * ngs.ds(*args, **options)
 
+    @property
+    def resultants(self):
+        """The axes along which a boundary integral of σν is a resultant force (all of them; a
+        body of revolution's radial integral is none)."""
+        return tuple(range(self.mesh_dim))
+
+    def hat_shares(self, points, size):
+        """∫ of each vertex's hat function over a straight facet of measure ``size`` (m; m² in
+        3D) whose vertices are at ``points`` (numpy, vertices × mesh_dim), on the body's measure."""
+        return np.full(len(points), size / self.mesh_dim)
+
     def point_weights(self, points):
         """The weight at ``points`` (numpy, (..., mesh_dim) coordinates): the body's measure per
         unit mesh measure there (1 unless weighted)."""
@@ -201,6 +212,13 @@ class Axisymmetric(Kinematics):
 
     def point_weights(self, points):
         return 2 * np.pi * np.asarray(points)[..., 0]
+
+    resultants = (1,)
+
+    def hat_shares(self, points, size):
+        """2π ∫ r φ_a ds = 2π L (2 r_a + r_b)/6 on a segment of length L from r_a to r_b."""
+        r = np.asarray(points)[:, 0]
+        return 2 * np.pi * size * (2 * r + r[::-1]) / 6
 
     def plane_stress_matrix(self, s):
         """The meridian block (σ_rr, σ_rz; σ_rz, σ_zz): the hoop stress has no flux."""

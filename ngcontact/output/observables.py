@@ -95,12 +95,13 @@ class Recorder:
         return reactions
 
     def _build_rigid_modes(self):
-        """The test vectors of Γ3's force (e_i) and charge flux (1); for a body of revolution
-        the radial one is 0 (its resultant vanishes by symmetry; ∫ σν·e_r da is no force)."""
+        """The test vectors of Γ3's force (e_i) and charge flux (1); 0 along an axis that is no
+        resultant (``Kinematics.resultants``: for a body of revolution the radial one, whose
+        resultant vanishes by symmetry; ∫ σν·e_r da is no force)."""
         modes = []
         for i in range(self.body.dim + 1):
             w = ngs.GridFunction(self.state.space)
-            if i == 0 and self.body.axisymmetric:
+            if i < self.body.dim and i not in self.body.kinematics.resultants:
                 pass
             elif i < self.body.dim:
                 w.components[0].Set(ngs.CF(tuple(float(i == j) for j in range(self.body.dim))))

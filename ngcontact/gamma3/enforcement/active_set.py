@@ -100,10 +100,8 @@ class PrimalDualActiveSet:
         free = np.array(list(body.X.FreeDofs()), dtype=bool)
         nodes = {}
         for numbers, normal, length in zip(side.facet_vertex_numbers, side.normals, side.measure):
-            shares = np.full(len(numbers), length / dim)             # ∫ of each hat function over the facet
-            if side.axisymmetric:                                    # 2π ∫ r φ_a ds = 2π L (2 r_a + r_b)/6
-                r = np.array([mesh.vertices[nr].point[0] for nr in numbers])
-                shares = 2 * np.pi * length * (2 * r + r[::-1]) / 6
+            points = np.array([mesh.vertices[nr].point for nr in numbers])
+            shares = side.kinematics.hat_shares(points, length)     # ∫ of each hat function over the facet
             for nr, share in zip(numbers, shares):
                 n, w = nodes.get(nr, (np.zeros(dim), 0.0))
                 nodes[nr] = (n + normal * length, w + share)
