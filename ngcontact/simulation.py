@@ -46,6 +46,7 @@ from ngcontact.solve.step_length import StepLength
 from ngcontact.solve.linalg.matrices import free_jacobian
 from ngcontact.solve.linalg.protocol import LinearSolver
 from ngcontact.solve.system import StepSystem, has_interior_dofs
+from ngcontact.solve.weak_form import WeakForm
 
 
 Guess = str | tuple | ngs.CoefficientFunction | Approach | None
@@ -162,10 +163,11 @@ class Simulation:
         distributed = parallel.is_distributed(body.mesh)     # see solver_choice.check_simulation, parallel_notes
         automatic = has_interior_dofs(self.X) and body.tensors.linear and choice.iterative in (None, False)  # no GMRES
         self.condense = automatic if condense is None else bool(condense)
+        coefficients = StepCoefficients(self.time, body.V)        # t_n, c, û: written by the scheme only
+        self.weak_form = WeakForm(body, self.loads, coefficients, contact)
         self.condense &= contact is None or contact.enforcement_method.condensable
         kept = body.region("contact_side") if contact is not None else None
-        coefficients = StepCoefficients(self.time, body.V)        # t_n, c, û: written by the scheme only
-        self.system = StepSystem(body, self.loads, self.X, coefficients, condense=self.condense, kept=kept)
+        self.system = StepSystem(self.weak_form, self.X, condense=self.condense, kept=kept)
         if not self.electric:
             # φ = 0: its DOFs leave the free sets in place (after the step system's last
             # FinalizeUpdate, which would reset them; UNUSED coupling types would break

@@ -18,6 +18,7 @@ from ngcontact.scenes import reference as scene
 from ngcontact.studies import bench
 from ngcontact.schemes import StepCoefficients
 from ngcontact.solve.system import StepSystem
+from ngcontact.solve.weak_form import WeakForm
 
 
 def monolithic_residual(body, loads, u_old, inv_dt):
@@ -52,7 +53,7 @@ def test_step_system_equals_the_monolithic_form(mesh):
     u_old = ngs.GridFunction(body.V)
     u_old.vec.FV().NumPy()[:] = rng.normal(size=body.V.ndof) * 1e-5
     coefficients = StepCoefficients(t, body.V)
-    system = StepSystem(body, loads, body.space(), coefficients)
+    system = StepSystem(WeakForm(body, loads, coefficients), body.space())
     reference = monolithic_residual(body, loads, u_old, inv_dt)
     gfu = ngs.GridFunction(system.X)
     state = gfu.vec

@@ -2,7 +2,8 @@
 bonding field β, the enforcement method, and the Γ3 terms of the step residual.
 
 ``build`` checks the data of Γ3 at t = 0 (finite, a gap >= 0, an obstacle normal pointing
-into the obstacle) and adds the terms j_a + S − j_e of ``integrands.contact_terms`` to the
+into the obstacle), attaches the enforcement method, β, the gap and the normal to the step's
+weak form (its Γ3 part j_a + S − j_e, ``integrands.contact_terms``) and adds that part to the
 ``StepSystem``; it returns the ``Gamma3`` the rest of the simulation reads and
 the ``admissible.GapCheck`` that checks a time-dependent gap at every step.
 """
@@ -12,7 +13,6 @@ import ngsolve as ngs
 import numpy as np
 
 from ngcontact import parallel
-from ngcontact.gamma3 import integrands
 from ngcontact.gamma3.adhesion import BondingField
 from ngcontact.model.admissible import GapCheck
 from ngcontact.gamma3.contact_side import ContactSide
@@ -82,7 +82,6 @@ def build(body, contact, system, realcompile=False):
     enforcement = built(contact.enforcement_method, body, contact, side, gap=gap, coefficients=coefficients,
                         normal=normal)                    # checked: the Enforcement protocol
 
-    def terms(state, test):
-        return integrands.contact_terms(contact, enforcement, beta.gf, gap, foundation_potential, state, test, normal)
-    system.add_boundary_terms(terms, side, realcompile=realcompile)
+    system.weak_form.attach_gamma3(enforcement, beta.gf, gap, foundation_potential, normal)
+    system.add_boundary_terms(side, realcompile=realcompile)
     return Gamma3(side, contact, enforcement, beta, gap, foundation_potential, normal, sampled_normal), gap_check

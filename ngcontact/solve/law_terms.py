@@ -26,7 +26,6 @@ import numpy as np
 
 from ngcontact.model import forms
 from ngcontact import parallel
-from ngcontact.gamma3.contact_side import element_boundary_layer
 from ngcontact.solve.law_watch import CHANGED_HINT, LawViolation, LawWatch
 from ngcontact.solve.linalg.matrices import csr, matching_positions
 
@@ -43,28 +42,19 @@ def quadrature_order(p):
 
 
 class LawTerms:
-    """N(x) and N'(x) on the product space ``X`` for the MaterialTensors ``T`` with laws;
-    ``supports``: the boundary regions of the weak normal supports, of Nitsche parameter
-    ``gamma0`` for u of degree ``order`` (``forms.weak_normal_support_laws``)."""
+    """N(x) and N'(x) on the product space ``X`` for the laws of a ``WeakForm`` (its ``laws``:
+    on Ω and on the weak normal supports)."""
 
-    def __init__(self, T, X, coefficients, supports=(), order=1, gamma0=0.0):
+    def __init__(self, weak_form, X):
         (u, _), (v, _) = X.TnT()
-        kin = T.kinematics                              # its measures: 2π r for a body of revolution
+        T, kin, coefficients, order = weak_form.tensors, weak_form.kinematics, weak_form.coefficients, \
+            weak_form.body.order
         self.form = ngs.BilinearForm(X, symmetric=False)
         bonus = BONUS_ORDER_PER_DEGREE * X.components[0].globalorder     # on NGSolve's 2(p − 1)
-        self.form += kin.dx(forms.nonlinear_bulk(T, u, v, coefficients.rate, coefficients.anchor).Compile(),
-                            bonus_intorder=bonus)
-        for region in supports:                         # the weak normal supports' boundary regions
-            integral, indicator = element_boundary_layer(kin, X.mesh, region, bonus)
-            term = forms.weak_normal_support_laws(T, order, u, v, coefficients.rate, coefficients.anchor, gamma0)
-            self.form += integral((indicator * term).Compile())
+        for integral in weak_form.laws(u, v, bonus):
+            self.form += integral
         self.scales = ngs.BilinearForm(X, symmetric=False)          # the laws' tangents at 0
-        tangent = 0
-        if T.F_law is not None:
-            tangent = tangent + forms.b(T, u, v)
-        if T.A_law is not None:
-            tangent = tangent + coefficients.rate * forms.a(T, u, v)
-        self.scales += kin.dx(tangent)
+        self.scales += weak_form.laws_tangent(u, v)
         self.residual = ngs.GridFunction(X).vec
         self.linearized = False
         self._positions = {}

@@ -30,14 +30,11 @@ elements at Γ3 are kept as coupling DOFs of the system's own space.
 import ngsolve as ngs
 import numpy as np
 
-from ngcontact.model import forms
 from ngcontact import meshes, parallel
-from ngcontact.gamma3.contact_side import element_boundary_layer
 from ngcontact.model.loads import as_cf
 from ngcontact.solve.linalg.matrices import csr, matching_positions
 from ngcontact.solve.law_terms import LawTerms
 from ngcontact.gamma3.terms import Gamma3Terms
-from ngcontact.model.supports import SLIP_GAMMA0, weak_regions
 
 
 def has_interior_dofs(space):
@@ -64,23 +61,23 @@ class StepSystem:
 
     Parameters
     ----------
-    body, loads : Body and Loads (CoefficientFunctions of the ``time`` Parameter).
+    weak_form : the ``weak_form.WeakForm`` of the step: its body and loads (CoefficientFunctions
+        of the ``time`` Parameter), the time scheme's ``coefficients`` (t_n, the rate coefficient
+        c and the anchor û, read here, written by the scheme only) and its terms.
     X : the system's own product space V × W (``body.space()``); condensation marks DOFs on it.
-    coefficients : the ``schemes.StepCoefficients`` of the time scheme: t_n (the Parameter the
-        loads depend on), the rate coefficient c and the anchor û, read here, written by the
-        scheme only.
     condense : static condensation of the interior DOFs away from ``kept`` (a boundary
         region, Γ3).
 
     ``generation`` counts the changes of the bulk matrix K (with c), after which a kept
-    factorisation no longer fits. ``add_boundary_terms(terms, side)`` adds R_Γ3;
+    factorisation no longer fits. ``add_boundary_terms(side)`` adds R_Γ3;
     ``begin_step(state)`` prepares the step the scheme has set; ``boundary_residual`` holds
     R_Γ3 at the last ``Apply``.
     """
 
-    def __init__(self, body, loads, X, coefficients, *, condense=False, kept=None):
-        self.body, self.X, self.coefficients = body, X, coefficients
-        self.loads = loads
+    def __init__(self, weak_form, X, *, condense=False, kept=None):
+        body, coefficients = weak_form.body, weak_form.coefficients
+        self.weak_form, self.body, self.X, self.coefficients = weak_form, body, X, coefficients
+        self.loads = weak_form.loads
         self.condense = bool(condense)
         if self.condense and kept is not None:
             keep_interior_dofs(X, kept)
@@ -90,34 +87,30 @@ class StepSystem:
             if self.condense:
                 raise ValueError("condense=True needs linear tensors: a nonlinear law makes the interiors nonlinear")
         self.K_el = ngs.BilinearForm(X, symmetric=False)
-        kin = body.kinematics                     # its measures: 2π r for a body of revolution
-        self.K_el += kin.dx(forms.bulk(T, trial, test) if T.linear else forms.linear_bulk(T, trial, test))
+        self.K_el += weak_form.bulk(trial, test)
         self.K_A = None
         if T.viscous and T.A_law is None:
             self.K_A = ngs.BilinearForm(X, symmetric=False)
-            self.K_A += kin.dx(forms.a(T, trial[0], test[0]))
-        weak_supports = self._weak_supports(trial, test)
+            self.K_A += weak_form.a(trial[0], test[0])
+        weak_supports = weak_form.supports(trial, test)
         for elastic, viscous, integral in weak_supports:
             self.K_el += integral(elastic)
             if viscous is not None:
                 self.K_A += integral(viscous)
         self.laws = None                 # N(x): (2.16)-(2.17), on Ω and on the weak supports
         if not T.linear:
-            self.laws = LawTerms(T, X, coefficients, weak_regions(self.body.mesh, self.body.supports), body.order, SLIP_GAMMA0)
+            self.laws = LawTerms(weak_form, X)
         for form in (self.K_el, self.K_A):
             if form is not None:
                 form.Assemble()
         if self.condense:
             self._K_condensed = ngs.BilinearForm(X, symmetric=False, condense=True)
-            bulk = forms.bulk(T, trial, test)
-            if T.viscous:
-                bulk = bulk + coefficients.rate * forms.a(T, trial[0], test[0])
-            self._K_condensed += kin.dx(bulk)
+            self._K_condensed += weak_form.stepped_bulk(trial, test)
             for elastic, viscous, integral in weak_supports:
                 self._K_condensed += integral(elastic if viscous is None else elastic + coefficients.rate * viscous)
             self._schur = None
         self.f = ngs.LinearForm(X)
-        for integral in forms.f(body, loads, test):
+        for integral in weak_form.f(test):
             self.f += integral
         self.K = self.K_el.mat.CreateMatrix()
         self._full = self.K_el.mat.CreateMatrix()
@@ -138,26 +131,13 @@ class StepSystem:
         self._clamped = ~np.array(list(clamped.FreeDofs()), dtype=bool)
 
     # ----------------------------------------------------------------------- building
-    def _weak_supports(self, trial, test):
-        """(elastic, viscous, integral) of the Nitsche terms of each weak normal support
-        (``forms.weak_normal_support``; with laws their linear part, the rest in N(x)), and the
-        integral on the element boundaries at the support."""
-        terms = []
-        for region in weak_regions(self.body.mesh, self.body.supports):
-            integral, indicator = element_boundary_layer(self.body.kinematics, self.body.mesh, region)
-            elastic, viscous = forms.weak_normal_support(self.body.tensors, self.body.order, trial, test,
-                                                         SLIP_GAMMA0)
-            terms.append((indicator * elastic, None if viscous is None else indicator * viscous, integral))
-        return terms
-
-    def add_boundary_terms(self, terms, side, realcompile=False):
-        """Add ∫_Γ3 terms(state, test) da to R (once): ``terms((u, φ), (v, ξ))`` is the
-        integrand (linear in the test functions) for the state (u, φ); ``side`` the ContactSide
-        (``gamma3_terms.Gamma3Terms``: interpreted, or with ``realcompile`` compiled to machine
-        code at once)."""
+    def add_boundary_terms(self, side, realcompile=False):
+        """Add the weak form's Γ3 part ∫_Γ3 (j_a + S − j_e) da to R (once; ``WeakForm.gamma3``,
+        attached by ``gamma3.build``); ``side`` the ContactSide (``gamma3.terms.Gamma3Terms``:
+        interpreted, or with ``realcompile`` compiled to machine code at once)."""
         if self.boundary is not None:
             raise RuntimeError("the Γ3 terms are added once")
-        self.boundary = Gamma3Terms(self.X, terms, side, realcompile)
+        self.boundary = Gamma3Terms(self.X, self.weak_form.gamma3, side, realcompile)
 
     @property
     def machine_code(self):

@@ -137,8 +137,8 @@ class GamgSolver:
         previous = self._bulk or [None, None]
         if self._integrand is None:
             (u, phi), (v, xi) = self.system.X.TnT()
-            u_integrand, phi_integrand = forms.preconditioner_forms(self.body, u, v, phi, xi,
-                                                                    self.system.coefficients.rate)
+            u_integrand, phi_integrand = self.system.weak_form.preconditioner(u, v, phi, xi,
+                                                                              self.system.coefficients.rate)
             self._integrand = compiled(u_integrand + phi_integrand,
                                        compile_bulk(self.realcompile, self.body.mesh.ne))
         form = ngs.BilinearForm(self.system.X, symmetric=True)

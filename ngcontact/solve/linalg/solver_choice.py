@@ -209,7 +209,7 @@ def choose(body, contact, system, space, *, inverse, reuse_factorization, iterat
         raise ValueError(f"inverse must be one of {', '.join(map(repr, allowed))} or None, got {inverse!r}")
     if iterative not in (None, True, False) + ITERATIVE:
         raise ValueError(f"iterative must be None (automatic), True, False, 'multigrid' or 'gamg', got {iterative!r}")
-    symmetric = (contact is None or contact.symmetric) and body.tensors.linear   # a law's Nitsche term: not
+    symmetric = system.weak_form.symmetric                   # (a law's Nitsche term is not)
     if petsc is not None and petsc.pc_type in ("lu", "cholesky"):
         if petsc.pc_type == "cholesky" and not symmetric:
             raise ValueError("solver: the PETSc option 'pc_type' = 'cholesky' (LDLᵀ) needs a symmetric Jacobian; "
