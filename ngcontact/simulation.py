@@ -12,7 +12,7 @@ import os
 import time as wallclock
 import warnings
 from functools import partial
-from typing import Callable
+from typing import Callable, NamedTuple
 
 import ngsolve as ngs
 import numpy as np
@@ -27,7 +27,7 @@ from ngcontact.output.fingerprint import fingerprint, options as fingerprint_opt
 from ngcontact.model.admissible import (PhysicsWarning, check_initial_displacement, check_supports_at_start,
                                         scene_flags)
 from ngcontact.checks import integer, number, uses_only
-from ngcontact.model.electric_part import electric_parts, solves_potential
+from ngcontact.model.electric_part import electric_parts as electric_parts_of, solves_potential
 from ngcontact.gamma3.contact import Contact
 from ngcontact.model.body import Body
 from ngcontact.model.loads import Loads, as_cf
@@ -51,6 +51,82 @@ from ngcontact.solve.weak_form import WeakForm
 
 Guess = str | tuple | ngs.CoefficientFunction | Approach | None
 """Newton's start of a step (``starts``): "nested", "p1", a displacement, or ``Approach(depth)``."""
+
+class Parts(NamedTuple):
+    """What a simulation is made of (``assemble``), in the order data flows: the weak form, its
+    step system and Γ3, Newton and its linear solver, the time scheme, the starts, the recorder
+    and the transactional Step."""
+    X: ngs.FESpace
+    gfu: ngs.GridFunction
+    electric: bool
+    electric_parts: list
+    condense: bool
+    weak_form: WeakForm
+    system: StepSystem
+    gamma3: object
+    gap_check: object
+    machine_code: object
+    newton: Newton
+    potential_solver: object
+    scheme: TimeScheme
+    starts: Starts
+    recorder: Recorder
+    steps: Step
+
+
+def assemble(body, loads, contact, time, Scheme, solver, choice, options, coarse) -> Parts:
+    """The parts of a simulation of ``body`` under ``loads`` with ``contact`` (checked data;
+    ``Simulation``'s arguments): the weak form (``solve.weak_form``) and its step system, Γ3
+    (``gamma3.build``), the linear solver (``solver_choice``) and Newton, the time scheme
+    ``Scheme`` (a class), the starts (``coarse(mesh, order)``: the Step of a coarser level) and the
+    Step that records into a History."""
+    X = body.space()
+    electric_parts = electric_parts_of(body, loads, contact)
+    electric = solves_potential(options["electric"], electric_parts, body)
+    gfu = ngs.GridFunction(X, name="state")
+    distributed = parallel.is_distributed(body.mesh)     # see solver_choice.check_simulation, parallel_notes
+    automatic = has_interior_dofs(X) and body.tensors.linear and choice.iterative in (None, False)  # no GMRES
+    condense = automatic if options["condense"] is None else bool(options["condense"])
+    coefficients = StepCoefficients(time, body.V)        # t_n, c, û: written by the scheme only
+    weak_form = WeakForm(body, loads, coefficients, contact)
+    condense &= contact is None or contact.enforcement_method.condensable
+    kept = body.region("contact_side") if contact is not None else None
+    system = StepSystem(weak_form, X, condense=condense, kept=kept)
+    if not electric:
+        # φ = 0: its DOFs leave the free sets in place (after the step system's last
+        # FinalizeUpdate, which would reset them; UNUSED coupling types would break
+        # static condensation); condensed interior φ DOFs stay 0 (no coupling, no charge)
+        for free in (X.FreeDofs(), X.FreeDofs(coupling=True)):
+            free[X.Range(1)] = False
+    realcompile = options["realcompile"]
+    gamma3, gap_check, machine_code = None, None, None
+    if contact is not None:
+        gamma3, gap_check = build_gamma3(body, contact, system, realcompile is True)
+        if realcompile is None:              # by what the run will do (``machine_code``)
+            machine_code = MachineCode(system, gamma3.side.B.ndof, body.dim, electric)
+    solver, potential_solver = resolve(solver, body, contact, system, X, choice, electric=electric,
+                                       condense=condense, realcompile=realcompile, distributed=distributed)
+    hook = gamma3.enforcement.newton_hook if contact is not None else None
+    limit = None
+    if contact is not None and hook is None and options["limit_steps"]:
+        limit = StepLength(gamma3.side, gfu, gamma3.gap, normal=gamma3.sampled_normal)
+    newton = Newton(system, gfu, solver=solver, rtol=options["rtol"], maxit=options["maxit"], hook=hook,
+                    step_length=limit)
+    continuation.build(newton, gamma3, gfu, body.size, options["globalise"])
+    scheme = Scheme(coefficients, system, newton, gfu, gamma3.beta if contact is not None else None,
+                    options["predictor"], gamma3.normal if contact is not None else None)
+    check_built(scheme)
+    # checks that the supports and the contact hold the body; the levels of nested iteration
+    starts = Starts(body, gamma3, system, coefficients.at, coarse)
+    recorder = Recorder(body, gfu, system, gamma3)
+    physical_checks = bool(options["physical_checks"])
+    steps = Step(body, loads, contact, gamma3, scheme, starts, recorder, History(), electric=electric,
+                 keep_states=options["keep_states"], physical_checks=physical_checks, gap_check=gap_check,
+                 machine_code=machine_code,
+                 flags=scene_flags(contact) if physical_checks else [])     # what makes no physical sense
+    return Parts(X, gfu, electric, electric_parts, condense, weak_form, system, gamma3, gap_check, machine_code,
+                 newton, potential_solver, scheme, starts, recorder, steps)
+
 
 class Simulation:
     """Time stepping of a Body under Loads, with a contact law on Γ3 (backward Euler, the
@@ -144,64 +220,27 @@ class Simulation:
         keep_states, predictor, condense, realcompile, limit_steps, reuse_factorization, iterative, electric, \
             physical_checks, globalise = options.values()
         Scheme = scheme_class(scheme)
-        self.body = body
         choice = as_options(solver, inverse, iterative, reuse_factorization)
         self.parallel_notes = check_simulation(body.mesh, contact, choice.inverse, condense, choice.reuse,
                                                choice.iterative)
-        self.loads = loads or Loads()
-        self.loads.check(body)
-        self.time = time if time is not None else ngs.Parameter(0.0)
+        loads = loads or Loads()
+        loads.check(body)
+        time = time if time is not None else ngs.Parameter(0.0)
         number("rtol", rtol, 0, 1, low_open=True, high_open=True)
         integer("maxit", maxit, 1)
-        uses_only(self.time, self.loads.coefficients() + (contact.coefficients() if contact is not None else []))
-        self.contact = contact
-        self.X = body.space()
-        self._electric_parts = electric_parts(body, self.loads, contact)
-        self.electric = solves_potential(electric, self._electric_parts, body)
-        self.gfu = ngs.GridFunction(self.X, name="state")
+        uses_only(time, loads.coefficients() + (contact.coefficients() if contact is not None else []))
+        self.body, self.loads, self.contact, self.time = body, loads, contact, time
+        parts = assemble(body, loads, contact, time, Scheme, solver, choice, dict(
+            electric=electric, condense=condense, realcompile=realcompile, rtol=rtol, maxit=maxit,
+            limit_steps=limit_steps, globalise=globalise, predictor=predictor, keep_states=keep_states,
+            physical_checks=physical_checks), partial(self._coarse, dict(
+                u0=u0, scheme=scheme, rtol=rtol, maxit=maxit, limit_steps=limit_steps)))
+        self.X, self.gfu, self.weak_form, self.system = parts.X, parts.gfu, parts.weak_form, parts.system
         self.u, self.phi = self.gfu.components
-        distributed = parallel.is_distributed(body.mesh)     # see solver_choice.check_simulation, parallel_notes
-        automatic = has_interior_dofs(self.X) and body.tensors.linear and choice.iterative in (None, False)  # no GMRES
-        self.condense = automatic if condense is None else bool(condense)
-        coefficients = StepCoefficients(self.time, body.V)        # t_n, c, û: written by the scheme only
-        self.weak_form = WeakForm(body, self.loads, coefficients, contact)
-        self.condense &= contact is None or contact.enforcement_method.condensable
-        kept = body.region("contact_side") if contact is not None else None
-        self.system = StepSystem(self.weak_form, self.X, condense=self.condense, kept=kept)
-        if not self.electric:
-            # φ = 0: its DOFs leave the free sets in place (after the step system's last
-            # FinalizeUpdate, which would reset them; UNUSED coupling types would break
-            # static condensation); condensed interior φ DOFs stay 0 (no coupling, no charge)
-            for free in (self.X.FreeDofs(), self.X.FreeDofs(coupling=True)):
-                free[self.X.Range(1)] = False
-        self.gamma3, self._gap_check, self._machine_code = None, None, None
-        if contact is not None:
-            self.gamma3, self._gap_check = build_gamma3(body, contact, self.system, realcompile is True)
-            if realcompile is None:              # by what the run will do (``machine_code``)
-                self._machine_code = MachineCode(self.system, self.gamma3.side.B.ndof, body.dim, self.electric)
-        solver, self._potential_solver = resolve(solver, body, contact, self.system, self.X, choice,
-                                                 electric=self.electric, condense=self.condense,
-                                                 realcompile=realcompile, distributed=distributed)
-        hook = self.gamma3.enforcement.newton_hook if contact is not None else None
-        limit = None
-        if contact is not None and hook is None and limit_steps:
-            limit = StepLength(self.gamma3.side, self.gfu, self.gamma3.gap, normal=self.gamma3.sampled_normal)
-        self.newton = Newton(self.system, self.gfu, solver=solver, rtol=rtol, maxit=maxit, hook=hook,
-                             step_length=limit)
-        continuation.build(self.newton, self.gamma3, self.gfu, body.size, globalise)
-        self.scheme = Scheme(coefficients, self.system, self.newton, self.gfu,
-                             self.gamma3.beta if contact is not None else None, predictor,
-                             self.gamma3.normal if contact is not None else None)
-        check_built(self.scheme)
-        # checks that the supports and the contact hold the body; the levels of nested iteration
-        self.starts = Starts(body, self.gamma3, self.system, coefficients.at, partial(
-            self._coarse, dict(u0=u0, scheme=scheme, rtol=rtol, maxit=maxit, limit_steps=limit_steps,
-                               electric=self.electric)))
-        self.recorder = Recorder(body, self.gfu, self.system, self.gamma3)
-        self.steps = Step(body, self.loads, contact, self.gamma3, self.scheme, self.starts, self.recorder, History(),
-                          electric=self.electric, keep_states=keep_states, physical_checks=bool(physical_checks),
-                          gap_check=self._gap_check, machine_code=self._machine_code,
-                          flags=scene_flags(contact) if physical_checks else [])     # what makes no physical sense
+        self.electric, self._electric_parts, self.condense = parts.electric, parts.electric_parts, parts.condense
+        self.gamma3, self._gap_check, self._machine_code = parts.gamma3, parts.gap_check, parts.machine_code
+        self.newton, self._potential_solver, self.scheme = parts.newton, parts.potential_solver, parts.scheme
+        self.starts, self.recorder, self.steps = parts.starts, parts.recorder, parts.steps
         for message in self.flags:
             warnings.warn(message, PhysicsWarning, stacklevel=2)
         self._resumed, self.u0 = None, u0         # the run info of resume(); u0 as given
@@ -211,7 +250,8 @@ class Simulation:
         """The Step of this scene on ``mesh`` at ``order`` (None: the body's), with Simulation's
         ``options`` and ``nested.COARSE_OPTIONS``: a level of nested iteration."""
         coarse = coarse_body(self.body, mesh, order)
-        return Simulation(coarse, self.loads, contact=self.contact, time=self.time, **options, **COARSE_OPTIONS).steps
+        return Simulation(coarse, self.loads, contact=self.contact, time=self.time, electric=self.electric,
+                          **options, **COARSE_OPTIONS).steps
 
     @property
     def realcompile(self):

@@ -41,7 +41,6 @@ from contextlib import nullcontext
 import ngsolve as ngs
 import numpy as np
 
-from ngcontact.model import forms
 from ngcontact import parallel
 from ngcontact.checks import node_memory
 from ngcontact.model.machine_code import compile_bulk, compiled
