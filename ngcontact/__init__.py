@@ -15,7 +15,9 @@ a copy refined where marked), ``ngcontact.schemes`` (the time schemes; ``TimeSch
 protocol of one of the user's), ``ngcontact.results`` (a run's directory read back: ``read``),
 ``ngcontact.estimators`` (a posteriori error estimates of a step), ``ngcontact.adapt`` (adaptive
 meshes) and ``ngcontact.laws`` (nonlinear F and A) are public modules too, as names of the
-package and as import paths (``from ngcontact.obstacles import Plane``).
+package and as import paths (``from ngcontact.obstacles import Plane``). Each name and module is
+imported at its first read (``_NAMES``, ``__getattr__``): ``import ngcontact`` loads none of
+them, nor SciPy or PETSc (tests/test_imports.py).
 
 The package is in layers, each a sub-package that says what it owns and what it may import:
 ``model`` (body, materials, laws, loads, supports, forms), ``gamma3`` (the contact data and
