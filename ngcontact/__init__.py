@@ -15,7 +15,9 @@ a copy refined where marked), ``ngcontact.schemes`` (the time schemes; ``TimeSch
 protocol of one of the user's), ``ngcontact.results`` (a run's directory read back: ``read``),
 ``ngcontact.estimators`` (a posteriori error estimates of a step), ``ngcontact.adapt`` (adaptive
 meshes) and ``ngcontact.laws`` (nonlinear F and A) are public modules too, as names of the
-package and as import paths (``from ngcontact.obstacles import Plane``).
+package and as import paths (``from ngcontact.obstacles import Plane``). Each name and module is
+imported at its first read (``_NAMES``, ``__getattr__``): ``import ngcontact`` loads none of
+them, nor SciPy or PETSc (tests/test_imports.py).
 
 The package is in layers, each a sub-package that says what it owns and what it may import:
 ``model`` (body, materials, laws, loads, supports, forms), ``gamma3`` (the contact data and
@@ -26,11 +28,12 @@ The import paths of earlier releases (``ngcontact.forms``, ``ngcontact.newton``,
 work, each with a ``DeprecationWarning`` naming the path to use and the release that drops it
 (``moved.REMOVED_IN``).
 """
+import importlib as _importlib
 import os as _os
 import sys as _sys
 import warnings as _warnings
 
-from ngcontact import mpi_launch as _mpi_launch
+from ngcontact import mpi_launch as _mpi_launch, moved as _moved
 
 if _mpi_launch.launched():                      # before NGSolve loads, if it has not yet
     if "ngsolve" in _sys.modules and "OMP_NUM_THREADS" not in _os.environ:
@@ -40,28 +43,46 @@ if _mpi_launch.launched():                      # before NGSolve loads, if it ha
     _mpi_launch.one_thread_per_rank()
     _mpi_launch.yield_when_oversubscribed()
 
-from ngcontact import adapt, checks, estimators, meshes, moved as _moved, parallel  # noqa: E402
-from ngcontact.gamma3 import contact_laws, enforcement as methods, obstacles  # noqa: E402
-from ngcontact.gamma3.contact import Contact  # noqa: E402
-from ngcontact.gamma3.enforcement import METHODS, Nitsche, NodalConstraint, Penalty  # noqa: E402
-from ngcontact.model import laws  # noqa: E402
-from ngcontact.model.admissible import PhysicsWarning  # noqa: E402
-from ngcontact.model.body import Body  # noqa: E402
-from ngcontact.model.loads import Loads  # noqa: E402
-from ngcontact.model.materials import EPS0, Material, academic, batio3, pzt5a  # noqa: E402
-from ngcontact.output import results  # noqa: E402
-from ngcontact.output.records import ContactRecord, History, StepRecord  # noqa: E402
-from ngcontact.output.webgui import save_html  # noqa: E402
-from ngcontact.simulation import Simulation  # noqa: E402
-from ngcontact.solve.linalg import petsc_solver  # noqa: E402
-from ngcontact.solve.newton import NewtonError  # noqa: E402
-from ngcontact.time import schemes  # noqa: E402
-from ngcontact.time.stepping import AccuracyWarning, MIN_DT, TimeStepWarning  # noqa: E402
+_NAMES = {
+    "ngcontact.gamma3.contact": ("Contact",),
+    "ngcontact.gamma3.enforcement": ("METHODS", "Nitsche", "NodalConstraint", "Penalty"),
+    "ngcontact.model.admissible": ("PhysicsWarning",),
+    "ngcontact.model.body": ("Body",),
+    "ngcontact.model.loads": ("Loads",),
+    "ngcontact.model.materials": ("EPS0", "Material", "academic", "batio3", "pzt5a"),
+    "ngcontact.output.records": ("ContactRecord", "History", "StepRecord"),
+    "ngcontact.output.webgui": ("save_html",),
+    "ngcontact.simulation": ("Simulation",),
+    "ngcontact.solve.newton": ("NewtonError",),
+    "ngcontact.time.stepping": ("AccuracyWarning", "MIN_DT", "TimeStepWarning"),
+}
+"""Module -> the public names it gives ``ngcontact``; each module is imported at the first read of
+one of its names (PEP 562), so that ``import ngcontact`` loads none of them (nor SciPy, PETSc,
+the estimators, ...)."""
+_ORIGIN = {name: module for module, names in _NAMES.items() for name in names}
 
 _moved.install()                                # the public modules' and the old import paths (``moved``)
-__getattr__ = _moved.attribute
 
 __all__ = ["Body", "Contact", "Nitsche", "Penalty", "NodalConstraint", "Loads", "Material", "Simulation", "History",
            "StepRecord", "ContactRecord", "NewtonError", "PhysicsWarning", "AccuracyWarning", "TimeStepWarning",
            "METHODS", "EPS0", "MIN_DT", "academic", "pzt5a", "batio3", "save_html", "contact_laws", "parallel", "checks", "meshes",
            "schemes", "adapt", "estimators", "laws", "petsc_solver", "obstacles", "methods", "results"]
+
+
+def __getattr__(name):
+    """A public name (``_NAMES``) or module (``ngcontact.adapt``, ``ngcontact.obstacles``, a layer),
+    imported at its first read and kept; an old module name: the module, with its
+    DeprecationWarning (``moved.attribute``)."""
+    if name in _moved.MOVED:
+        return _moved.attribute(name)
+    if name in _ORIGIN:
+        value = getattr(_importlib.import_module(_ORIGIN[name]), name)
+    else:
+        value = _moved.submodule(__name__, name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    """The names read so far and every public name."""
+    return sorted(set(globals()) | set(__all__))

@@ -1,5 +1,5 @@
 """Command line interface: ``python -m ngcontact demo | convergence | stability | hertz | bench | cluster |
-timesteps | timeorder | adapt | axisymmetric``.
+timesteps | timeorder | adapt | axisymmetric | imports``.
 
 It parses the arguments and calls ``demo.run`` or a study's command; bad input and a failed
 Newton solve end in one line on stderr and exit status 2 (``main``); ``adapt --tol`` that does
@@ -17,7 +17,8 @@ KEPT = dict(demo="{out}/run (continue with --resume)", convergence="{out}/cases 
             cluster="{out}/runs (--resume skips them)",
             stability="{out}/<study>.csv of the finished studies (--resume skips them)",
             timesteps="nothing (the study runs again whole)", timeorder="nothing (the study runs again whole)",
-            adapt="nothing (the study runs again whole)", axisymmetric="nothing (the study runs again whole)")
+            adapt="nothing (the study runs again whole)", axisymmetric="nothing (the study runs again whole)",
+            imports="nothing (it measures again)")
 """Where each command keeps what it computed before an error."""
 
 
@@ -223,6 +224,10 @@ def parser():
                      help="interleaved repetitions, the least time of each case kept (default 2)")
     axi.add_argument("--quick", action="store_true", help="the coarsest sizes only, one round: its times are "
                      "single timings, marked indicative only (default: off)")
+    imports = commands.add_parser("imports", parents=[common], help="the time of import ngcontact beyond import "
+                                  "ngsolve: medians of fresh interpreters, interleaved")
+    imports.add_argument("--runs", metavar="N", type=int, default=15,
+                         help="fresh interpreters of each kind (default 15)")
     return main_parser
 
 
@@ -394,6 +399,9 @@ def _dispatch(args):
             cluster.run(args.out, scene=args.scene, orders=args.orders, levels=args.levels, ranks=args.ranks,
                         solvers=args.solvers, steps=args.steps, dt=args.dt, threads=choice[args.threads],
                         realcompile=choice[args.realcompile], resume=args.resume, **rounds)
+    elif args.command == "imports":
+        from ngcontact.studies import bench
+        bench.import_cost(args.runs)
     elif args.merge:
         from ngcontact.studies import bench
         bench.merge(args.merge, args.out)

@@ -6,7 +6,8 @@ deprecated, removed in ``REMOVED_IN``).
 ``PUBLIC`` maps each public module to its place, ``MOVED`` every old path to its place;
 ``install()`` puts a finder on ``sys.meta_path`` that answers either path with the module itself
 (the same object: a ``monkeypatch`` of one is a patch of the other), importing it only when
-asked. An old path issues a ``DeprecationWarning`` naming the path to use and the release that
+asked; ``submodule`` reads a module of a package as its attribute, importing it then
+(``ngcontact.solve.linalg.solver_choice`` without an import of it). An old path issues a ``DeprecationWarning`` naming the path to use and the release that
 drops it, at the user's line: at its first import in a process (``import ngcontact.forms``,
 ``from ngcontact.forms import ...``), and at each read as an attribute of the package
 (``ngcontact.forms``, ``from ngcontact import forms``) until then.
@@ -132,7 +133,7 @@ def _caller():
         if not ("importlib" in code and "_bootstrap" in code):
             level += 1
         name = frame.f_globals.get("__name__", "")
-        if name != __name__ and not name.startswith("importlib"):
+        if name not in (__name__, "ngcontact") and not name.startswith("importlib"):   # (the package's __getattr__)
             break
         frame = frame.f_back
     return level
@@ -162,12 +163,18 @@ class _Finder(importlib.abc.MetaPathFinder, importlib.abc.Loader):
 
 
 def install():
-    """Answer the old and the public paths from now on (once); the public modules (imported by the
-    package already) are put in ``sys.modules`` under their public paths."""
+    """Answer the old and the public paths from now on (once); nothing is imported until asked."""
     if not any(isinstance(finder, _Finder) for finder in sys.meta_path):
         sys.meta_path.insert(0, _Finder())
-    for name, path in PUBLIC.items():
-        sys.modules.setdefault(f"ngcontact.{name}", importlib.import_module(f"ngcontact.{path}"))
+
+
+def submodule(package, name):
+    """The module ``<package>.<name>`` as an attribute of ``package`` (a package's PEP 562
+    ``__getattr__``): imported at its first read, or AttributeError where there is none."""
+    fullname = f"{package}.{name}"
+    if not name.startswith("_") and not deprecated(fullname) and importlib.util.find_spec(fullname) is not None:
+        return importlib.import_module(fullname)
+    raise AttributeError(f"module {package!r} has no attribute {name!r}")
 
 
 def attribute(name):

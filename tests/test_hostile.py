@@ -63,7 +63,7 @@ import ngcontact.studies.bench
 import ngcontact.studies.convergence
 import ngcontact.studies.hertz
 import ngcontact.studies.stability
-from ngcontact import obstacles
+from ngcontact import Simulation, adapt, obstacles  # noqa: F401 (loaded in the fork server, not by each case)
 from ngcontact.output import results
 from ngcontact.geometries import block, plate
 from ngcontact.model.materials import isotropic_stiffness

@@ -14,5 +14,11 @@ imported by its path (``from ngcontact.gamma3.build import gamma3_data``, or
 May import: the foundation and ``ngcontact.model``.
 """
 from ngcontact.gamma3.build import Gamma3, build, gamma3_data  # (the name ``build``: the function)
+from ngcontact.moved import submodule as _submodule
 
 __all__ = ["Gamma3", "build", "gamma3_data"]
+
+
+def __getattr__(name):
+    """A module of the layer, imported at its first read (PEP 562)."""
+    return _submodule(__name__, name)

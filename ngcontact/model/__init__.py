@@ -8,3 +8,9 @@ of a state (``admissible``) and the compilation of integrands to machine code.
 May import: ``ngcontact.parallel``, ``checks``, ``meshes`` and ``mpi_launch`` (the foundation);
 nothing of Γ3, the solvers, time, output or the Simulation.
 """
+from ngcontact.moved import submodule as _submodule
+
+
+def __getattr__(name):
+    """A module of the layer, imported at its first read (PEP 562)."""
+    return _submodule(__name__, name)

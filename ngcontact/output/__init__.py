@@ -5,3 +5,9 @@ output, progress bars.
 May import: the foundation, ``ngcontact.model``, ``ngcontact.gamma3`` and ``ngcontact.time``
 (its smallest time step).
 """
+from ngcontact.moved import submodule as _submodule
+
+
+def __getattr__(name):
+    """A module of the layer, imported at its first read (PEP 562)."""
+    return _submodule(__name__, name)

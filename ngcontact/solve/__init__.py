@@ -7,3 +7,9 @@ stopping test, step-length cut, line search, cycle detection and continuation, N
 May import: the foundation, ``ngcontact.model`` and ``ngcontact.gamma3``; ``linalg`` only the
 foundation and ``model``.
 """
+from ngcontact.moved import submodule as _submodule
+
+
+def __getattr__(name):
+    """A module of the layer, imported at its first read (PEP 562)."""
+    return _submodule(__name__, name)

@@ -31,7 +31,6 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.sparse as sp
 from netgen.libngpy._meshing import NgException
 
 from ngcontact import parallel
@@ -408,6 +407,7 @@ class Newton:
     def _diagonal(self, x):
         if hasattr(self.system, "bulk_diagonal"):
             return self.system.bulk_diagonal()
+        import scipy.sparse as sp                       # (here: SciPy loads when a system has no bulk_diagonal)
         self.system.AssembleLinearization(x)
         return sp.csr_matrix(self.system.mat.CSR()).diagonal()
 

@@ -17,6 +17,8 @@ both rows with the ratio of their times per step and the largest difference of t
 states (relative to the largest entry).
 
 ``python -m ngcontact bench --out DIR`` writes bench.csv, bench.json and time_per_step.png.
+``import_cost`` (``python -m ngcontact imports``) times ``import ngcontact`` beyond ``import
+ngsolve`` in fresh interpreters.
 Times are wall-clock seconds on the machine that runs it; nothing here asserts a time.
 
 Under ``mpiexec -n N`` every case runs on a distributed mesh (``ngcontact.parallel``; ranks
@@ -24,8 +26,12 @@ Under ``mpiexec -n N`` every case runs on a distributed mesh (``ngcontact.parall
 are rank 0's (it takes part in every collective step, and factorises in "masterinverse").
 """
 import json
+import os
 import pathlib
 import resource
+import statistics
+import subprocess
+import sys
 import time as wallclock
 from contextlib import nullcontext
 
@@ -317,3 +323,39 @@ def _plot(path, rows, exponents, dim):
         axis.grid(True, which="both", alpha=0.3)
         axis.legend(fontsize=8)
     fig.savefig(path, dpi=120)
+
+
+IMPORTS = {"ngsolve": "import ngsolve", "ngcontact": "import ngsolve; import ngcontact"}
+"""What ``import_cost`` times, each in a fresh interpreter: NGSolve alone, and NGSolve then ngcontact."""
+
+
+def _import_seconds(statement):
+    """Wall time of ``statement`` in a fresh interpreter that imports this checkout's ngcontact."""
+    code = f"import time; t = time.perf_counter(); {statement}; print(time.perf_counter() - t)"
+    root = str(pathlib.Path(__file__).resolve().parents[2])
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [root, os.environ.get("PYTHONPATH")])))
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=root,
+                          check=True)
+    return float(done.stdout.split()[-1])
+
+
+def import_cost(runs=15, progress=True):
+    """Medians over ``runs`` rounds of ``IMPORTS``, each round one fresh interpreter of each,
+    interleaved (the first of a round alternates; one warm-up round is dropped): {"ngsolve": s,
+    "ngcontact": s (NGSolve and ngcontact), "beyond": their difference, s, "runs": runs}.
+    Prints the three lines; nothing here asserts a time."""
+    runs = checks.integer("runs", runs, 1, 1000)
+    times = {name: [] for name in IMPORTS}
+    with bar(2 * (runs + 1), "fresh interpreters", progress, unit="run") as shown:
+        for round_ in range(runs + 1):
+            for name in list(IMPORTS)[::1 if round_ % 2 else -1]:
+                seconds = _import_seconds(IMPORTS[name])
+                shown.update(1)
+                if round_:
+                    times[name].append(seconds)
+    result = {name: statistics.median(values) for name, values in times.items()}
+    result |= dict(beyond=result["ngcontact"] - result["ngsolve"], runs=runs)
+    print(f"{IMPORTS['ngsolve']:<34s} median {result['ngsolve']:.3f} s ({runs} fresh interpreters, interleaved)")
+    print(f"{IMPORTS['ngcontact']:<34s} median {result['ngcontact']:.3f} s")
+    print(f"{'ngcontact beyond ngsolve':<34s} {result['beyond']:+.3f} s")
+    return result

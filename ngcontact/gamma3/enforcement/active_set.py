@@ -18,8 +18,6 @@ from dataclasses import dataclass
 
 import ngsolve as ngs
 import numpy as np
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 
 @dataclass(frozen=True)
@@ -118,6 +116,7 @@ class PrimalDualActiveSet:
         self.weights = np.array([nodes[nr][1] for nr in self.nodes])
         rows = np.repeat(np.arange(len(self.nodes)), dim)
         cols = np.array([c * nv + nr for nr in self.nodes for c in range(dim)])
+        import scipy.sparse as sp                       # (here: SciPy loads when the method is used)
         self.B = sp.csr_matrix((normals.ravel(), (rows, cols)), shape=(len(self.nodes), body.X.ndof))
         points = np.array([mesh.vertices[nr].point for nr in self.nodes])
         self.g = np.array([gap(mesh(*p, VOL_or_BND=ngs.BND)) for p in points]).ravel()   # on Γ3
@@ -146,6 +145,8 @@ class PrimalDualActiveSet:
     def correct(self, system, x, r, timer):
         """The Newton correction of (x, λ) from the saddle point system on the candidate
         set, with the Jacobian in ``system.mat``; factorisation and solve are timed together."""
+        import scipy.sparse as sp
+        import scipy.sparse.linalg as spla
         self.active = active = self._candidate
         vals, cols, ptr = system.mat.CSR()
         J = sp.csr_matrix((vals, cols, ptr))[self.free][:, self.free]

@@ -5,3 +5,9 @@ PETSc's GAMG, MUMPS, the scaled residual norm, and the choice among them.
 The only layer that imports petsc4py or ngsPETSc. May import: the foundation and
 ``ngcontact.model``.
 """
+from ngcontact.moved import submodule as _submodule
+
+
+def __getattr__(name):
+    """A module of the layer, imported at its first read (PEP 562)."""
+    return _submodule(__name__, name)

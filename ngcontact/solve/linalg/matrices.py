@@ -1,7 +1,6 @@
 """NGSolve sparse matrices seen from numpy and scipy: CSR views and copies, where one pattern's entries
 sit in another's, and the step Jacobian on the free DOFs (``Simulation.jacobian``)."""
 import numpy as np
-import scipy.sparse as sp
 
 from ngcontact import parallel
 from ngcontact.solve.linalg.residual_norm import ResidualNorm
@@ -11,6 +10,7 @@ def free_jacobian(system, x, space, scaled=True):
     """R'(x) of ``system`` (full Jacobian protocol) on the free DOFs of ``space`` as a scipy
     CSR matrix; ``scaled``: S J S with S = diag(s_u^-½, s_φ^-½), s_b the mean of |diagonal|
     over block b (the scaling of Newton's norms). Serial meshes only."""
+    import scipy.sparse as sp                           # (here: SciPy loads when first used)
     parallel.serial_only(space.mesh, "the Jacobian as a scipy matrix (Simulation.jacobian)")
     system.AssembleLinearization(x)
     J = sp.csr_matrix(system.mat.CSR(), shape=(system.mat.height, system.mat.width))
@@ -29,6 +29,7 @@ def csr(matrix, copy=False):
     """An NGSolve sparse matrix (the rank's part of a ParallelMatrix) as a scipy CSR matrix: a
     view of NGSolve's arrays, valid while the NGSolve matrix lives (a form's matrix freed with
     its form leaves the view reading reused memory), or with ``copy`` a copy of them."""
+    import scipy.sparse as sp
     matrix = parallel.local_matrix(matrix)
     return sp.csr_matrix(matrix.CSR(), shape=(matrix.height, matrix.width), copy=copy)
 
