@@ -202,9 +202,9 @@ ADAPTIVE_SIZES = dict(section=0.05, quarter=0.16)
 """Contact mesh sizes (m, R = 1) of the first meshes of the adaptive runs."""
 ADAPTIVE_TOL = 0.1
 """The relative estimate both adaptive runs are solved to by default."""
-ADAPTIVE_MAX_NDOF = 5e4
+ADAPTIVE_MAX_NDOF = 4e4
 """The DOF limit of each adaptive run: the certificate (the equilibrated bound of the last level)
-of a finer 3D P2 level ran out of memory in SuperLU (docs/adaptivity.md)."""
+of the next finer 3D P2 levels ran out of memory in SuperLU (docs/adaptivity.md)."""
 ADAPTIVE_COLUMNS = ("kind", "order", "level", "ndof", "force", "a_h", "a", "relative", "certified", "change",
                     "to_section", "within", "elapsed_s")
 """Columns of adaptive.csv (a row per level of each run): ``a`` Hertz's radius at the level's force,
