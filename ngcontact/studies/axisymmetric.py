@@ -204,7 +204,7 @@ ADAPTIVE_TOL = 0.1
 """The relative estimate both adaptive runs are solved to by default."""
 ADAPTIVE_MAX_NDOF = 4e4
 """The DOF limit of each adaptive run: the certificate (the equilibrated bound of the last level)
-of the next finer 3D P2 levels ran out of memory in SuperLU (docs/adaptivity.md)."""
+of the next finer 3D P2 levels ran out of memory in SuperLU (docs/axisymmetric.md)."""
 ADAPTIVE_COLUMNS = ("kind", "order", "level", "ndof", "force", "a_h", "a", "relative", "certified", "change",
                     "to_section", "within", "elapsed_s")
 """Columns of adaptive.csv (a row per level of each run): ``a`` Hertz's radius at the level's force,
