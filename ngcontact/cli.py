@@ -218,12 +218,19 @@ def parser():
                             "tolerance.json, each level's mesh as .vol); exit status 1 if a scene's limit comes first")
     axi = commands.add_parser("axisymmetric", parents=[common], help="the half-ball on a plane solved on its "
                               "meridian section (a body of revolution) against the 3D quarter-ball: pressure error "
-                              "against solve time (setup apart), axisymmetric.csv, axisymmetric.md and a chart")
+                              "against solve time (setup apart), axisymmetric.csv, axisymmetric.md and a chart; "
+                              "--adaptive: adaptive runs of both compared")
     axi.add_argument("--out", metavar="DIR", type=_directory, default="axisymmetric", help="output directory")
-    axi.add_argument("--rounds", metavar="N", type=int, default=2,
+    axi.add_argument("--rounds", metavar="N", type=int, default=None,
                      help="interleaved repetitions, the least time of each case kept (default 2)")
     axi.add_argument("--quick", action="store_true", help="the coarsest sizes only, one round: its times are "
                      "single timings, marked indicative only (default: off)")
+    axi.add_argument("--adaptive", action="store_true",
+                     help="instead: adapt.solve on the section and on the quarter-ball (P2) to --tol; per level the "
+                          "DOFs, force and contact radius, and whether the section lies within the 3D run's last "
+                          "change (adaptive.csv, adaptive.md; default: off)")
+    axi.add_argument("--tol", metavar="TOL", type=float, default=None,
+                     help="with --adaptive: the relative estimate both runs are solved to (0 < TOL < 1; default 0.1)")
     imports = commands.add_parser("imports", parents=[common], help="the time of import ngcontact beyond import "
                                   "ngsolve: medians of fresh interpreters, interleaved")
     imports.add_argument("--runs", metavar="N", type=int, default=15,
@@ -388,7 +395,17 @@ def _dispatch(args):
     elif args.command == "axisymmetric":
         from ngcontact import checks
         from ngcontact.studies import axisymmetric
-        axisymmetric.command(args.out, rounds=checks.integer("--rounds", args.rounds, 1, 20), quick=args.quick)
+        if args.adaptive:
+            if args.quick or args.rounds is not None:
+                extra = "--quick" if args.quick else "--rounds"
+                raise ValueError(f"--adaptive runs each adaptation once to --tol: {extra} is the uniform study's; drop "
+                                 "it (a cheaper adaptive run: a larger --tol)")
+            axisymmetric.command_adaptive(args.out, tol=axisymmetric.ADAPTIVE_TOL if args.tol is None else args.tol)
+        elif args.tol is not None:
+            raise ValueError("--tol is the target of --adaptive; add --adaptive or drop --tol")
+        else:
+            axisymmetric.command(args.out, rounds=checks.integer("--rounds", 2 if args.rounds is None else args.rounds,
+                                                                 1, 20), quick=args.quick)
     elif args.command == "cluster":
         from ngcontact.studies import cluster
         rounds = dict(repeat=args.repeat) if args.repeat is not None else {}     # the defaults: 3 and 1

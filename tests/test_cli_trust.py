@@ -169,6 +169,21 @@ def test_axisymmetric_refuses_an_output_it_cannot_write_before_any_run(out, word
     assert code == 2 and len(lines) == 1 and words in lines[0], lines
 
 
+@pytest.mark.parametrize("argv, words", [
+    (["--adaptive", "--quick"], "--adaptive runs each adaptation once to --tol: --quick is the uniform study's"),
+    (["--adaptive", "--rounds", "2"], "--rounds is the uniform study's"),
+    (["--tol", "0.1"], "--tol is the target of --adaptive"),
+    (["--adaptive", "--tol", "1"], "--tol must be a finite number in (0, 1), got 1.0"),
+    (["--adaptive", "--out", "/proc/ngcontact-cannot-write"], "'/proc/ngcontact-cannot-write' cannot be written"),
+])
+def test_axisymmetric_adaptive_refuses_what_it_cannot_do_before_any_run(argv, words, capsys, monkeypatch):
+    from ngcontact.studies import axisymmetric
+    monkeypatch.setattr(axisymmetric, "adaptive", lambda *a, **k: pytest.fail("ran"))
+    monkeypatch.setattr(axisymmetric, "study", lambda *a, **k: pytest.fail("ran"))
+    code, lines, _ = _cli(["axisymmetric", *argv], capsys)
+    assert code == 2 and len(lines) == 1 and words in lines[0], lines
+
+
 @pytest.mark.parametrize("command", ["axisymmetric", "adapt", "timesteps", "timeorder", "demo", "bench"])
 def test_an_empty_out_is_refused_by_name(command, capsys, monkeypatch):
     """``--out ''`` would write into the working directory: refused, naming --out."""

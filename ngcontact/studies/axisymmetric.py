@@ -23,6 +23,11 @@ and the compile of the Γ3 integrand where ``model.machine_code``'s rule makes o
 the runs are interleaved (section, 3D, section, ...) over ``rounds`` and the least of each time
 over the rounds is kept (``common.fastest``; with one round, a single timing). ``summary``
 interpolates (log-log) the solve time each kind needs to reach an error and their ratio.
+
+``adaptive`` (``python -m ngcontact axisymmetric --adaptive``): the same scene adapted by
+``adapt.solve`` on the section and on the quarter-ball to one relative target; per level of each
+run the DOFs, the contact force F and radius a_h (``hertz.errors``), and whether the section's
+last F and a_h lie within the 3D run's last change, |X_section − X_3D,L| <= |X_3D,L − X_3D,L−1|.
 """
 import math
 import time
@@ -30,7 +35,7 @@ import time
 import numpy as np
 from matplotlib.figure import Figure
 
-from ngcontact import checks
+from ngcontact import adapt, checks
 from ngcontact.output.progress import bar
 from ngcontact.scenes import hertz
 
@@ -191,3 +196,130 @@ def command(out, order=2, rounds=2, quick=False, progress=True):
     chart(rows, out / "axisymmetric.png", quick)
     print(text)
     return rows
+
+
+ADAPTIVE_SIZES = dict(section=0.05, quarter=0.16)
+"""Contact mesh sizes (m, R = 1) of the first meshes of the adaptive runs."""
+ADAPTIVE_TOL = 0.1
+"""The relative estimate both adaptive runs are solved to by default."""
+ADAPTIVE_MAX_NDOF = 4e4
+"""The DOF limit of each adaptive run: the certificate (the equilibrated bound of the last level)
+of the next finer 3D P2 levels ran out of memory in SuperLU (docs/axisymmetric.md)."""
+ADAPTIVE_COLUMNS = ("kind", "order", "level", "ndof", "force", "a_h", "a", "relative", "certified", "change",
+                    "to_section", "within", "elapsed_s")
+"""Columns of adaptive.csv (a row per level of each run): ``a`` Hertz's radius at the level's force,
+``relative`` the certified relative estimate (NaN on levels the averaging marking did not
+certify), ``change`` |F_ℓ − F_ℓ−1|, ``to_section`` |F_section − F_ℓ| and ``within`` whether the
+latter is at most the former (3D levels), ``elapsed_s`` the adaptation's wall time so far."""
+
+
+def _adaptive_scene(kind, order):
+    if kind == "section":
+        return lambda mesh: hertz.simulation(order, mesh=mesh, axisymmetric=True, keep_states=False)
+    return lambda mesh: hertz.simulation(order, mesh=mesh, dim=3, quarter=True, keep_states=False)
+
+
+def adaptive_run(kind, order=2, tol=ADAPTIVE_TOL, h_contact=None, max_ndof=ADAPTIVE_MAX_NDOF, on_row=None):
+    """(the rows of the levels, the ``adapt.Adaptation``) of ``adapt.solve`` on the section
+    (``kind`` "section") or the quarter-ball ("quarter") from ``hertz.mesh`` at ``h_contact``
+    (default ``ADAPTIVE_SIZES``), to the relative estimate ``tol``; ``on_row(row)`` after each level."""
+    if kind not in ADAPTIVE_SIZES:
+        raise ValueError(f"kind must be 'section' or 'quarter', got {kind!r}")
+    h = ADAPTIVE_SIZES[kind] if h_contact is None else h_contact
+    mesh = hertz.mesh(2, h_contact=h, curve=order, axisymmetric=True) if kind == "section" else \
+        hertz.mesh(3, h_contact=h, curve=order, quarter=True)
+    rows = []
+
+    def on_level(level):
+        errors = hertz.errors(level.sim)
+        rows.append(dict(kind=kind, order=order, level=len(rows) + 1, ndof=level.ndof, force=errors["force"],
+                         a_h=errors["a_h"], a=errors["a"], relative=level.relative, certified=level.certified,
+                         elapsed_s=level.elapsed_s))
+        if on_row is not None:
+            on_row(rows[-1])
+    result = adapt.solve(_adaptive_scene(kind, order), mesh, tol, on_level=on_level, max_ndof=max_ndof)
+    return rows, result
+
+
+def agreement(rows, quantity="force"):
+    """The section's last ``quantity`` ("force" or "a_h") against the 3D run's last change:
+    dict(quantity, section, quarter (the last level's), previous, change = |last − previous|,
+    difference = |section − last|, within = difference <= change); ``within`` None with a
+    single 3D level (no change to compare with)."""
+    section = [r[quantity] for r in rows if r["kind"] == "section"]
+    quarter = [r[quantity] for r in rows if r["kind"] == "quarter"]
+    if not section or not quarter:
+        raise ValueError("agreement needs the rows of both runs (kinds 'section' and 'quarter')")
+    previous = quarter[-2] if len(quarter) > 1 else math.nan
+    change, difference = abs(quarter[-1] - previous), abs(section[-1] - quarter[-1])
+    return dict(quantity=quantity, section=section[-1], quarter=quarter[-1], previous=previous, change=change,
+                difference=difference, within=bool(difference <= change) if len(quarter) > 1 else None)
+
+
+def adaptive(order=2, tol=ADAPTIVE_TOL, sizes=None, max_ndof=ADAPTIVE_MAX_NDOF, progress=True):
+    """The section and then the quarter-ball adapted to ``tol`` (``adaptive_run``; ``sizes``:
+    their first contact mesh sizes, default ``ADAPTIVE_SIZES``): (the rows of every level, with
+    the 3D levels' ``change``, ``to_section`` and ``within``; the reasons the runs stopped by
+    kind; the ``agreement`` of the force and of a_h)."""
+    order = checks.order("order", order)
+    tol = checks.number("tol", tol, 0, 1, low_open=True, high_open=True)
+    sizes = {**ADAPTIVE_SIZES, **(sizes or {})}
+    rows, reasons = [], {}
+    with bar(None, "adaptive section and quarter-ball", enabled=progress, unit="level") as progress_bar:
+        def on_row(row):
+            progress_bar.set_postfix_str(f"{row['kind']} level {row['level']}: {row['ndof']} DOFs, "
+                                         f"F {row['force']:.6e} N")
+            progress_bar.update(1)
+        for kind in ("section", "quarter"):
+            mine, result = adaptive_run(kind, order, tol, sizes[kind], max_ndof, on_row)
+            rows += mine
+            reasons[kind] = result.reason
+    section = [r for r in rows if r["kind"] == "section"][-1]
+    previous = None
+    for r in rows:
+        r.update(change=math.nan, to_section=math.nan, within="")
+        if r["kind"] == "quarter":
+            if previous is not None:
+                r.update(change=abs(r["force"] - previous), to_section=abs(section["force"] - r["force"]))
+                r["within"] = bool(r["to_section"] <= r["change"])
+            previous = r["force"]
+    return rows, reasons, [agreement(rows, "force"), agreement(rows, "a_h")]
+
+
+def _shown(rows):
+    """The rows with F to 7 digits and a_h to 5 (``common.table`` keeps 4: too few to see the changes)."""
+    digits = dict(force="{:.6e}", a_h="{:.5f}", a="{:.5f}", change="{:.2e}", to_section="{:.2e}")
+    return [{k: (digits[k].format(v) if k in digits and not math.isnan(v) else v) for k, v in r.items()}
+            for r in rows]
+
+
+def adaptive_text(rows, reasons, agreements, tol):
+    """The printed table of ``adaptive`` and its comparison lines."""
+    lines = [f"adaptive P{rows[0]['order']}, target relative estimate {tol:g}; "
+             f"section: {reasons['section']}, quarter-ball: {reasons['quarter']}", "",
+             table(_shown(rows), ADAPTIVE_COLUMNS), ""]
+    for a in agreements:
+        name = "F (N)" if a["quantity"] == "force" else "a_h (m)"
+        if a["within"] is None:
+            lines.append(f"{name}: the 3D run stopped at its first level: no change to compare with (lower the tol)")
+            continue
+        lines.append(f"{name}: section {a['section']:.6e}, 3D {a['quarter']:.6e} (previous level {a['previous']:.6e}):"
+                     f" |section - 3D| = {a['difference']:.2e} {'<=' if a['within'] else '>'} 3D last change "
+                     f"{a['change']:.2e}: {'within' if a['within'] else 'NOT within'} the 3D run's last change")
+    return "\n".join(lines)
+
+
+def command_adaptive(out, order=2, tol=ADAPTIVE_TOL, progress=True):
+    """``python -m ngcontact axisymmetric --adaptive``: ``adaptive`` written to ``adaptive.csv``
+    and ``adaptive.md`` in ``out`` and printed. The arguments are checked before any run:
+    ``out`` a directory that can be written (created), ``order`` in [1, ``checks.MAX_ORDER``],
+    ``tol`` in (0, 1)."""
+    order = checks.order("order", order)
+    tol = checks.number("--tol", tol, 0, 1, low_open=True, high_open=True)
+    out = checks.writable_directory(out, "out (the output directory)")
+    rows, reasons, agreements = adaptive(order, tol, progress=progress)
+    write_csv(rows, out / "adaptive.csv", ADAPTIVE_COLUMNS)
+    text = adaptive_text(rows, reasons, agreements, tol)
+    (out / "adaptive.md").write_text(text + "\n")
+    print(text)
+    return rows, reasons, agreements
