@@ -261,34 +261,10 @@ class EquilibratedEstimator:
             fields.update(D_star=inverse_w * tau_D, D_h=D_h)
         order = 2 * (max(body.order, body.order_phi) + RAISE) + 2 + SECTION_BONUS
         indicators = dict(zip(parts_K, _element_integrals(list(parts_K.values()), mesh, order)))
-        indicators["oscillation"] = self._section_oscillation(
+        indicators["oscillation"] = self._oscillation(
             w * f0[1] if loads.f0 is not None else None, w * q0 if loads.q0 is not None else None,
-            inverse_w, s_max, T) ** 2
+            s_max, T, inverse_w) ** 2
         return _estimate(indicators, self._contact_term(), fields)
-
-    def _section_oscillation(self, g_z, g_q, inverse_w, s_max, T):
-        """η_osc,K = (h_K/π)(λ_min(C_c)^{−½}‖(g_z − Π_p g_z)/w‖_K + λ_min(C)^{−½}‖(g_q − Π_p g_q)/w‖_K)
-        per element (norms weighted by w = 2π r), g_z = w f_z and g_q = w q0 the sources of the
-        z row and of the charge (None: none): the weighted Poincaré inequality on a convex element
-        (module docstring)."""
-        body, mesh = self.body, self.body.mesh
-        out = np.zeros(mesh.ne)
-        if g_z is None and g_q is None:
-            return out
-        if self._diameters is None:
-            self._diameters = element_diameters(mesh)
-        h = self._diameters
-        for data, order, weight in ((g_z, body.order + RAISE, s_max), (g_q, body.order_phi + RAISE,
-                                                               float(np.linalg.eigvalsh(np.linalg.inv(T.C)).max()))):
-            if data is None:
-                continue
-            projected = ngs.GridFunction(ngs.L2(mesh, order=order))
-            projected.Set(data, bonus_intorder=BONUS)
-            rest = data - projected
-            norm = np.sqrt(np.maximum(ngs.Integrate((rest * rest * inverse_w).Compile(), mesh, ngs.VOL,
-                                                    order=2 * order + 6, element_wise=True).NumPy(), 0.0))
-            out += h / np.pi * np.sqrt(weight) * norm
-        return out
 
     def _boundary_data(self):
         """The Neumann data of σ* and D* on the boundary (CFs of dim and 1 components): the
@@ -314,10 +290,12 @@ class EquilibratedEstimator:
                 t[name], q[name] = t_rep, q_rep
         return mesh.BoundaryCF(t, default=ngs.CF((0.0,) * dim)), mesh.BoundaryCF(q, default=ngs.CF(0.0))
 
-    def _oscillation(self, f0, q0, s_max, T):
+    def _oscillation(self, f0, q0, s_max, T, inverse_w=None):
         """η_osc,K = (h_K/π)(λ_min(C_c)^{−½}‖f0 − Π_p f0‖_K + λ_min(C)^{−½}‖q0 − Π_p q0‖_K) per
         element, h_K its diameter (Poincaré on a convex element); 0 without a body force or
-        charge density (None)."""
+        charge density (None). For a body of revolution (``inverse_w`` = 1/w, w = 2π r) f0 and q0
+        are the weighted sources g of the z row and of the charge, and the norms those of
+        (g − Π_p g)/w weighted by w (the weighted Poincaré inequality, module docstring)."""
         body, mesh = self.body, self.body.mesh
         out = np.zeros(mesh.ne)
         if f0 is None and q0 is None:
@@ -331,10 +309,16 @@ class EquilibratedEstimator:
                 continue
             space = ngs.L2(mesh, order=order) ** data.dim if data.dim > 1 else ngs.L2(mesh, order=order)
             projected = ngs.GridFunction(space)
-            projected.Set(data)
-            rest = data - projected
-            norm = np.sqrt(np.maximum(ngs.Integrate(ngs.InnerProduct(rest, rest), mesh, ngs.VOL,
-                                                    order=2 * order + 6, element_wise=True).NumPy(), 0.0))
+            if inverse_w is None:
+                projected.Set(data)
+                rest = data - projected
+                square = ngs.InnerProduct(rest, rest)
+            else:
+                projected.Set(data, bonus_intorder=BONUS)
+                rest = data - projected
+                square = (rest * rest * inverse_w).Compile()
+            norm = np.sqrt(np.maximum(ngs.Integrate(square, mesh, ngs.VOL, order=2 * order + 6,
+                                                    element_wise=True).NumPy(), 0.0))
             out += h / np.pi * np.sqrt(weight) * norm
         return out
 
