@@ -111,7 +111,7 @@ def test_a_manufactured_piezoelectric_body_of_revolution_converges_at_the_rates(
     assert energy_rate == pytest.approx(order, abs=0.15), errors
 
 
-@pytest.mark.parametrize("order", [1, 2])
+@pytest.mark.parametrize("order", [1, pytest.param(2, marks=pytest.mark.long)])
 def test_a_manufactured_body_of_revolution_with_a_nonlinear_law_converges_at_the_rates(order):
     """The same body with radial fibres, σ_rr + ζ ψ(ε_rr) (a law of (2.17) on the 3 × 3 strain
     of the frame (e_r, e_z, e_θ)), the data by hand from the cylindrical equations: the strain

@@ -105,6 +105,7 @@ def test_the_estimate_bounds_the_energy_error_of_a_manufactured_section(order):
     assert np.all(rates >= order - 0.25), rates
 
 
+@pytest.mark.long
 def test_the_estimate_bounds_the_energy_error_of_a_piezoelectric_section():
     """Scaled PZT-5A, P1 on three meshes and P2 on two: η ≥ |||e|||, η ÷ |||e||| ≤ 3.5 (measured
     2.42–3.44: as in the plane and 3D cases the Prager–Synge bound of the coupled system counts

@@ -148,6 +148,7 @@ def test_theta_half_is_second_order_where_the_solution_is_smooth():
     assert all(0.8 <= r <= 1.2 for o in orders[1].values() for r in o), orders
 
 
+@pytest.mark.long
 def test_theta_half_runs_the_reference_plate():
     """θ = 1/2 runs the whole reference plate (push, hold, pull to 0.5 s) with no edit of the
     package: 51 records at n·dt, each of the scheme's name and order 2, through contact and the
