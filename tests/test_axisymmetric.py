@@ -244,6 +244,7 @@ def test_the_piezoelectric_half_ball_agrees_with_the_3d_quarter_ball(conductance
     _within_the_3d_error(axisymmetric, coarse, fine, (0, 2) if conductance else (0, 1))
 
 
+@pytest.mark.long
 def test_the_conducting_piezoelectric_half_ball_agrees_with_a_coarse_3d_quarter_ball():
     """The conducting case of the slow test at coarse 3D meshes: the charge through Γ3 (C) and
     the force (N) of the section within the 3D run's error."""

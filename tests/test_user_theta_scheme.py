@@ -124,6 +124,7 @@ def test_theta_1_gives_backward_euler_s_steps_on_the_reference_plate():
     assert {r.scheme for r in mine.history} == {"theta_1.0"} and {r.order for r in mine.history[1:]} == {1}
 
 
+@pytest.mark.long
 def test_theta_half_is_second_order_where_the_solution_is_smooth():
     """On the glued column lifted off an open Γ3 ("lift" of ``studies.column_order``: smooth in
     time, Nitsche's θ = 0 so that the step is the semi-discrete system's), the errors at T of 8,
