@@ -50,7 +50,6 @@ class ContactSide:
             raise ValueError("the body has no contact side Γ3: pass contact_side='...' to Body")
         self.mesh, self.dim = mesh, body.dim
         self.kinematics = kin = body.kinematics
-        self.axisymmetric = body.axisymmetric
         region = body.region("contact_side")
         # the same integrals over the volume elements at Γ3 only: ∫ indicator · f on their
         # element boundaries (ds(skeleton=True) visits every facet of the mesh, 2 µs each)

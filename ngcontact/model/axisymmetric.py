@@ -8,7 +8,7 @@ The paper's forms keep their shape, with
   hoop strain (Voigt, engineering shear; ``hoop_strain``);
 * ∇φ = (∂_r φ, ∂_z φ);
 * the material seen in the frame (e_r, e_z, e_θ), its data axis 3 (poling) along the axis of
-  revolution (``restricted``);
+  revolution (``Kinematics.indices_3d``, ``twist_coupling``);
 * the measures 2π r dr dz on Ω and 2π r ds on its boundary (``weight``). Every integral is
   then over the whole body: forces in N, charges in C, contact areas in m².
 
@@ -76,13 +76,6 @@ def twist_coupling(c, eta, e, eps):
         if np.abs(block).max(initial=0.0) > 1e-12 * max(scale, 1e-300):
             found.append(name)
     return ", ".join(found)
-
-
-def restricted(F, A, e, eps):
-    """The axisymmetric tensors from the 3D ones in the frame (e_r, e_z, e_θ): F, A (4×4 on
-    (rr, zz, rz, θθ)), E (2×4: fields (r, z)), C (2×2)."""
-    ix = np.ix_(INDICES, INDICES)
-    return F[ix], A[ix], e[:2][:, INDICES], eps[:2, :2]
 
 
 def axis_names(mesh, size):

@@ -17,7 +17,6 @@ components in the 3D Voigt vector (``indices_3d``, for the material's tensors), 
 """
 from __future__ import annotations
 
-import math
 
 import ngsolve as ngs
 import numpy as np
@@ -204,7 +203,7 @@ class Axisymmetric(Kinematics):
     @property
     def weight(self):
         """2π r (m): the body's measure per unit area of its meridian section."""
-        return 2 * math.pi * ngs.x
+        return axisymmetric.weight()
 
     def strain(self, u):
         """(ε_rr, ε_zz, 2ε_rz, ε_θθ), ε_θθ = u_r/r (its limit ∂u_r/∂r on the axis)."""
