@@ -39,6 +39,7 @@ reached" (its relative estimate is 0), or, without a target, as "nothing to refi
 """
 import time as wallclock
 from dataclasses import dataclass, field
+from functools import partial
 
 import ngsolve as ngs
 import numpy as np
@@ -47,6 +48,7 @@ from ngcontact import arguments, checks, parallel
 from ngcontact.model import forms
 from ngcontact.estimators.averaging import AveragingIndicator
 from ngcontact.estimators.equilibrated import EquilibratedEstimator, check as estimable
+from ngcontact.estimators.goals import GOALS, PressureResidual, edge_points, elements_at_points, force_estimate
 from ngcontact.meshes import refined
 
 
@@ -119,7 +121,11 @@ class Level:
     building the level's simulation (``scene(mesh)``). Marked by the averaging indicator
     (``marking="averaging"``): ``indicators`` are its η_K, ``indicator`` its total, and
     ``certified`` says whether the equilibrated bound was computed on the level (``estimate``
-    and ``relative`` are NaN and ``parts`` {} where it was not)."""
+    and ``relative`` are NaN and ``parts`` {} where it was not). Adapted for a ``goal`` other than
+    "energy" (``GOALS``): ``goal_value`` (‖λ_h‖_Γ3, Pa m^½ in 2D, or the contact force F_h, N/m in
+    2D) and ``goal_estimate``, the relative estimate of its error that the tolerance bounds;
+    ``edge_bisections``: how many times the elements at the contact edges were bisected after the
+    marked ones (the pressure goal in 2D)."""
     mesh: object
     ndof: int
     estimate: float
@@ -137,6 +143,10 @@ class Level:
     build_s: float = 0.0
     certified: bool = True
     indicator: float = float("nan")
+    goal: str = "energy"
+    goal_value: float = float("nan")
+    goal_estimate: float = float("nan")
+    edge_bisections: int = 0
 
 
 @dataclass
@@ -217,11 +227,13 @@ def _relative(estimate, norm):
     return estimate / norm if norm > 0 else np.inf
 
 
-def _next(scene, level, tol, levels, max_levels, max_ndof, fraction, polygonal):
+def _next(scene, level, tol, levels, max_levels, max_ndof, fraction, polygonal, achieved=None, after=None):
     """(the reason to stop after ``level`` or None, the next simulation, the seconds its build
-    took): the mesh marked by ``mark``, refined, and the scene built on it; one whose DOFs pass
-    ``max_ndof`` is not used (it is built to count them: the scene decides its spaces)."""
-    if tol is not None and level.relative <= tol:
+    took): the mesh marked by ``mark``, refined (then ``after(mesh)``, if given), and the scene
+    built on it; one whose DOFs pass ``max_ndof`` is not used (it is built to count them: the
+    scene decides its spaces). ``achieved``: the relative estimate the tolerance bounds (default
+    the level's ``relative``)."""
+    if tol is not None and (level.relative if achieved is None else achieved) <= tol:
         return "target reached", None, 0.0
     if levels >= max_levels:
         return "level limit", None, 0.0
@@ -229,7 +241,8 @@ def _next(scene, level, tol, levels, max_levels, max_ndof, fraction, polygonal):
     if not marked.any():                         # every indicator 0: the same mesh again would be
         return "nothing to refine", None, 0.0    # the same level again
     level.marked = marked
-    sim, seconds = _build(scene, refined(level.mesh, level.marked, polygonal=polygonal))
+    mesh = refined(level.mesh, level.marked, polygonal=polygonal)
+    sim, seconds = _build(scene, after(mesh) if after is not None else mesh)
     if sim.X.ndof > max_ndof:
         return "DOF limit", None, seconds
     return None, sim, seconds
@@ -264,7 +277,7 @@ def _certify(sim, level, began):
 
 
 def step(scene, mesh, dt, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5, guess=None, on_level=None,
-         stop_newton=None, polygonal=False, marking="equilibrated"):
+         stop_newton=None, polygonal=False, marking="equilibrated", goal="energy", certify=None):
     """Adapt the mesh to one step of length dt (s) from the initial state (``Simulation.step``):
     solve, estimate, mark (``mark``), refine (``meshes.refined``), until the relative estimate is
     at most ``tol`` (None: until a limit) or ``max_levels`` meshes or ``max_ndof`` DOFs;
@@ -276,11 +289,22 @@ def step(scene, mesh, dt, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5
     the mesh has no geometry and its boundary is polygonal (``meshes.refined``). ``marking``:
     "equilibrated" (the bound on every level) or "averaging" (``MARKINGS``: the cheap
     indicator marks, the bound certifies the first level, the levels the scaled indicator
-    says meet ``tol``, and the last)."""
+    says meet ``tol``, and the last). ``goal`` (``GOALS``): what ``tol`` bounds and the marking
+    serves — "energy" (the relative energy estimate), "pressure" (the relative L² error of the
+    contact pressure λ_h on Γ3) or "force" (the relative error of the contact resultant);
+    ``estimators.goals`` says what each estimate rests on. For "pressure" and "force" the
+    averaging indicator marks (with the pressure residual for "pressure", and in 2D the elements
+    at the contact edges bisected again up to ``EDGE_BISECTIONS`` times), and the equilibrated
+    bound is computed on the last level only if ``certify`` (default: only for "energy")."""
     tol, fraction, max_levels, max_ndof = _limits(tol, fraction, max_levels, max_ndof)
     stop_newton = _inputs("adapt.step", scene, mesh, max_levels, polygonal, on_level, stop_newton)
     marking = _marking("adapt.step", marking)
+    goal = _goal("adapt.step", goal)
+    certify = checks.flag("certify", goal == "energy" if certify is None else certify)
     arguments.time_step(dt, 0.0)                     # dt > 0, finite, before any work
+    if goal != "energy":
+        return _goal_step(scene, mesh, dt, goal, tol, fraction, max_levels, max_ndof, guess, on_level, stop_newton,
+                          polygonal, certify)
     levels, start, began = [], guess, wallclock.perf_counter()
     ratio = None                                     # bound / indicator at the last certified level
     sim, build_s = _first(scene, mesh, max_ndof)
@@ -327,7 +351,7 @@ def step(scene, mesh, dt, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5
 
 
 def solve(scene, mesh, tol, *, dt=1.0, fraction=0.5, max_levels=30, max_ndof=2e5, guess=None, on_level=None,
-          stop_newton=0.1, polygonal=False, marking="averaging"):
+          stop_newton=0.1, polygonal=False, marking="averaging", goal="energy", certify=None):
     """Solve the first step, of length dt (s) from the scene's initial state, to a tolerance:
     refine until the equilibrated bound of the energy error, relative to the energy of the
     discrete state, is at most ``tol``
@@ -338,11 +362,91 @@ def solve(scene, mesh, tol, *, dt=1.0, fraction=0.5, max_levels=30, max_ndof=2e5
     scene whose Simulation has already stepped is refused (ValueError, before its first solve):
     its state at the start of the step would be computed anew on every level's mesh, so the
     levels would solve different steps and none of them the step certified; to adapt a later
-    step, build the scene with the displacement it starts from as its initial one (``u0=``)."""
+    step, build the scene with the displacement it starts from as its initial one (``u0=``).
+    ``goal="pressure"`` or ``"force"``: ``tol`` bounds the relative estimate of the contact
+    pressure's L² error on Γ3 or of the contact force's error instead (``step``), and the bound
+    is computed only with ``certify=True``."""
     if tol is None:
         raise ValueError("adapt.solve: tol must be a finite number > 0 (the relative estimate to certify), got None")
     return step(scene, mesh, dt, tol=tol, fraction=fraction, max_levels=max_levels, max_ndof=max_ndof, guess=guess,
-                on_level=on_level, stop_newton=stop_newton, polygonal=polygonal, marking=marking)
+                on_level=on_level, stop_newton=stop_newton, polygonal=polygonal, marking=marking, goal=goal,
+                certify=certify)
+
+
+EDGE_BISECTIONS = 2
+"""At most how many times, per level of the pressure goal, the elements at the contact edges are
+bisected after the marked ones: as many as bring the edges' share of the pressure estimate down
+to that of the rest of Γ3 (there the error is O(h) at the edge, whatever the order)."""
+
+
+def _goal(where, goal):
+    if not isinstance(goal, str) or goal not in GOALS:
+        raise ValueError(f"{where}: goal must be one of {', '.join(map(repr, GOALS))}, got {goal!r}")
+    return goal
+
+
+def _goal_step(scene, mesh, dt, goal, tol, fraction, max_levels, max_ndof, guess, on_level, stop_newton, polygonal,
+               certify):
+    """``step`` for the goals "pressure" and "force" (``estimators.goals``): the averaging indicator
+    and, for the pressure, its residual mark; the goal's relative estimate meets ``tol``."""
+    levels, start, began = [], guess, wallclock.perf_counter()
+    sim, build_s = _first(scene, mesh, max_ndof)
+    if sim.gamma3 is None:
+        raise ValueError(f"adapt: goal={goal!r} needs a scene with a contact side Γ3 (Simulation(contact=...))")
+    names = set(sim.body.boundaries["contact_side"])
+    while True:
+        mesh = sim.body.mesh
+        if stop_newton is not None and levels:
+            last = levels[-1]
+            expected = last.indicator * (last.ndof / sim.X.ndof) ** (sim.body.order / sim.body.dim)
+            sim.newton.energy_target = stop_newton * expected
+        t0 = wallclock.perf_counter()
+        record = sim.step(dt, guess=start)
+        solved = wallclock.perf_counter()
+        norm = energy(sim)
+        cheap = AveragingIndicator(sim)()
+        energy_share = cheap.indicators / norm if norm > 0 else cheap.indicators
+        after, bisections = None, 0
+        if goal == "pressure":
+            estimate = PressureResidual(sim)()
+            share = estimate.indicators / estimate.value if estimate.value > 0 else estimate.indicators
+            indicators = np.sqrt(share ** 2 + energy_share ** 2)
+            edge = float(np.sqrt(np.sum(estimate.indicators[estimate.edges] ** 2)))
+            rest = float(np.sqrt(np.sum(estimate.indicators[~estimate.edges] ** 2)))
+            points = edge_points(sim)
+            if len(points) and edge > 0:
+                bisections = EDGE_BISECTIONS if rest == 0 else \
+                    int(np.clip(np.ceil(np.log2(edge / rest)), 0, EDGE_BISECTIONS))
+            after = partial(_bisect_at, names=names, points=points, times=bisections, polygonal=polygonal)
+        else:
+            estimate = force_estimate(np.linalg.norm(record.contact.force), _relative(cheap.total, norm))
+            indicators = cheap.indicators
+        level = Level(mesh, sim.X.ndof, float("nan"), float("nan"), {}, indicators, solved - t0,
+                      wallclock.perf_counter() - solved, record.newton_iterations, sim,
+                      krylov=record.krylov_iterations, elapsed_s=wallclock.perf_counter() - began,
+                      estimate_stops=sim.newton.estimate_stops, build_s=build_s, certified=False,
+                      indicator=cheap.total, goal=goal, goal_value=estimate.value, goal_estimate=estimate.relative,
+                      edge_bisections=bisections)
+        levels.append(level)
+        reason, following, build_s = _next(scene, level, tol, len(levels), max_levels, max_ndof, fraction,
+                                           polygonal, achieved=estimate.relative, after=after)
+        if reason is not None and certify:
+            _certify(sim, level, began)              # the last level's certificate, asked for
+        began += _timed(on_level, level)
+        if reason is not None:
+            return Adaptation(levels, reason, reason == "target reached")
+        start, sim = sim.u, following
+
+
+def _bisect_at(mesh, names, points, times, polygonal):
+    """``mesh`` with the elements at the Γ3 facets near ``points`` (the last level's contact
+    edges) bisected ``times`` times more (``goals.elements_at_points``)."""
+    for _ in range(times):
+        near = elements_at_points(mesh, names, points)
+        if not near.any():
+            break
+        mesh = refined(mesh, near, polygonal=polygonal)
+    return mesh
 
 
 def _marking(where, marking):

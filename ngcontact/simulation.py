@@ -276,6 +276,19 @@ class Simulation:
     gap = property(lambda self: self.gamma3.gap, doc="The gap g, a CoefficientFunction (m).")
     enforcement = property(lambda self: self.gamma3.enforcement, doc="The enforcement method on Γ3.")
 
+    @property
+    def contact_pressure(self) -> ngs.CoefficientFunction:
+        """λ_h (Pa, >= 0), the pointwise contact pressure of the rigid foundation on Γ3 for the
+        current state, as the enforcement method imposes it (Nitsche: λ_h = −[P_γ(u_h)]₋; 0 where
+        the body is free): a CoefficientFunction of the state with volume gradients, read on Γ3
+        (``sim.side.integrate(cf)``, ``sim.side.at_gauss_points(cf)``; at points of Γ3:
+        ``ngsolve.BoundaryFromVolumeCF(cf)(mesh(x, y, VOL_or_BND=ngsolve.BND))``). The body's normal stress adds the layer and the glue:
+        ``sim.gamma3.contact_pressure(u, φ)`` is −σ_ν = λ_h + p(u_ν) − γ_ν β² R_ν(u_ν). Records keep
+        its facet averages (``StepRecord.contact.multiplier``)."""
+        if self.gamma3 is None:
+            raise ValueError("contact_pressure: the simulation has no contact side Γ3 (Simulation(contact=None))")
+        return self.gamma3.multiplier(self.u, self.phi)
+
     t = property(lambda self: self.scheme.t, doc="The time of the last step, s.")
     history = property(lambda self: self.steps.history, doc="The History: one StepRecord per step, step 0 first.")
     cutbacks = property(lambda self: self.steps.cutbacks, doc="The failed tries of ``advance`` (dicts).")

@@ -63,6 +63,7 @@ from ngcontact.model import forms, kinematics
 from ngcontact.model.kinematics import mesh_ds
 from ngcontact import parallel
 from ngcontact.model.loads import as_cf
+from ngcontact.model.voigt import matrix_cf
 from ngcontact.time.step import Step
 from .equilibration import BONUS, Equilibration, Patches
 
@@ -102,7 +103,7 @@ class Estimate:
 
 
 def _matrix(M):
-    return ngs.CF(tuple(float(v) for v in np.asarray(M).flat), dims=np.shape(M))
+    return matrix_cf(np.asarray(M, dtype=float))
 
 
 def check(sim):

@@ -19,6 +19,7 @@ from ngcontact.gamma3.contact_side import ContactSide
 from ngcontact.model.loads import as_cf
 from ngcontact.gamma3.obstacles import check_normal, named_direction, obstacle_fields
 from ngcontact.gamma3.enforcement import built
+from ngcontact.gamma3.integrands import adhesion_traction
 
 
 @dataclass(frozen=True)
@@ -36,6 +37,22 @@ class Gamma3:
     foundation_potential: object
     normal: object
     sampled_normal: object = None
+
+    def multiplier(self, u, phi):
+        """λ_h >= 0 (Pa), the rigid foundation's contact pressure of the state (u, φ) as the
+        enforcement method defines it (Nitsche: −[P_γ]₋), a CoefficientFunction on Γ3; the
+        body's normal stress is −σ_ν = λ_h + p(u_ν) − γ_ν β² R_ν(u_ν) (``contact_pressure``)."""
+        return self.enforcement.multiplier(u, phi, self.traction(u))
+
+    def traction(self, u):
+        """p(u_ν) − γ_ν β² R_ν(u_ν) (Pa), the compliant layer's and the glue's normal traction
+        of the displacement u (the integrand of j_a, (2.28))."""
+        return adhesion_traction(self.contact, self.beta.gf, u * self.normal)
+
+    def contact_pressure(self, u, phi):
+        """−σ_ν = λ_h + p(u_ν) − γ_ν β² R_ν(u_ν) (Pa), the normal compressive stress on Γ3
+        (positive where the body is pressed; the glue pulls it below zero)."""
+        return self.multiplier(u, phi) + self.traction(u)
 
 
 def gamma3_data(contact, gamma3, mesh, at, t):

@@ -87,12 +87,11 @@ def mesh(dim=2, h_contact=None, refine=0, curve=1, radius=None, axisymmetric=Fal
             if face.name not in ("top", "symx", "symy"):
                 face.name = "contact"
     parameters = MeshingParameters(maxh=10 * h_contact if dim == 2 else 0.4 * size)
-    # the size is restricted at points along the contact region: 26 across the half-disk and
-    # half-ball; on the section and the quarter at most h_contact (2 h_contact in 3D) apart, so
-    # that a small h_contact holds over the whole region (the grading would coarsen between)
-    count = 26
-    if axisymmetric or quarter:
-        count = max(14, math.ceil(0.25 * size / (h_contact * (2 if quarter else 1))) + 1)
+    # the size is restricted at points along the contact region at most h_contact (2 h_contact
+    # in 3D) apart, so that a small h_contact holds over the whole region (Netgen's grading
+    # would coarsen between points further apart); at least 26 across (14 on a half)
+    half = axisymmetric or quarter
+    count = max(14 if half else 26, math.ceil((0.25 if half else 0.5) * size / (h_contact * (dim - 1))) + 1)
     for x in np.linspace(0 if axisymmetric or quarter else -0.25 * size, 0.25 * size, count):
         if dim == 2:
             parameters.RestrictH(x, size - math.sqrt(size * size - x * x), 0, h_contact)

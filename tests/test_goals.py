@@ -1,0 +1,115 @@
+"""The contact pressure λ_h as a public field, the Hertz meshes' size over the contact region, and
+the goals of the adaptive loop ("pressure", "force"): their estimates, the edge refinement and
+their refusals."""
+import math
+
+import ngsolve as ngs
+import numpy as np
+import pytest
+
+import ngcontact as ngc
+from ngcontact import adapt
+from ngcontact.estimators import goals
+from ngcontact.scenes import hertz, reference
+
+DEPTH = 0.0171                     # the race's Hertz step (m)
+
+
+@pytest.fixture(scope="module")
+def hertz_p2():
+    sim = hertz.simulation(2, h_contact=0.02, depth=DEPTH, keep_states=False)
+    sim.step(1.0)
+    return sim
+
+
+def test_the_public_contact_pressure_is_the_recorded_multiplier(hertz_p2):
+    """``Simulation.contact_pressure`` averaged over each Γ3 facet with the residual's quadrature
+    is the record's multiplier to round-off; it is >= 0, 0 where the body is free, and integrates
+    to the contact force within the quadrature of its kink (the record's force is the residual's)."""
+    sim = hertz_p2
+    side, record = sim.side, sim.history[-1].contact
+    lam = sim.contact_pressure
+    averages = side.facet_integrals(lam, "residual")() / side.weighted_measure
+    assert np.allclose(averages, record.multiplier, rtol=0, atol=1e-12 * record.multiplier.max())
+    values = side.at_gauss_points(lam)
+    assert values.min() >= 0 and values.max() > 0
+    free = np.abs(side.midpoints[:, 0]) > 0.2                # a ≈ 0.107 m
+    assert np.all(values[free] == 0)
+    assert side.integrate(lam) == pytest.approx(record.force[-1], rel=0.03)
+    # −σ_ν = λ_h + p − γ_ν β² R_ν: no layer and no glue here
+    assert side.integrate((sim.gamma3.contact_pressure(sim.u, sim.phi) - lam) ** 2) == 0.0
+
+
+def test_contact_pressure_without_contact_is_refused():
+    body = ngc.Body(reference.body(1, 0.02).mesh, ngc.pzt5a(), clamped="left", grounded="top", order=1)
+    sim = ngc.Simulation(body, None)
+    with pytest.raises(ValueError, match="contact_pressure: the simulation has no contact side"):
+        sim.contact_pressure
+
+
+def test_hertz_meshes_hold_the_contact_size_over_the_whole_contact_region():
+    """Every facet of Γ3 with |x| < R/4 is at most 1.4 h_contact long at h_contact = 0.005 R
+    (before, the size was held at 26 points only, and the facets reached 2.9 h_contact)."""
+    h = 0.005
+    mesh = hertz.mesh(2, h_contact=h)
+    lengths = []
+    for el in mesh.Elements(ngs.BND):
+        if el.mat == "contact":
+            a, b = (np.array(mesh.vertices[v.nr].point) for v in el.vertices)
+            if max(abs(a[0]), abs(b[0])) < 0.25 * hertz.R:
+                lengths.append(np.linalg.norm(b - a))
+    assert len(lengths) > 0.5 / h * 0.7 and max(lengths) <= 1.4 * h
+
+
+def test_the_pressure_residual_is_the_distance_between_imposed_pressure_and_normal_stress(hertz_p2):
+    """η_p² = Σ_K ‖λ_h + σ_ν(u_h)‖² over the Γ3 facets where the body presses or could (its
+    opening below the facet's size), computed here independently at Gauss points; the edges are
+    the two elements where λ_h > 0 on part of the facet, near x = ±a."""
+    sim = hertz_p2
+    estimate = goals.PressureResidual(sim)()
+    assert estimate.goal == "pressure" and estimate.edges.sum() == 2
+    side = sim.side
+    sigma_n = sim.enforcement.sigma_n(sim.u, sim.phi)
+    lam = sim.contact_pressure
+    opening = sim.gap - sim.u * ngs.CF((0, 1))
+    near = ngs.IfPos(lam, 1.0, ngs.IfPos(ngs.specialcf.mesh_size - opening, 1.0, 0.0))
+
+    def integral(cf):
+        lf = ngs.LinearForm(side.B)
+        lf += sim.body.kinematics.ds(cf * side._mu, skeleton=True, definedon=sim.body.region("contact_side"),
+                                     bonus_intorder=40)
+        return lf.Assemble().vec.FV().NumPy().sum()
+    # to the quadrature of the kink inside the edge facets (0.5 % off at NGSolve's 2p + 2)
+    assert estimate.estimate == pytest.approx(math.sqrt(integral((near * (lam + sigma_n)) ** 2)), rel=1e-2)
+    assert estimate.value == pytest.approx(math.sqrt(integral(lam ** 2)), rel=1e-3)
+    points = goals.edge_points(sim)
+    a = sim.history[-1].contact.contact_area / 2
+    assert points.shape == (2, 2) and np.allclose(np.sort(np.abs(points[:, 0])), a, atol=0.02)
+    near_edges = goals.elements_at_points(sim.body.mesh, {"contact"}, points)
+    assert near_edges[estimate.edges].all() and 2 <= near_edges.sum() <= 8
+
+
+def test_the_force_estimate_is_the_squared_relative_energy_estimate():
+    estimate = goals.force_estimate(2.0, 1e-2)
+    assert estimate.relative == pytest.approx(1e-4) and estimate.estimate == pytest.approx(2e-4)
+
+
+@pytest.mark.parametrize("kwargs, words", [
+    (dict(goal="stress"), "goal must be one of 'energy', 'pressure', 'force', got 'stress'"),
+    (dict(goal=None), "goal must be one of"),
+    (dict(goal="pressure", certify="yes"), "certify"),
+])
+def test_bad_goals_are_refused_before_any_work(kwargs, words):
+    def scene(mesh):
+        raise AssertionError("the scene must not be built")
+    with pytest.raises((ValueError, TypeError), match=words):
+        adapt.solve(scene, hertz.mesh(2, h_contact=0.2), 1e-2, **kwargs)
+
+
+def test_a_goal_on_a_scene_without_contact_is_refused():
+    mesh = reference.body(1, 0.02).mesh
+
+    def scene(m):
+        return ngc.Simulation(ngc.Body(m, ngc.pzt5a(), clamped="left", grounded="top", order=1), None)
+    with pytest.raises(ValueError, match="goal='pressure' needs a scene with a contact side"):
+        adapt.solve(scene, mesh, 1e-2, goal="pressure")
