@@ -419,7 +419,9 @@ def _goal_step(scene, mesh, dt, goal, tol, fraction, max_levels, max_ndof, guess
                     int(np.clip(np.ceil(np.log2(edge / rest)), 0, EDGE_BISECTIONS))
             after = partial(_bisect_at, names=names, points=points, times=bisections, polygonal=polygonal)
         else:
-            estimate = force_estimate(np.linalg.norm(record.contact.force), _relative(cheap.total, norm))
+            # the bulk's energy (the averaging indicator's Γ3 residual is the pressure's matter)
+            bulk = float(np.hypot(cheap.parts["stress"], cheap.parts["flux"]))
+            estimate = force_estimate(np.linalg.norm(record.contact.force), _relative(bulk, norm))
             indicators = cheap.indicators
         level = Level(mesh, sim.X.ndof, float("nan"), float("nan"), {}, indicators, solved - t0,
                       wallclock.perf_counter() - solved, record.newton_iterations, sim,

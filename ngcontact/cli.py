@@ -211,6 +211,10 @@ def parser():
                             "with --tol)")
     adapt.add_argument("--fraction", metavar="F", type=float, default=None,
                        help="the adaptive runs' Dörfler fraction (0 < F <= 1; default 0.5)")
+    adapt.add_argument("--goal", choices=("energy", "pressure", "force"), default="energy",
+                       help="with --tol: what TOL bounds — the relative energy error (certified by the equilibrated "
+                            "bound; the default), the relative L2 error of the contact pressure on the contact side, "
+                            "or the relative error of the contact force (estimates, not bounds)")
     adapt.add_argument("--tol", metavar="TOL", type=float, default=None,
                        help="instead of the study: solve each scene's step to the relative estimate TOL "
                             "(1e-6 <= TOL < 1; adapt.solve: averaging marking, the bound certifies the last level) "
@@ -381,13 +385,16 @@ def _dispatch(args):
         if args.tol is not None:
             results = adaptivity.to_tolerance(args.tol, scenes=tuple(args.scene), orders=tuple(args.orders),
                                               fraction=args.fraction, marking=args.marking,
-                                              stop_newton=args.stop_newton, out=args.out)
-            missed = [f"{name} P{order} ({result.reason}: relative estimate {result.last.relative:.3g})"
+                                              stop_newton=args.stop_newton, out=args.out, goal=args.goal)
+            missed = [f"{name} P{order} ({result.reason}: relative {args.goal} estimate "
+                      f"{result.last.relative if args.goal == 'energy' else result.last.goal_estimate:.3g})"
                       for (name, order), result in results.items() if not result.reached]
             if missed:       # a run that did not certify its tol is not a success
                 print(f"ngcontact adapt: --tol {args.tol:g} NOT reached for {', '.join(missed)}; the levels computed "
                       "are printed above; ask for a larger --tol", file=sys.stderr)
                 sys.exit(1)
+        elif args.goal != "energy":
+            raise ValueError(f"--goal {args.goal} is what --tol bounds; add --tol (e.g. --tol 1e-3) or drop --goal")
         else:
             adaptivity.main(args.out, scenes=tuple(args.scene), orders=tuple(args.orders),
                             stop_newton=args.stop_newton, marking=args.marking or "equilibrated",

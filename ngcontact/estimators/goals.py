@@ -12,11 +12,14 @@
   what neither resolves, and that is where the pressure error sits. The residual is the
   contact term of Chouly–Fabre–Hild–Pousin–Renard's estimator without its weight h^½ (it is
   measured in L², not in the energy). It is not a bound: its effectivity is measured
-  (docs/adaptivity.md, section "Goals").
+  (docs/adaptivity.md, "Goals").
 * ``"force"``: the relative error |F − F_h| / |F_h| of the contact resultant. For a linear
-  conforming problem loaded by a prescribed displacement alone, Galerkin orthogonality gives
-  (F_h − F) d = |||u − u_h|||², so the relative force error is the square of the relative
-  energy error; its estimate is (η / |||x_h|||)² with the energy estimate η of the level.
+  conforming problem loaded by a prescribed displacement d alone, Galerkin orthogonality gives
+  (F_h − F) d = |||u − u_h|||² and F_h d = |||u_h|||², so the relative force error is the square
+  of the relative energy error; its estimate is (η / |||x_h|||)² with η the averaging
+  indicator's bulk parts (stress and electric flux, ``estimators.averaging``; its Γ3 residual
+  is the pressure's). Nitsche's contact is not conforming and the force error changes sign
+  along a refinement, so this is an estimate, not a bound (docs/adaptivity.md, "Goals").
 
 ``edges`` marks the volume elements whose Γ3 facet holds a contact edge (λ_h > 0 on part of
 the facet only), where the pressure's kink sits; ``edge_points`` gives, in 2D, the position

@@ -352,7 +352,7 @@ the command line)."""
 
 
 def to_tolerance(tol, scenes=("hertz",), orders=(2,), fraction=None, progress=True, marking=None, stop_newton=None,
-                 out=None):
+                 out=None, goal="energy"):
     """``adapt.solve`` on each step scene's initial mesh to the relative estimate ``tol`` (in
     [``TOL_FLOOR``, 1)): print every level (DOFs, averaging indicator, the bound where
     certified, times) and the certificate reached, or that it was not and why (a limit came
@@ -364,7 +364,9 @@ def to_tolerance(tol, scenes=("hertz",), orders=(2,), fraction=None, progress=Tr
     ``tolerance.json`` (per adaptation: tol, reached, reason, the last level's ndof and
     relative estimate, and the levels) and each level's mesh, ``<scene>_P<order>_level<k>.vol``
     (Netgen's format). Checked before any work; hertz3d runs P1 only, and scenes and
-    orders that leave nothing to run are refused."""
+    orders that leave nothing to run are refused. ``goal`` (``adapt.GOALS``): what ``tol``
+    bounds, the energy (certified) or the contact pressure or force (their estimates, the level's
+    ``goal_estimate``; no certificate)."""
     from ngcontact import checks, parallel
     from .common import orders as checked_orders
     parallel.refuse_under_mpiexec("adapt")
@@ -389,6 +391,7 @@ def to_tolerance(tol, scenes=("hertz",), orders=(2,), fraction=None, progress=Tr
         if marking not in adapt.MARKINGS:
             raise ValueError(f"--marking must be one of {', '.join(adapt.MARKINGS)}, got {marking!r}")
         options["marking"] = marking
+    options["goal"] = checks.choice("--goal", goal, adapt.GOALS)
     if out is not None:
         out = checks.writable_directory(out)
     results, written = {}, []
@@ -403,22 +406,29 @@ def to_tolerance(tol, scenes=("hertz",), orders=(2,), fraction=None, progress=Tr
             rows = [dict(level=k, ndof=level.ndof, indicator=level.indicator,
                          estimate=level.estimate if level.certified else "", relative=level.relative
                          if level.certified else "", build_s=level.build_s, solve_s=level.solve_s,
-                         estimate_s=level.estimate_s, elapsed_s=level.elapsed_s)
+                         estimate_s=level.estimate_s, elapsed_s=level.elapsed_s,
+                         **({} if goal == "energy" else {f"{goal}_estimate": level.goal_estimate,
+                                                         "edge_bisections": level.edge_bisections}))
                     for k, level in enumerate(result.levels)]
             print(f"{name} P{order}, tol {tol:g}:")
             print(table(rows, list(rows[0])))
             last = result.last
             pressure = f", Hertz pressure error {scene.pressure(last.sim):.3%}" if scene.pressure else ""
-            if result.reached:
+            if result.reached and goal != "energy":
+                print(f"reached: relative {goal} estimate {last.goal_estimate:.3g} <= {tol:g} at {last.ndof} DOFs in "
+                      f"{last.elapsed_s:.2f} s (an estimate, not a bound){pressure}")
+            elif result.reached:
                 print(f"certified: relative estimate {last.relative:.3g} <= {tol:g} at {last.ndof} DOFs in "
                       f"{last.elapsed_s:.2f} s{pressure}")
             else:
-                print(f"NOT reached ({result.reason}{limit(result, scene)}): relative estimate {last.relative:.3g} "
+                achieved = last.relative if goal == "energy" else last.goal_estimate
+                print(f"NOT reached ({result.reason}{limit(result, scene)}): relative {goal} estimate {achieved:.3g} "
                       f"> {tol:g} at {last.ndof} DOFs in {last.elapsed_s:.2f} s{pressure}")
             results[(name, order)] = result
             if out is not None:
-                written.append(dict(scene=name, order=order, tol=tol, reached=result.reached, reason=result.reason,
-                                    ndof=last.ndof, relative=last.relative, levels=rows))
+                written.append(dict(scene=name, order=order, tol=tol, goal=goal, reached=result.reached,
+                                    reason=result.reason, ndof=last.ndof, relative=last.relative,
+                                    goal_estimate=last.goal_estimate, levels=rows))
                 _write_tolerance(out, written, result)
     return results
 
