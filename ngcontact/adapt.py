@@ -413,7 +413,7 @@ def _goal_step(scene, mesh, dt, goal, tol, fraction, max_levels, max_ndof, guess
             indicators = np.sqrt(share ** 2 + energy_share ** 2)
             edge = float(np.sqrt(np.sum(estimate.indicators[estimate.edges] ** 2)))
             rest = float(np.sqrt(np.sum(estimate.indicators[~estimate.edges] ** 2)))
-            points = edge_points(sim)
+            points = edge_points(sim.steps)
             if len(points) and edge > 0:
                 bisections = EDGE_BISECTIONS if rest == 0 else \
                     int(np.clip(np.ceil(np.log2(edge / rest)), 0, EDGE_BISECTIONS))

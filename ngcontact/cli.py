@@ -386,7 +386,8 @@ def _dispatch(args):
             results = adaptivity.to_tolerance(args.tol, scenes=tuple(args.scene), orders=tuple(args.orders),
                                               fraction=args.fraction, marking=args.marking,
                                               stop_newton=args.stop_newton, out=args.out, goal=args.goal)
-            missed = [f"{name} P{order} ({result.reason}: relative {args.goal} estimate "
+            named = "" if args.goal == "energy" else f"{args.goal} "
+            missed = [f"{name} P{order} ({result.reason}: relative {named}estimate "
                       f"{result.last.relative if args.goal == 'energy' else result.last.goal_estimate:.3g})"
                       for (name, order), result in results.items() if not result.reached]
             if missed:       # a run that did not certify its tol is not a success

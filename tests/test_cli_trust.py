@@ -120,10 +120,11 @@ def test_adapt_to_a_tolerance_refuses_before_any_work(arguments, words, capsys, 
 
 
 @pytest.mark.parametrize("arguments, given", [
-    ("", {}),                                                          # adapt.solve's own defaults
+    ("", dict(goal="energy")),                                         # adapt.solve's own defaults
     ("--marking equilibrated --stop-newton 0.5 --fraction 0.7", dict(marking="equilibrated", stop_newton=0.5,
-                                                                     fraction=0.7)),
-    ("--marking averaging", dict(marking="averaging")),
+                                                                     fraction=0.7, goal="energy")),
+    ("--marking averaging", dict(marking="averaging", goal="energy")),
+    ("--goal pressure", dict(goal="pressure")),
 ])
 def test_adapt_to_a_tolerance_honours_marking_and_adaptive_stopping(arguments, given, capsys, monkeypatch, tmp_path):
     from ngcontact.studies import adaptivity

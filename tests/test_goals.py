@@ -82,7 +82,7 @@ def test_the_pressure_residual_is_the_distance_between_imposed_pressure_and_norm
     # to the quadrature of the kink inside the edge facets (0.5 % off at NGSolve's 2p + 2)
     assert estimate.estimate == pytest.approx(math.sqrt(integral((near * (lam + sigma_n)) ** 2)), rel=1e-2)
     assert estimate.value == pytest.approx(math.sqrt(integral(lam ** 2)), rel=1e-3)
-    points = goals.edge_points(sim)
+    points = goals.edge_points(sim.steps)
     a = sim.history[-1].contact.contact_area / 2
     assert points.shape == (2, 2) and np.allclose(np.sort(np.abs(points[:, 0])), a, atol=0.02)
     near_edges = goals.elements_at_points(sim.body.mesh, {"contact"}, points)

@@ -521,6 +521,7 @@ DIMENSION_BRANCHES_ALLOWED = {
     "ngcontact/solve/linalg/linear_solver.py": "a solver heuristic: when a kept factorisation is worth it",
     "ngcontact/solve/linalg/petsc_iterative.py": "a solver heuristic: the memory a factorisation needs",
     "ngcontact/solve/linalg/petsc_blocks.py": "GAMG's near null space: the rigid modes of a VectorH1 space",
+    "ngcontact/estimators/goals.py": "a contact edge is a point on a facet in 2D (a curve across facets in 3D)",
 }
 
 

@@ -115,12 +115,12 @@ EDGE_SAMPLES = 64
 """Points per Γ3 facet at which λ_h is sampled to place a contact edge inside its facet."""
 
 
-def edge_points(sim):
-    """The contact edges of the current state in 2D (plane or meridian section): one point
+def edge_points(steps):
+    """The contact edges of the current state of ``steps`` (a Simulation's ``time.step.Step``) in
+    2D (plane or meridian section): one point
     (x, y) (m) per Γ3 facet where λ_h > 0 on part of the facet only, placed between the two
     samples (of ``EDGE_SAMPLES`` + 1 along the facet) where λ_h turns 0; an empty array in 3D
     (there an edge is a curve across facets)."""
-    steps = getattr(sim, "steps", sim)
     mesh = steps.body.mesh
     if mesh.dim != 2:
         return np.zeros((0, mesh.dim))

@@ -7,8 +7,8 @@ import ngsolve as ngs
 
 @lru_cache(maxsize=4096)
 def constant(value):
-    """The constant CoefficientFunction ``value``, made once per value: NGSolve takes about
-    0.2 ms to turn a float into one, and a 6 × 6 matrix holds 36 of them."""
+    """The constant CoefficientFunction ``value``, made once per value: turning a float into one
+    is NGSolve's slow step in building a constant matrix (a 6 × 6 one holds 36)."""
     return ngs.CF(value)
 
 

@@ -422,7 +422,8 @@ def to_tolerance(tol, scenes=("hertz",), orders=(2,), fraction=None, progress=Tr
                       f"{last.elapsed_s:.2f} s{pressure}")
             else:
                 achieved = last.relative if goal == "energy" else last.goal_estimate
-                print(f"NOT reached ({result.reason}{limit(result, scene)}): relative {goal} estimate {achieved:.3g} "
+                named = "" if goal == "energy" else f"{goal} "
+                print(f"NOT reached ({result.reason}{limit(result, scene)}): relative {named}estimate {achieved:.3g} "
                       f"> {tol:g} at {last.ndof} DOFs in {last.elapsed_s:.2f} s{pressure}")
             results[(name, order)] = result
             if out is not None:
