@@ -1,5 +1,5 @@
-"""Command line interface: ``python -m ngcontact demo | convergence | stability | hertz | bench | cluster |
-timesteps | timeorder | adapt | axisymmetric | imports``.
+"""Command line interface: ``python -m ngcontact demo | convergence | stability | hertz | bench | bench-estimate |
+cluster | timesteps | timeorder | adapt | axisymmetric | imports``.
 
 It parses the arguments and calls ``demo.run`` or a study's command; bad input and a failed
 Newton solve end in one line on stderr and exit status 2 (``main``); ``adapt --tol`` that does
@@ -18,7 +18,7 @@ KEPT = dict(demo="{out}/run (continue with --resume)", convergence="{out}/cases 
             stability="{out}/<study>.csv of the finished studies (--resume skips them)",
             timesteps="nothing (the study runs again whole)", timeorder="nothing (the study runs again whole)",
             adapt="nothing (the study runs again whole)", axisymmetric="nothing (the study runs again whole)",
-            imports="nothing (it measures again)")
+            imports="nothing (it measures again)", **{"bench-estimate": "nothing (it measures again)"})
 """Where each command keeps what it computed before an error."""
 
 
@@ -176,6 +176,17 @@ def parser():
                        help="keep the cases already in OUT/bench.json (same dim, steps, dt) and measure the rest")
     bench.add_argument("--merge", metavar="DIR", nargs="+",
                        help="join the tables of earlier runs into --out instead of running")
+    cost = commands.add_parser("bench-estimate", parents=[common], help="the equilibrated estimate's cost against "
+                               "the step it certifies, on the reference scene after first contact (interleaved rounds, "
+                               "medians, the split of the estimate's time)")
+    cost.add_argument("--dim", type=int, choices=(2, 3), default=2, help="2D plate or 3D block")
+    cost.add_argument("--order", metavar="P", type=int, default=2, help="polynomial order")
+    cost.add_argument("--rounds", metavar="N", type=int, default=5, help="interleaved rounds (step, estimates)")
+    cost.add_argument("--dt", metavar="DT", type=float, default=2.5e-3, help="time step, s")
+    cost.add_argument("--maxh", metavar="H", type=float, default=None,
+                      help="mesh size in m (default: 2D P2 and 3D P1 0.005, else 0.005 in 2D and 0.01 in 3D)")
+    cost.add_argument("--refine", metavar="L", type=int, default=None,
+                      help="refinements of the mesh (default: 2 for 2D P2, 1 for 3D P1, else 0)")
     _cluster_parser(commands, common)
     steps = commands.add_parser("timesteps", parents=[common], help="work–precision of the time schemes "
                                 "(fixed-k backward Euler and BDF2, error-controlled BDF2) on the reference plate "
@@ -349,7 +360,7 @@ def _newton_line(err, args):
     """A NewtonError in one line: where, the last residuals, what is kept, what to try."""
     where = f"step {err.step} (t = {err.time:.6g} s), " if err.step is not None else ""
     last = ", ".join(f"{r:.3e}" for r in err.residuals[-3:])
-    kept = KEPT[args.command].format(out=args.out)
+    kept = KEPT[args.command].format(out=getattr(args, "out", None))       # (bench-estimate, imports: no --out)
     tried = ", ".join(f"{dt:.3g}" for dt in err.tried)
     return (f"Newton {err.reason} at {where}iteration {err.iteration} (last residuals {last}"
             + (f"; dt = {tried} s tried" if tried else "") + f"); the steps before it are kept in {kept}"
@@ -427,6 +438,11 @@ def _dispatch(args):
     elif args.command == "imports":
         from ngcontact.studies import bench
         bench.import_cost(args.runs)
+    elif args.command == "bench-estimate":
+        from ngcontact import checks
+        from ngcontact.studies import estimate_cost
+        estimate_cost.command(args.dim, checks.order("--order", args.order),
+                              checks.integer("--rounds", args.rounds, 1, 50), args.dt, args.maxh, args.refine)
     elif args.merge:
         from ngcontact.studies import bench
         bench.merge(args.merge, args.out)

@@ -65,7 +65,9 @@ from ngcontact import parallel
 from ngcontact.model.loads import as_cf
 from ngcontact.model.voigt import matrix_cf
 from ngcontact.time.step import Step
-from .equilibration import BONUS, Equilibration, Patches
+from .equilibration import BONUS, TIMERS, Equilibration, Patches
+
+TIMERS.update({name: ngs.Timer(f"ngcontact estimate: {name}") for name in ("Γ3 data", "indicator integrals")})
 
 
 RAISE = 0
@@ -142,7 +144,8 @@ class EquilibratedEstimator:
         body = steps.body
         self.steps, self.body, self.dim = steps, body, body.dim
         T, dim = body.tensors, body.dim
-        self.patches = Patches(body.mesh)
+        with TIMERS["element data"]:
+            self.patches = Patches(body.mesh)
         self._rate = None
         held = {i: set(body.boundaries["clamped"]) for i in range(dim)}
         for support in body.supports:
@@ -271,6 +274,10 @@ class EquilibratedEstimator:
         """The Neumann data of σ* and D* on the boundary (CFs of dim and 1 components): the
         tractions f2 and charges qb where given (0 elsewhere on Γ2, Γb), and on Γ3 the
         representatives of the discrete Γ3 functional."""
+        with TIMERS["Γ3 data"]:
+            return self._boundary_cfs()
+
+    def _boundary_cfs(self):
         steps, body, dim = self.steps, self.body, self.dim
         mesh = body.mesh
         loads = steps.loads
@@ -352,8 +359,9 @@ def _element_integrals(cfs, mesh, order):
     ``order``, each clipped at 0 (they are squares).
     Every CF is compiled first: its tree (the compliance times the Voigt differences) evaluated
     uncompiled costs far more in 3D (docs/measurements.md, section ngcontact/estimators/equilibrated.py)."""
-    return [np.maximum(ngs.Integrate(cf.Compile(), mesh, ngs.VOL, order=order, element_wise=True).NumPy(), 0.0)
-            for cf in cfs]
+    with TIMERS["indicator integrals"]:
+        return [np.maximum(ngs.Integrate(cf.Compile(), mesh, ngs.VOL, order=order, element_wise=True).NumPy(), 0.0)
+                for cf in cfs]
 
 
 def element_diameters(mesh):

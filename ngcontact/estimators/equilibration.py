@@ -42,6 +42,9 @@ from .block_diagonal import BlockDiagonal
 
 BONUS = 4
 """Extra quadrature order for the data (a source or traction that is not a polynomial)."""
+TIMERS = {name: ngs.Timer(f"ngcontact estimate: {name}") for name in
+          ("element data", "patch structure", "condensation", "right-hand sides", "block solves", "recovery")}
+"""NGSolve timers of the equilibration's parts (read by ``studies.estimate_cost``; they decide nothing)."""
 
 
 def _entries(matrix, rows, cols):
@@ -160,10 +163,8 @@ class ElementData:
             raise ValueError("the equilibrated estimator needs one element type throughout the mesh (its elements "
                              "order their RT DOFs differently)")
         F, I = self.facet_order[0], self.interior[0]
-        part = lambda M, A, B: M[:, A][:, :, B]
-        self.mass_FF = [[part(M, F, F) for M in row] for row in mass]
-        self.mass_FI = [[part(M, F, I) for M in row] for row in mass]
-        self.mass_II = [[part(M, I, I) for M in row] for row in mass]
+        part = lambda A, B: np.array([[M[:, A][:, :, B] for M in row] for row in mass])   # (d, d, ne, |A|, |B|)
+        self.mass_FF, self.mass_FI, self.mass_II = part(F, F), part(F, I), part(I, I)
         div = _element_blocks(div.Assemble(), mesh, Sd, self.Q)           # (ne, nQ_loc, nS_loc)
         self.div_F, self.div_I = div[:, :, F], div[:, :, I]
         self.mean_mass = ngs.Integrate(ngs.CF(1.0), mesh, ngs.VOL, element_wise=True).NumPy()
@@ -187,13 +188,15 @@ class Equilibration:
 
     def __init__(self, mesh, rows, order, weight, neumann, patches=None):
         self.mesh, self.rows, self.order = mesh, int(rows), int(order)
-        self.patches = patches or Patches(mesh)
-        self.data = self.patches.elements(self.order)
+        with TIMERS["element data"]:
+            self.patches = patches or Patches(mesh)
+            self.data = self.patches.elements(self.order)
         self.S, self.Q, self.P1 = self.data.S, self.data.Q, self.data.P1
         self.nS, self.nQ = self.S.ndof, self.Q.ndof
         self.neumann = neumann
-        self._structure()
-        self._patch_structure()
+        with TIMERS["patch structure"]:
+            self._structure()
+            self._patch_structure()
         self.set_weight(weight)
 
     # ------------------------------------------------------------------ element level
@@ -221,35 +224,36 @@ class Equilibration:
             raise ValueError(f"Equilibration: weight must be a ({rows * d}, {rows * d}) array (rows · dim), got shape "
                              f"{weight.shape}")
         self.weight = weight
-        K_YY, K_YX, K_XX = self._blocks(weight.reshape(rows, d, rows, d))    # [j, l, i, k]
-        self.K_XY = np.ascontiguousarray(np.transpose(K_YX, (0, 2, 1)))     # K is symmetric
-        # per element: M⁻¹ = K_XX⁻¹, the condensed S_K = K_YY − K_YX M⁻¹ K_XY, and G_K = K_YX M⁻¹
-        self.Minv = np.linalg.inv(K_XX)
-        self.G = K_YX @ self.Minv
-        self.S_cond = K_YY - self.G @ self.K_XY
-        keep, border_values = self._pattern
-        self.system.fill(np.concatenate([self.S_cond.reshape(-1)[keep], border_values]))
+        with TIMERS["condensation"]:
+            K_YY, K_YX, K_XX = self._blocks(weight.reshape(rows, d, rows, d))    # [j, l, i, k]
+            self.K_XY = np.ascontiguousarray(np.transpose(K_YX, (0, 2, 1)))     # K is symmetric
+            # per element: M⁻¹ = K_XX⁻¹, the condensed S_K = K_YY − K_YX M⁻¹ K_XY, and G_K = K_YX M⁻¹
+            self.Minv = np.linalg.inv(K_XX)
+            self.G = K_YX @ self.Minv
+            self.S_cond = K_YY - self.G @ self.K_XY
+            keep, border_values = self._pattern
+            self.system.fill(np.concatenate([self.S_cond.reshape(-1)[keep], border_values]))
 
     def _blocks(self, weight):
         """K_YY, K_YX, K_XX of every element by slices of the split element blocks
         (``ElementData``): Y = rows × facet DOFs, then the rows' means; X = rows × interior
         DOFs, then the rows' P_p rests."""
-        rows, d, data = self.rows, self.mesh.dim, self.data
+        rows, data = self.rows, self.data
         nF, nI, nR, ne = self.nF_loc, self.nI_loc, self.nQ_loc - 1, self.mesh.ne
         K_YY, K_YX = np.zeros((ne, self.nY, self.nY)), np.zeros((ne, self.nY, self.nX))
         K_XX = np.zeros((ne, self.nX, self.nX))
         F = lambda i: slice(i * nF, (i + 1) * nF)
         I = lambda i: slice(i * nI, (i + 1) * nI)
         R = lambda i: slice(rows * nI + i * nR, rows * nI + (i + 1) * nR)
-        for j in range(rows):
-            for i in range(rows):
-                for l in range(d):
-                    for k in range(d):
-                        c = weight[j, l, i, k]
-                        if c != 0.0:
-                            K_YY[:, F(j), F(i)] += c * data.mass_FF[l][k]
-                            K_YX[:, F(j), I(i)] += c * data.mass_FI[l][k]
-                            K_XX[:, I(j), I(i)] += c * data.mass_II[l][k]
+
+        def weighted(blocks):
+            """Σ_lk weight[j, l, i, k] blocks[l, k] as (elements, rows·a, rows·b), row-blocks j, i."""
+            _, _, _, a, b = blocks.shape
+            summed = np.tensordot(weight, blocks, axes=([1, 3], [0, 1]))       # (j, i, elements, a, b)
+            return summed.transpose(2, 0, 3, 1, 4).reshape(ne, rows * a, rows * b)
+        K_YY[:, :rows * nF, :rows * nF] = weighted(data.mass_FF)
+        K_YX[:, :rows * nF, :rows * nI] = weighted(data.mass_FI)
+        K_XX[:, :rows * nI, :rows * nI] = weighted(data.mass_II)
         for i in range(rows):
             m = rows * nF + i
             K_YY[:, F(i), m] = K_YY[:, m, F(i)] = data.div_F[:, 0, :]
@@ -314,12 +318,13 @@ class Equilibration:
         self.patch_of_unknown = np.zeros(self.size, dtype=np.int64)
         self.patch_of_unknown[index[valid]] = np.repeat(pair_patch, valid.sum(1))
         # where the condensed element matrices of every pair go in the system, and the borders
-        keep = valid[:, :, None] & valid[:, None, :]
-        r = np.broadcast_to(index[:, :, None], keep.shape)[keep]
-        c = np.broadcast_to(index[:, None, :], keep.shape)[keep]
-        # (as positions in the elements' condensed matrices, ne × nY × nY)
-        keep = ((pair_el[:, None, None] * nY + np.arange(nY)[None, :, None]) * nY
-                + np.arange(nY)[None, None, :])[keep]
+        # (as flat positions q in pairs × nY × nY: pair q // nY², local row and column (q // nY) % nY, q % nY)
+        q = np.flatnonzero(valid[:, :, None] & valid[:, None, :])
+        flat_index = index.ravel()
+        r, c = flat_index[q // nY], flat_index[q // (nY * nY) * nY + q % nY]
+        # (as positions in the elements' condensed matrices, ne × nY × nY; pair p is of element p // nv_el)
+        keep = q // (nY * nY * nv_el) * (nY * nY) + q % (nY * nY)
+        del q
         bordered = ~dirichlet[pair_patch]                                  # (pairs, rows)
         mean_pos = index[:, rows * nF:][bordered]
         border_pos = np.searchsorted(keys, key(np.broadcast_to(pair_patch[:, None], bordered.shape)[bordered], 2,
@@ -364,6 +369,7 @@ class Equilibration:
         (rows × dim CoefficientFunction), the source f (``source``, a CF of ``rows``
         components: −div σ = f) and the Neumann data ``traction`` (a CF of ``rows`` components
         on the boundary, used where ``neumann`` says a row is prescribed)."""
+        TIMERS["right-hand sides"].Start()
         d, rows = self.mesh.dim, self.rows
         psi = self.P1.TrialFunction()
         tau = self.S.TestFunction()
@@ -425,7 +431,10 @@ class Equilibration:
             cond[at] += np.einsum("pyz,pz->py", self.S_cond[self.pair_el[at]], y_known[at])
         valid = self.pair_index >= 0
         np.add.at(rhs, self.pair_index[valid], -cond[valid])
-        z = self.system.solve(rhs)
+        TIMERS["right-hand sides"].Stop()
+        with TIMERS["block solves"]:
+            z = self.system.solve(rhs)
+        TIMERS["recovery"].Start()
         # every pair's Y, then its X by recovery: x = M⁻¹(r_X − K_XY y)
         y = np.where(valid, z[np.where(valid, self.pair_index, 0)], y_known)
         rest = r_X - np.einsum("exy,eky->ekx", self.K_XY, y.reshape(ne, k, -1)).reshape(pairs, -1)
@@ -435,6 +444,7 @@ class Equilibration:
         if len(x_fixed):
             np.add.at(result, self.fixed_global, x_fixed)
         np.add.at(result, X_glob[:, sig_x].ravel(), x[:, sig_x].ravel())
+        TIMERS["recovery"].Stop()
         return result
 
     def gridfunctions(self, values):
