@@ -8,7 +8,8 @@ problem (top moved down by d = 0.0171 m), process wall times and errors against 
     python docs/race/runs.py recompute docs/data/race_peer.jsonl   (errors again, from the kept samples)
 
 Peer: ``nitsche_contact.py --scene hertz --control disp --disp 0.0171`` (its uniform gmsh levels
-P1–P3 × refine 0–3) from a writable copy with the ``--profile`` option (PEER, default
+P1–P3 × refine 0–3) from a writable copy with the ``--profile`` option of ``peer_profile.patch``
+(``cp -r peers /tmp/peers && patch -p0 -d /tmp < docs/race/peer_profile.patch``; PEER, default
 /tmp/peers/fenicsx/nitsche_contact.py; interpreter PEER_PY, default /tmp/fenicsx-venv/bin/python).
 ngcontact: this script's ``child`` mode in a process of its own: the uniform defaults
 ``scenes.hertz.simulation(order, dim=2, depth=d, refine=k)`` P1–P3 and ``adapt.solve`` (P2, P3 at

@@ -17,7 +17,7 @@ PANELS = (("force_error", "force |F_h − F|/F"), ("pressure_L2", "pressure ‖�
 
 def medians(jsonl_paths):
     """{(code, kind, order): [(median wall s, errors dict, configuration label), ...]} of the runs
-    in ``jsonl_paths`` (runs without errors or that failed are left out)."""
+    in ``jsonl_paths`` (runs without errors or that failed are left out), in the order of refinement."""
     groups = {}
     for path in jsonl_paths:
         for text in pathlib.Path(path).read_text().splitlines():
@@ -31,8 +31,8 @@ def medians(jsonl_paths):
         errors = {key: runs[0][key] for key, _ in PANELS}
         point = (statistics.median(r["proc_wall_s"] for r in runs), errors, label, len(runs))
         series.setdefault((code, kind, order), []).append(point)
-    for points in series.values():
-        points.sort(key=lambda p: p[0])
+    for points in series.values():              # along the refinement: levels, then tolerances down
+        points.sort(key=lambda p: (len(p[2]), p[2]))
     return series
 
 
