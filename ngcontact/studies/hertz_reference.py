@@ -374,7 +374,7 @@ def locate(family, order, a, gamma0=10.0, tol=1e-7, rounds=4, progress=print):
     return a
 
 
-def build(out=DATA, levels=3, orders=(3, 4), gamma0s=(10.0, 100.0), terms=12, a0=0.107, progress=print):
+def build(out=DATA, levels=4, orders=(3, 4), gamma0s=(10.0, 100.0), terms=12, a0=0.107, progress=print):
     """Solve the levels of both mesh families at ``orders`` (the first γ0 of ``gamma0s``), each
     level graded at the contact edge of the level before (the first at the edge ``locate``d from
     ``a0``, m), the finest "restrict" level of the highest order at the other γ0; take F and a of
@@ -446,7 +446,7 @@ def agreement_table(data):
     return "\n".join(lines)
 
 
-def command(out, levels=3):
+def command(out, levels=4):
     """``python -m ngcontact hertz-reference``: ``build`` into ``out`` (a JSON file; its folder
     must exist and be writable, checked first) and print F, a and the agreement table."""
     out = pathlib.Path(out)
