@@ -1,5 +1,5 @@
 """Command line interface: ``python -m ngcontact demo | convergence | stability | hertz | bench | bench-estimate |
-cluster | timesteps | timeorder | adapt | axisymmetric | imports``.
+cluster | timesteps | timeorder | adapt | axisymmetric | imports | hertz-reference``.
 
 It parses the arguments and calls ``demo.run`` or a study's command; bad input and a failed
 Newton solve end in one line on stderr and exit status 2 (``main``); ``adapt --tol`` that does
@@ -18,7 +18,8 @@ KEPT = dict(demo="{out}/run (continue with --resume)", convergence="{out}/cases 
             stability="{out}/<study>.csv of the finished studies (--resume skips them)",
             timesteps="nothing (the study runs again whole)", timeorder="nothing (the study runs again whole)",
             adapt="nothing (the study runs again whole)", axisymmetric="nothing (the study runs again whole)",
-            imports="nothing (it measures again)", **{"bench-estimate": "nothing (it measures again)"})
+            imports="nothing (it measures again)", **{"bench-estimate": "nothing (it measures again)",
+                                                      "hertz-reference": "nothing (the reference is built again whole)"})
 """Where each command keeps what it computed before an error."""
 
 
@@ -250,6 +251,14 @@ def parser():
                                   "ngsolve: medians of fresh interpreters, interleaved")
     imports.add_argument("--runs", metavar="N", type=int, default=15,
                          help="fresh interpreters of each kind (default 15)")
+    reference = commands.add_parser("hertz-reference", parents=[common], help="the converged reference of the 2D "
+                                    "Hertz race problem (F, a, the pressure profile) on graded P3/P4 meshes, and "
+                                    "the agreement of its mesh families, orders and γ0 (minutes)")
+    reference.add_argument("--out", metavar="FILE", type=_directory, default="hertz_race_reference.json",
+                           help="the JSON file written (default hertz_race_reference.json; the package's own is "
+                                "ngcontact/studies/data/hertz_race_reference.json)")
+    reference.add_argument("--levels", metavar="N", type=int, default=4,
+                           help="levels of each graded mesh family, sizes halving (default 4, the stored reference's; about 25 min on 2 cores)")
     return main_parser
 
 
@@ -443,6 +452,9 @@ def _dispatch(args):
         from ngcontact.studies import estimate_cost
         estimate_cost.command(args.dim, checks.order("--order", args.order),
                               checks.integer("--rounds", args.rounds, 1, 50), args.dt, args.maxh, args.refine)
+    elif args.command == "hertz-reference":
+        from ngcontact.studies import hertz_reference
+        hertz_reference.command(args.out, args.levels)
     elif args.merge:
         from ngcontact.studies import bench
         bench.merge(args.merge, args.out)
