@@ -49,6 +49,7 @@ def test_an_adaptive_run_that_never_reaches_the_uniform_error_has_no_ratio():
     assert result["adaptive_ndof"] is None and result["dof_ratio"] is None and result["time_ratio_loop"] is None
 
 
+@pytest.mark.long
 def test_a_small_study_writes_its_tables_and_charts(tmp_path, monkeypatch):
     """The manufactured case, P1, up to 600 DOFs: errors.csv holds both methods' levels with
     effectivities in [1, 3] (the estimate is a bound), the charts are written."""

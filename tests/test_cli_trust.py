@@ -258,6 +258,7 @@ def test_find_compiler_without_a_wrapper_beside_python_leaves_path(tmp_path, mon
     assert machine_code.find_compiler() is None and os.environ["PATH"] == "/usr/bin:/bin"
 
 
+@pytest.mark.long
 @pytest.mark.skipif(not os.path.exists(os.path.join(os.path.dirname(sys.executable), "ngscxx")),
                     reason="no ngscxx beside this Python")
 def test_a_python_started_without_its_bin_on_path_compiles(tmp_path):

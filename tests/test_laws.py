@@ -264,6 +264,7 @@ def test_the_error_estimator_refuses_a_law_by_name():
         EquilibratedEstimator(ngc.Simulation(body, keep_states=False))
 
 
+@pytest.mark.long
 def test_every_contact_method_takes_a_law():
     """The reference scene, 10 steps, with Nitsche, the penalty method and the nodal active
     set: ζ = 0 equals the linear run to 1e-12; with ζ = 5e10 the three contact forces agree

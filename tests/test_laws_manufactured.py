@@ -39,7 +39,8 @@ def _errors(case, order, level, with_laws=True):
     return np.array(mms.errors(sim))
 
 
-@pytest.mark.parametrize("order, case", [(1, "viscous"), (1, "adhesive"), pytest.param(2, "viscous", marks=pytest.mark.long), (2, "adhesive"),
+@pytest.mark.parametrize("order, case", [(1, "viscous"), (1, "adhesive"), pytest.param(2, "viscous", marks=pytest.mark.long),
+                                         pytest.param(2, "adhesive", marks=pytest.mark.long),
                                          pytest.param(3, "viscous", marks=pytest.mark.slow),
                                          pytest.param(3, "adhesive", marks=pytest.mark.long)])
 def test_a_manufactured_solution_with_contact_and_laws_converges_at_order_p(case, order):
