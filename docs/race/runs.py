@@ -5,6 +5,8 @@ problem (top moved down by d = 0.0171 m), process wall times and errors against 
 
     python docs/race/runs.py peer [--reps 3]        -> docs/data/race_peer.jsonl
     python docs/race/runs.py ngcontact [--reps 3]   -> docs/data/race_ngcontact.jsonl
+    python docs/race/runs.py goals [--reps 3]       -> docs/data/race_goals.jsonl (the peer's P2 L1 and
+                                                       P3 L1 interleaved with adapt.solve(goal=...))
     python docs/race/runs.py recompute docs/data/race_peer.jsonl   (errors again, from the kept samples)
 
 Peer: ``nitsche_contact.py --scene hertz --control disp --disp 0.0171`` (its uniform gmsh levels
@@ -54,6 +56,20 @@ def ngcontact_configs():
     uniform = [dict(code="ngcontact", kind="uniform", order=p, refine=k) for p in (1, 2, 3) for k in range(4)]
     adaptive = [dict(code="ngcontact", kind="adapt", order=p, tol=t) for p in (2, 3) for t in (1e-1, 1e-2, 1e-3, 1e-4)]
     return uniform + adaptive
+
+
+GOAL_MESH = {"pressure": 0.02, "force": 0.05}
+"""h_contact of the first mesh of the goal runs (``hertz.mesh``)."""
+
+
+def goal_configs():
+    """The goal runs (``adapt.solve(goal=...)``) and the peer's levels they are timed against,
+    interleaved in one study: the peer's first level below 1e-2 in pressure and its best (P3 L1),
+    its P2 L1."""
+    peer = [dict(code="peer", kind="uniform", order=p, refine=1) for p in (2, 3)]
+    pressure = [dict(code="ngcontact", kind="goal-pressure", order=p, tol=t) for p in (2, 3) for t in (1e-2, 1e-3)]
+    force = [dict(code="ngcontact", kind="goal-force", order=p, tol=t) for p, t in ((3, 1e-5), (3, 1e-6), (4, 1e-6))]
+    return peer + pressure + force
 
 
 def command(config, measure=None):
@@ -122,7 +138,7 @@ def errors_of(config, timeout):
     out = execute(command(config, str(path)), timeout)
     if out.get("rc") != 0:
         return dict(error=out.get("stderr_tail", "failed"))
-    return dict(measured(path), **{k: out[k] for k in ("ndof", "newton", "reached", "levels") if k in out})
+    return dict(measured(path), **{k: out[k] for k in ("ndof", "newton", "reached", "levels", "goal_estimate") if k in out})
 
 
 def recompute(out):
@@ -193,7 +209,7 @@ def child(args):
         sim = hertz.simulation(args.order, dim=2, depth=depth, refine=args.refine, keep_states=False)
         sim.step(1.0)
         result = dict(ndof=sim.X.ndof, newton=sim.history[-1].newton_iterations)
-    else:
+    elif args.kind == "adapt":
         import ngcontact as ngc
         adaptation = ngc.adapt.solve(
             lambda mesh: hertz.simulation(args.order, dim=2, depth=depth, mesh=mesh, keep_states=False),
@@ -201,6 +217,16 @@ def child(args):
         sim = adaptation.levels[-1].sim
         result = dict(ndof=sim.X.ndof, newton=sum(level.newton for level in adaptation.levels),
                       reached=adaptation.reached, levels=len(adaptation.levels))
+    else:
+        import ngcontact as ngc
+        goal = args.kind[len("goal-"):]
+        adaptation = ngc.adapt.solve(
+            lambda mesh: hertz.simulation(args.order, dim=2, depth=depth, mesh=mesh, keep_states=False),
+            hertz.mesh(2, h_contact=GOAL_MESH[goal], curve=args.order), args.tol, goal=goal)
+        sim = adaptation.levels[-1].sim
+        result = dict(ndof=sim.X.ndof, newton=sum(level.newton for level in adaptation.levels),
+                      reached=adaptation.reached, levels=len(adaptation.levels),
+                      goal_estimate=adaptation.levels[-1].goal_estimate)
     result["force_h"] = float(sim.history[-1].contact.force[-1])
     if args.errors:
         import numpy as np
@@ -212,7 +238,7 @@ def child(args):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     sub = parser.add_subparsers(dest="what", required=True)
-    for name in ("peer", "ngcontact"):
+    for name in ("peer", "ngcontact", "goals"):
         p = sub.add_parser(name)
         p.add_argument("--reps", type=int, default=3)
         p.add_argument("--case-limit", type=float, default=180.0)
@@ -220,7 +246,7 @@ def main():
         p.add_argument("--out", default=str(ROOT / "docs" / "data" / f"race_{name}.jsonl"))
         p.add_argument("--errors-from", default=None, help="take the errors from this runs file")
     c = sub.add_parser("child")
-    c.add_argument("--kind", choices=("uniform", "adapt"), required=True)
+    c.add_argument("--kind", choices=("uniform", "adapt", "goal-pressure", "goal-force"), required=True)
     c.add_argument("--order", type=int, required=True)
     c.add_argument("--refine", type=int, default=0)
     c.add_argument("--tol", type=float, default=None)
@@ -232,7 +258,7 @@ def main():
         return child(args)
     if args.what == "recompute":
         return recompute(args.out)
-    configs = peer_configs() if args.what == "peer" else ngcontact_configs()
+    configs = dict(peer=peer_configs, ngcontact=ngcontact_configs, goals=goal_configs)[args.what]()
     if args.only:
         wanted = {tuple(item.split(":")) for item in args.only.split(",")}
         configs = [c for c in configs if (c["kind"], str(c["order"]), str(c.get("refine", c.get("tol")))) in wanted]

@@ -51,7 +51,7 @@ def chart(jsonl_paths, out_png):
         raise ValueError(f"jsonl_paths: no run with errors in {', '.join(map(str, paths))}")
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.6))
     markers = {"uniform": "o", "adapt": "s"}
-    colours = {"peer": "tab:red", "ngcontact": "tab:blue"}
+    colours = {"peer": "tab:red", "ngcontact": "tab:blue", "goal-pressure": "tab:green", "goal-force": "tab:purple"}
     styles = {1: ":", 2: "-", 3: "--", 4: "-."}
     for ax, (key, title) in zip(axes, PANELS):
         for (code, kind, order), points in sorted(series.items()):
@@ -59,7 +59,7 @@ def chart(jsonl_paths, out_png):
             if not good:
                 continue
             ax.loglog(*zip(*good), marker=markers.get(kind, "^"), linestyle=styles.get(order, "-"),
-                      color=colours.get(code), label=f"{code} {kind} P{order}")
+                      color=colours.get(kind, colours.get(code)), label=f"{code} {kind} P{order}")
         ax.set_xlabel("process wall time (s), median")
         ax.set_title(title)
         ax.grid(True, which="both", alpha=0.3)
