@@ -16,7 +16,6 @@ from typing import Callable, NamedTuple
 
 import ngsolve as ngs
 import numpy as np
-import scipy.sparse as sp
 
 from ngcontact import arguments, parallel
 from ngcontact.solve import continuation
@@ -513,7 +512,7 @@ class Simulation:
         gf.vec.FV().NumPy()[:] = self.history[n].state
         return gf
 
-    def jacobian(self, scaled: bool = True) -> sp.csr_matrix:
+    def jacobian(self, scaled: bool = True) -> "scipy.sparse.csr_matrix":
         """The step Jacobian R'(x) at the current state (with the last step's t and dt) on the
         free DOFs, as a scipy CSR matrix; ``scaled``: S J S with S = diag(s_u^-½, s_φ^-½), s_b
         the mean of |diagonal| over block b (the scaling of Newton's norms)."""

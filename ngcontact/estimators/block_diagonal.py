@@ -8,8 +8,6 @@ right-hand side on with the kept inverses); larger ones (3D patches, 200-400 unk
 inside) by one SuperLU factorisation of the whole matrix, which uses their sparsity.
 """
 import numpy as np
-import scipy.sparse as sp
-import scipy.sparse.linalg as sla_sparse
 
 DENSE = 120
 """The largest block solved dense (unknowns)."""
@@ -55,6 +53,7 @@ class BlockDiagonal:
         if self.dense:
             self._data = np.bincount(self.flat, weights=values, minlength=self.total)
             return
+        import scipy.sparse as sp                     # (SciPy loads when a large block is first solved)
         self._matrix = sp.csc_matrix((values, (self.rows, self.cols)), shape=(self.size, self.size))
         self._lu = None
 
@@ -63,6 +62,7 @@ class BlockDiagonal:
         self._solves += 1
         if not self.dense:
             if self._lu is None:
+                import scipy.sparse.linalg as sla_sparse
                 self._lu = sla_sparse.splu(self._matrix)
             return self._lu.solve(rhs)
         if self._inverses is None and self._solves > 1:           # a second right-hand side: keep inverses

@@ -33,7 +33,6 @@ is a column of an assembled matrix. No Python loop runs over patches or elements
 """
 import ngsolve as ngs
 import numpy as np
-import scipy.sparse as sp
 
 from ngcontact import meshes
 from ngcontact.model.kinematics import mesh_ds, mesh_dx
@@ -396,6 +395,7 @@ class Equilibration:
                 form = ngs.BilinearForm(trialspace=self.P1, testspace=self.S)
                 form += mesh_ds(psi * traction[i] * (tau.Trace() * n), bonus_intorder=BONUS)
                 rhs_t.append(csr(form.Assemble().mat, copy=True))
+        import scipy.sparse as sp                     # (SciPy loads when an estimate is first made)
         rhs_w, rhs_div = sp.vstack(rhs_w, format="csr"), sp.vstack(rhs_div, format="csr")
         hat_of_pair = self.hats[self.pair_patch]
         # the prescribed normal fluxes: Π(ψ_a t) facet by facet (groups of one row, patch, facet)

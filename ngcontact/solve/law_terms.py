@@ -27,7 +27,7 @@ import numpy as np
 from ngcontact.model import forms
 from ngcontact import parallel
 from ngcontact.solve.law_watch import CHANGED_HINT, LawViolation, LawWatch
-from ngcontact.solve.linalg.matrices import csr, matching_positions
+from ngcontact.solve.linalg.matrices import Absolute, diagonal as matrix_diagonal, matching_positions
 
 
 BONUS_ORDER_PER_DEGREE = 1
@@ -77,7 +77,7 @@ class LawTerms:
         """The tangents at 0 for the step's rate coefficient c (with each new c), and their
         diagonal."""
         self.scales.Assemble()
-        self._diagonal = csr(self.scales.mat).diagonal()
+        self._diagonal = matrix_diagonal(self.scales.mat)
 
     def apply(self, x):
         """N(x), in ``residual``; at the first call of a step, after each law is found to be
@@ -114,7 +114,7 @@ class LawTerms:
         the laws' terms in the residual (on a distributed mesh the rank's part, for x cumulated:
         ``StepSystem.magnitude`` sums them over the ranks)."""
         tangent = self.form.mat if self.linearized else self.scales.mat
-        return abs(csr(tangent)) @ np.abs(x) + np.abs(self.residual.FV().NumPy())
+        return Absolute(tangent) @ np.abs(x) + np.abs(self.residual.FV().NumPy())
 
     # ---------------------------------------------------------------- the laws at the run's strains
     def check_step(self, x, step, time, attempt=0):

@@ -32,7 +32,7 @@ import numpy as np
 
 from ngcontact import meshes, parallel
 from ngcontact.model.loads import as_cf
-from ngcontact.solve.linalg.matrices import csr, matching_positions
+from ngcontact.solve.linalg.matrices import Absolute, diagonal as matrix_diagonal, matching_positions
 from ngcontact.solve.law_terms import LawTerms
 from ngcontact.gamma3.terms import Gamma3Terms
 
@@ -325,7 +325,7 @@ class StepSystem:
         if not self._linearized:
             return np.zeros(len(x))
         size = np.abs(parallel.cumulated(x))
-        total = abs(csr(self.boundary.mat)) @ size
+        total = Absolute(self.boundary.mat) @ size
         if parallel.is_distributed(self.body.mesh):
             return parallel.distributed_values(self._constant, total)
         return total
@@ -334,7 +334,7 @@ class StepSystem:
         """The diagonal of the bulk's K = K_el + c K_A (numpy, cumulated on a distributed
         mesh): the scales of Newton's norms come from it (``residual_norm.ResidualNorm``), not from the
         Γ3 terms, so that a stiff contact term cannot set the units it is measured in."""
-        diagonal = csr(self.K).diagonal()
+        diagonal = matrix_diagonal(self.K)
         if self.laws is not None:                             # the laws' tangents at 0
             diagonal = diagonal + self.laws.diagonal()
         if parallel.is_distributed(self.body.mesh):          # the ranks' parts of the diagonal
@@ -348,7 +348,7 @@ class StepSystem:
         distributed mesh (cumulated values) |K| is the sum of the ranks' |K_p|, an upper bound of
         |K| at interface DOFs."""
         if self._absK is None:
-            self._absK = abs(csr(self.K))
+            self._absK = Absolute(self.K)
         bulk = self._absK @ np.abs(parallel.cumulated(x))
         if self.laws is not None:
             bulk = bulk + self.laws.magnitude(parallel.cumulated(x))

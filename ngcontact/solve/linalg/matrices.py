@@ -34,6 +34,38 @@ def csr(matrix, copy=False):
     return sp.csr_matrix(matrix.CSR(), shape=(matrix.height, matrix.width), copy=copy)
 
 
+def _arrays(matrix):
+    """(values, columns, row of each entry, height) of an NGSolve sparse matrix (the rank's part
+    of a ParallelMatrix), numpy views of its CSR arrays but the rows."""
+    matrix = parallel.local_matrix(matrix)
+    values, columns, starts = (np.asarray(a) for a in matrix.CSR())
+    rows = np.repeat(np.arange(matrix.height), np.diff(starts.astype(np.int64)))
+    return values, columns, rows, matrix.height
+
+
+def diagonal(matrix):
+    """The diagonal of an NGSolve sparse matrix (numpy; the rank's part on a distributed mesh),
+    read off its CSR arrays without SciPy (Newton's norms ask for it at the first iteration)."""
+    values, columns, rows, height = _arrays(matrix)
+    on = rows == columns
+    out = np.zeros(height)
+    out[rows[on]] = values[on]
+    return out
+
+
+class Absolute:
+    """|A| of an NGSolve sparse matrix A (its entries' absolute values, explicit zeros kept) as a
+    product ``Absolute(A) @ x``, row sums in the entries' order (as SciPy's CSR product adds
+    them), without SciPy; the values are copied (``A`` may change after)."""
+
+    def __init__(self, matrix):
+        values, self.columns, self.rows, self.height = _arrays(matrix)
+        self.values = np.abs(values)
+
+    def __matmul__(self, x):
+        return np.bincount(self.rows, weights=self.values * np.asarray(x)[self.columns], minlength=self.height)
+
+
 def matching_positions(source, target, within=None):
     """Index arrays (s, t): entry s of ``source``'s values sits at entry t of ``target``'s,
     for the structural entries of ``source`` that ``target`` has; ``within``: a boolean array
