@@ -16,6 +16,7 @@ from typing import Callable, NamedTuple
 
 import ngsolve as ngs
 import numpy as np
+import scipy                     # the package alone (its sparse matrices load where used: the annotation below)
 
 from ngcontact import arguments, parallel
 from ngcontact.solve import continuation
