@@ -65,15 +65,15 @@ def run(order=1, out="results", maxh=None, steps=200, theta=1, gamma0=10.0, resu
     maxh : float in (0, 0.02], mesh size in m (2D: halved along Γ3; default 0.005 in 2D, 0.01
         in 3D); with ``refine`` and ``order`` the problem must fit in the machine's memory
         (``checks.fits_in_memory``).
-    steps : int in [1, 10⁶], number of time steps over the load history, 0 to 0.5 s
-        (dt γ_ν L² = 0.625 at 200).
+    steps : int in [1, 10⁶], number of time steps over the load history
+        (``scenes.reference.LOAD_HISTORY``; dt γ_ν L² per step: docs/stability.md).
     theta, gamma0 : Nitsche variant and parameter.
     dim : 2 (the plate, plane strain) or 3 (the block L1 × WIDTH × L2).
-    refine : int in [0, 10], times the mesh is refined (nested meshes: from 10⁵ DOFs in 3D the Newton
+    refine : int in [0, 10], times the mesh is refined (nested meshes: on large 3D meshes the Newton
         corrections are solved by GMRES with multigrid, ``solver_choice``).
     scheme : the time scheme ("backward_euler", the paper's; "bdf2").
     rtol : steps chosen by this error target (``Simulation.run``; needs "bdf2"), the first of
-        length 0.5 s / ``steps``; the chart history.png shows the steps taken.
+        length (the history's end) / ``steps``; the chart history.png shows the steps taken.
     progress : a progress bar of the steps on stderr (default: when stderr is a terminal).
 
     Returns

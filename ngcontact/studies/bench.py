@@ -193,7 +193,7 @@ def run(out, *, orders=(1, 2, 3, 4), dim=2, max_ndof=1e6, steps=10, dt=2.5e-3, p
     (same dim, steps and dt) are kept and not measured again. The arguments are checked
     before any case: orders in [1, 10], ``max_ndof`` finite, at least the coarsest mesh's
     DOFs of each order and within the machine's memory, steps in [1, 10⁶], dt in
-    [``arguments.MIN_DT``, 0.5 s / steps] (the steps inside the load history)."""
+    [``arguments.MIN_DT``, the history's end / steps] (the steps inside the load history)."""
     orders = common.orders("orders", orders)
     dim = checks.choice("dim", dim, (2, 3))
     max_ndof = checks.number("max_ndof", max_ndof, 1, unit="DOFs")

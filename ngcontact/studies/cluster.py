@@ -41,7 +41,7 @@ from .cluster_case import DISTRIBUTED_ONLY, NEEDS_PETSC, SCENES, SERIAL_ONLY, SO
 WORKER = "ngcontact.studies.cluster_case"
 """The module each run executes (``python -m``)."""
 DT = 2.0 ** -8
-"""The default time step, s (3.9 ms): a power of two, so that t_n − t_{n−1} is exact and every
+"""The default time step, s: a power of two, so that t_n − t_{n−1} is exact and every
 step has the same rate coefficient 1/dt. With a step that is not a power of two, round-off in
 t_n − t_{n−1} changes 1/dt from step to step, and with it the system's generation: the kept
 factorisations are made anew and GAMG's preconditioner rebuilt and compiled again, which costs
@@ -123,7 +123,7 @@ def run(out, *, scene="plate", orders=(1,), levels=(1,), ranks=(1, 2, 3), solver
     level 0); ``threads`` a serial run's steps under TaskManager (None: from 3·10⁴ DOFs);
     ``realcompile`` Simulation's (True: compiled as it is built, not inside the steps; None:
     automatic); all checked before any run: the steps must stay inside the load history (dt
-    at most 0.5 s / steps), and at least one configuration must be able to run (``plan``).
+    at most the history's end / steps), and at least one configuration must be able to run (``plan``).
     Refused under mpiexec (it launches mpiexec itself)."""
     parallel.refuse_under_mpiexec("python -m ngcontact cluster")
     sizes = _sizes(scene, orders, levels)

@@ -33,7 +33,7 @@ TARGET_NDOF = 1e7
 TARGET_RANKS = (8, 16, 32, 64)
 """The computing ranks of the prediction."""
 MEMORY_LIMIT_MIB = 4096
-"""The memory per rank of the prediction's question, MiB (4 GiB)."""
+"""The memory per rank of the prediction's question, MiB."""
 
 
 def fit_time(n, p, t, with_p=False):

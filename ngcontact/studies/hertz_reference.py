@@ -6,7 +6,7 @@ by d = ``DEPTH`` = 0.0171 m, frictionless unilateral contact of the curved side 
 plane y = 0 (obstacle normal n_o = (0, −1), gap g = y). Its solution has a contact force F
 (N/m), a contact zone |x| < a (m) and a pressure p(x) (Pa: force per metre of Γ3, per metre of
 depth) that vanishes like a square root at x = ±a. Hertz's half-plane formula
-(``scenes.hertz.closed_form``) is about 1 % off this finite half-disk: the reference is its own.
+(``scenes.hertz.closed_form``) is for a half-plane, not this finite half-disk: the reference is its own.
 
 How it is made (``build``): ngcontact at P3 and P4 on meshes graded geometrically toward the
 contact edges (two families: Netgen's mesh-size restriction at (±a, y(±a)) with Netgen's

@@ -15,9 +15,9 @@ PANELS = (("force_error", "force |F_h − F|/F"), ("pressure_L2", "pressure ‖�
 """(key, title) of the three panels."""
 
 
-def medians(jsonl_paths):
-    """{(code, kind, order): [(median wall s, errors dict, configuration label), ...]} of the runs
-    in ``jsonl_paths`` (runs without errors or that failed are left out), in the order of refinement."""
+def grouped(jsonl_paths):
+    """{(code, kind, order, label): [runs]} of the runs in ``jsonl_paths`` that finished with
+    errors; label "L<k>" for a uniform level, "tol <t>" for an adaptive run."""
     groups = {}
     for path in jsonl_paths:
         for text in pathlib.Path(path).read_text().splitlines():
@@ -26,6 +26,13 @@ def medians(jsonl_paths):
                 continue
             label = f"L{run['refine']}" if "refine" in run else f"tol {run['tol']:g}"
             groups.setdefault((run["code"], run["kind"], run["order"], label), []).append(run)
+    return groups
+
+
+def medians(jsonl_paths):
+    """{(code, kind, order): [(median wall s, errors dict, configuration label), ...]} of the runs
+    in ``jsonl_paths`` (runs without errors or that failed are left out), in the order of refinement."""
+    groups = grouped(jsonl_paths)
     series = {}
     for (code, kind, order, label), runs in groups.items():
         errors = {key: runs[0][key] for key, _ in PANELS}
@@ -79,14 +86,7 @@ def table(jsonl_paths):
     of timed runs, the median process wall and CPU times (s) and the three errors; an adaptive
     run that stopped at a limit before its tolerance is marked "not reached"."""
     paths = [jsonl_paths] if isinstance(jsonl_paths, (str, pathlib.Path)) else list(jsonl_paths)
-    groups = {}
-    for path in paths:
-        for text in pathlib.Path(path).read_text().splitlines():
-            run = json.loads(text)
-            if run.get("rc") not in (0, None) or "pressure_L2" not in run or run.get("timeout"):
-                continue
-            label = f"L{run['refine']}" if "refine" in run else f"tol {run['tol']:g}"
-            groups.setdefault((run["code"], run["kind"], run["order"], label), []).append(run)
+    groups = grouped(paths)
     lines = ["| code | kind | P | level / tol | DOFs | runs | wall s | CPU s | F error | pressure L2 | a error |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
     for key in sorted(groups, key=lambda k: (k[0] != "peer", k[1], k[2], len(k[3]), k[3])):

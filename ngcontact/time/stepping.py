@@ -96,7 +96,7 @@ def error_ratio(estimate, rtol, k, span):
 FLOOR_SHRINK, FLOOR_FALL = 4.0, 2.0
 """A try FLOOR_SHRINK times shorter than the first one rejected for its error whose estimate fell
 by less than FLOOR_FALL has met a floor of the estimate that the step size does not reduce (a
-time error falls as k³, 64×; across a kink in ü as k², 16×; in u̇ as k, 4×): the step is
+time error falls as k³; across a kink in ü as k², in u̇ as k): the step is
 accepted, with its estimate above 1 in its record, and flagged (``AccuracyWarning``); for the
 rest of the run, a step whose estimate is at most FLOOR_FALL times that floor is accepted alike,
 and the next one takes again the step that met the floor (not a shorter one that located an

@@ -23,7 +23,7 @@ from ngcontact.checks import number
 from ngcontact.model.forms import boundary_stiffness, step_normal_stress, step_normal_stress_variation
 
 ACCURATE_FROM = {1: 3.0, 0: 0.1, -1: 3.0}
-"""γ0 from which each variant θ has its contact force within 1 % on the reference plate
+"""γ0 from which each variant θ has an accurate contact force on the reference plate
 (fitted to measurements on the reference plate, docs/stability.md, section 1, and
 docs/measurements.md, section ngcontact/gamma3/enforcement/nitsche.py): below, θ = 1 and θ = 0
 may converge to forces far off or fail (their coercivity needs γ0 above a trace-inequality

@@ -27,7 +27,7 @@ def run(out=None, *, force=3e8, dt=2e-3, T=0.2, beta_update="explicit", quick=Fa
     ----------
     out : pathlib.Path or None, where to draw ``debonding.png``.
     force : body force, N/m³.
-    dt, T : time step and final time, s (dt γ_ν L² = 0.5 at 2 ms).
+    dt, T : time step and final time, s.
     beta_update : "explicit" or "implicit".
     quick : twice the time step.
     progress : show a progress bar and the summary line.
