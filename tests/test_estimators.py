@@ -74,7 +74,7 @@ def _manufactured(case, order, level, theta=1, smoothness=4):
 def test_the_estimate_bounds_the_energy_error_of_the_contact_problem(case, theta, order, smoothness):
     """Piezoelectric coupling, Nitsche contact with a known contact set, the compliant layer and
     the glue (adhesive) or conduction (both): η ÷ |||e||| within [1, 3] on two levels (observed
-    1.78–2.07 for P1 and P2; P3 with data smooth enough for its order, 1.4–1.7); its parts are
+    1.97–2.18 for P1 and P2; P3 with data smooth enough for its order, 1.83–2.09); its parts are
     listed, the energy part alone ≥ 0.9 of the error."""
     for level in (0, 1):
         sim, error = _manufactured(case, order, level, theta, smoothness)
@@ -126,9 +126,9 @@ def test_the_energy_error_of_a_manufactured_solution_is_its_energy_norm_at_a_zer
 @pytest.mark.parametrize("coupled", [True, False])
 def test_the_estimate_bounds_the_energy_error_in_3d(coupled):
     """A smooth manufactured (u, φ) on a block (clamped left, grounded bottom, the data of every
-    other face given), P1 on two levels and P2: η ≥ |||e|||, and η ÷ |||e||| ≤ 1.2 without the
-    piezoelectric coupling (observed 1.04–1.14) and ≤ 3.5 with scaled PZT-5A's (observed
-    2.88–3.24: the Prager–Synge bound of the coupled system counts the coupling energy
+    other face given), P1 on two levels and P2: η ≥ |||e|||, and η ÷ |||e||| ≤ 1.25 without the
+    piezoelectric coupling (observed 1.15–1.19) and ≤ 3.5 with scaled PZT-5A's (observed
+    3.37–3.46: the Prager–Synge bound of the coupled system counts the coupling energy
     (C⁻¹Eᵀ∇e_φ, Eᵀ∇e_φ) + (C_φ⁻¹E ε(e_u), E ε(e_u)) once more, docs/adaptivity.md)."""
     import sympy as sp
     from ngcontact.geometries import block
@@ -145,4 +145,55 @@ def test_the_estimate_bounds_the_energy_error_in_3d(coupled):
         sim = ngc.Simulation(body, mms.loads(body, time), time=time, keep_states=False, physical_checks=False)
         sim.run(1.0, 1.0)
         ratio = EquilibratedEstimator(sim)().total / mms.energy_error(sim)
-        assert 1.0 <= ratio <= (3.5 if coupled else 1.2), (order, level, ratio)
+        assert 1.0 <= ratio <= (3.5 if coupled else 1.25), (order, level, ratio)
+
+
+def test_the_rows_of_the_stress_share_one_patch_system_and_are_equilibrated():
+    """The default row-by-row stress (``equilibration.Rows``) on a clamped 3D block with a body
+    force: one patch system for the three rows (their boundary conditions agree), and every row
+    of σ* has the divergence of the coupled problem's (``weak_symmetry=True``: the same local
+    constraints, another objective) to 1e-9, with div σ*_i + Π_p f_i small against f_i (the
+    patch data's quadrature of f)."""
+    import sympy as sp
+    from ngcontact.geometries import block
+    from ngcontact.scenes.manufactured import Manufactured, x, y, z
+    m = ngc.pzt5a()
+    material = ngc.Material(m.c / 1e10, 0 * m.e, m.eps / 1e-9, name="scaled PZT-5A, uncoupled")
+    u = sp.Matrix([x * sp.sin(2 * y + z), x ** 2 * sp.cos(y - z), sp.sin(x) * (1 + y * z)]) / 100
+    body = ngc.Body(block(1.0, 0.5, 0.5, maxh=0.25), material, clamped="left", grounded="bottom", order=1)
+    mms = Manufactured(body.tensors, u * t_symbol, 0 * t_symbol, dim=3)
+    time = ngs.Parameter(0.0)
+    sim = ngc.Simulation(body, mms.loads(body, time), time=time, keep_states=False, physical_checks=False)
+    sim.run(1.0, 1.0)
+    estimator = EquilibratedEstimator(sim)
+    rows = estimator().fields["sigma_star_rows"]
+    coupled = EquilibratedEstimator(sim, weak_symmetry=True)().fields["sigma_star_rows"]
+    assert len({id(e) for e in estimator._stress.of_row}) == 1 and rows[0].space.ndof == coupled[0].space.ndof
+    mesh, f = body.mesh, sim.steps.loads.f0
+    projected = ngs.GridFunction(ngs.VectorL2(mesh, order=1))
+    projected.Set(f, bonus_intorder=6)                                  # Π_p f, p = 1
+    for i in range(3):
+        size = math.sqrt(ngs.Integrate(f[i] ** 2, mesh, order=8))
+        apart = math.sqrt(ngs.Integrate((ngs.div(rows[i]) - ngs.div(coupled[i])) ** 2, mesh, order=4))
+        balance = math.sqrt(ngs.Integrate((ngs.div(rows[i]) + projected[i]) ** 2, mesh, order=4))
+        assert apart <= 1e-9 * size and balance <= 0.05 * size, (i, apart, balance, size)
+        difference = np.abs(rows[i].vec.FV().NumPy() - coupled[i].vec.FV().NumPy()).max()
+        assert difference > 1e-6 * np.abs(coupled[i].vec.FV().NumPy()).max()     # (another flux)
+
+
+def test_weak_symmetry_gives_a_sharper_bound_from_the_same_kind_of_flux():
+    """The coupled stress problems (``weak_symmetry=True``) against the default rows on the
+    manufactured contact case (P2, two levels): both bound the error, the coupled one is sharper
+    (observed effectivities 1.71–1.86 against 2.07–2.18) with a smaller skew part; and the
+    element-wise projection of σ_h and D_h the patch data read (``_piecewise``) changes nothing
+    on these straight elements (the estimate without it agrees to 1e-10)."""
+    for level in (0, 1):
+        sim, error = _manufactured("adhesive", 2, level)
+        rows, coupled = EquilibratedEstimator(sim)(), EquilibratedEstimator(sim, weak_symmetry=True)()
+        assert 1.0 <= coupled.total / error < rows.total / error <= 3.0, (coupled.total / error, rows.total / error)
+        assert coupled.parts["skew"] < rows.parts["skew"]
+        plain = EquilibratedEstimator(sim)
+        plain._piecewise = lambda key, flux: flux
+        assert plain().total == pytest.approx(rows.total, rel=1e-10)
+    with pytest.raises(TypeError, match="weak_symmetry"):
+        EquilibratedEstimator(sim, weak_symmetry="yes")

@@ -24,9 +24,11 @@ so that, bounding each term element by element and summing (Cauchy–Schwarz ove
           ≤ (η_σ² + η_D²)^½ + C_K η_skew + η_osc + η_Γ3,  with
 
 * η_σ = ‖C_c^{−½}(sym σ* − σ_h)‖, η_D = ‖C^{−½}(D* − D_h)‖ (the energy of the reconstruction),
-* η_skew = λ_min(C_c)^{−½} ‖skew σ*‖: σ* is equilibrated row by row in RT_p and symmetric
-  only in the least-squares sense of its local problems (weight λ_min(C_c)^{−1} on its skew
-  part); C_K is the constant of ‖skew ∇v‖ ≤ C_K ‖ε(v)‖ on the body (Korn's), taken as 1,
+* η_skew = λ_min(C_c)^{−½} ‖skew σ*‖: σ* is equilibrated row by row in RT_p, each row the
+  L²-nearest to ψ_a σ_h's row on every patch (``equilibration.Rows``: the rows share one patch
+  system), so it is not symmetric (with ``weak_symmetry``, symmetric in the least-squares sense of
+  coupled local problems); C_K is the constant of ‖skew ∇v‖ ≤ C_K ‖ε(v)‖ on the body (Korn's),
+  taken as 1,
 * η_osc = (Σ_K η_osc,K²)^½, η_osc,K = (h_K/π) λ_min^{−½} ‖f0 − Π_p f0‖_K and its electric twin (Poincaré on a convex
   element; the data that no flux of degree p can balance),
 * η_Γ3 = (∫_Γ3 λ_h |u_hν − g|)^½ (the complementarity of the discrete contact pressure λ_h =
@@ -61,11 +63,11 @@ import numpy as np
 from ngcontact.gamma3 import integrands
 from ngcontact.model import forms, kinematics
 from ngcontact.model.kinematics import mesh_ds
-from ngcontact import parallel
+from ngcontact import checks, parallel
 from ngcontact.model.loads import as_cf
 from ngcontact.model.voigt import matrix_cf
 from ngcontact.time.step import Step
-from .equilibration import BONUS, TIMERS, Equilibration, Patches
+from .equilibration import BONUS, TIMERS, Equilibration, Patches, Rows
 
 TIMERS.update({name: ngs.Timer(f"ngcontact estimate: {name}") for name in ("Γ3 data", "indicator integrals")})
 
@@ -76,12 +78,10 @@ one order higher and the estimate sharper, but its local problems are twice as l
 and far costlier to factorise (docs/measurements.md, section ngcontact/estimators/equilibrated.py).
 Scenes without a body force have no oscillation at all."""
 SKEW_WEIGHT = 10.0
-"""The weight of σ*'s skew part in its local problems, in units of λ_min(C_c)^{−1}: the
-least-squares weak symmetry. Fitted to measurements on a manufactured elastic square
+"""With ``weak_symmetry``: the weight of σ*'s skew part in its local problems, in units of
+λ_min(C_c)^{−1}. Fitted to measurements on a manufactured elastic square
 (docs/measurements.md, section ngcontact/estimators/equilibrated.py): a smaller weight leaves a
 larger skew part and a looser estimate, a larger one the same skew part and a larger symmetric one."""
-
-
 AXIS_FLOOR = 1e-12
 """On a body of revolution, 1/r is evaluated with r at least this times the body's size (padded
 quadrature points of weight 0 may sit on the axis)."""
@@ -137,26 +137,35 @@ class EquilibratedEstimator:
     ----------
     sim : a Simulation (2D, 3D or a body of revolution, any order), or its ``steps``
         (``time.step.Step``): its body, loads, contact and state are read.
+    weak_symmetry : False (default): the stress rows are equilibrated one by one, each the
+        L²-nearest to ψ_a σ_h's row, and share one patch system (``equilibration.Rows``).
+        True: one local problem for all rows, weighted by the compliance with a penalty
+        (``SKEW_WEIGHT``) on the skew part: a sharper bound (effectivities 10–25 % lower on the
+        manufactured cases of docs/adaptivity.md) from patch systems dim times as large (in 3D
+        P1 about 27 times the factorisation work).
     """
 
-    def __init__(self, sim):
+    def __init__(self, sim, weak_symmetry=False):
         steps = check(sim)
+        self.weak_symmetry = checks.flag("weak_symmetry", weak_symmetry)
         body = steps.body
         self.steps, self.body, self.dim = steps, body, body.dim
         T, dim = body.tensors, body.dim
         with TIMERS["element data"]:
             self.patches = Patches(body.mesh)
-        self._rate = None
         held = {i: set(body.boundaries["clamped"]) for i in range(dim)}
         for support in body.supports:
             for axis in support.axes:
                 held[axis] |= set(support.names)
-        self._held = held
         grounded = set(body.boundaries["grounded"])
         self._flux = Equilibration(body.mesh, 1, body.order_phi + RAISE, self._electric_weight(T),
                                    lambda name, i: name not in grounded, self.patches) if steps.electric else None
-        self._stress = None                        # built for the rate c of the step (its weight)
+        stress_neumann = lambda name, i: name not in held[i]     # noqa: E731
+        self._stress = None if self.weak_symmetry else \
+            Rows(body.mesh, dim, body.order + RAISE, stress_neumann, self.patches)
+        self._stress_neumann, self._rate = stress_neumann, None
         self._diameters, self._gamma3 = None, None
+        self._projections = {}                     # the fluxes' element-wise projections (``_piecewise``)
 
     # ------------------------------------------------------------------ weights of the local problems
     def _compliance(self, rate):
@@ -166,8 +175,9 @@ class EquilibratedEstimator:
         return C, S, float(np.linalg.eigvalsh(S).max())
 
     def _stress_weight(self, S, skew):
-        """The weight of the stress problems as a matrix on row-major dim × dim matrices
-        (``Equilibration``): Voigt(τ)ᵀ S Voigt(σ) + skew Σ_{i<j} ½ (σ_ij − σ_ji)(τ_ij − τ_ji)."""
+        """The weight of the coupled stress problems (``weak_symmetry``) as a matrix on row-major
+        dim × dim matrices (``Equilibration``):
+        Voigt(τ)ᵀ S Voigt(σ) + skew Σ_{i<j} ½ (σ_ij − σ_ji)(τ_ij − τ_ji)."""
         dim = self.dim
         voigt = np.zeros((len(S), dim * dim))
         pairs = kinematics.of(dim).pairs[dim:]                     # the shear entries of the Voigt order
@@ -194,12 +204,14 @@ class EquilibratedEstimator:
         coefficients = steps.system.coefficients
         rate = coefficients.rate.Get() if T.viscous else 0.0
         C, S, s_max = self._compliance(rate)
-        if self._stress is None:
-            self._stress = Equilibration(body.mesh, dim, body.order + RAISE, self._stress_weight(S, SKEW_WEIGHT * s_max),
-                                         lambda name, i: name not in self._held[i], self.patches)
-        elif rate != self._rate:
-            self._stress.set_weight(self._stress_weight(S, SKEW_WEIGHT * s_max))
-        self._rate = rate
+        if self.weak_symmetry:                  # the weight follows the rate c of the step
+            weight = self._stress_weight(S, SKEW_WEIGHT * s_max)
+            if self._stress is None:
+                self._stress = Equilibration(body.mesh, dim, body.order + RAISE, weight, self._stress_neumann,
+                                             self.patches)
+            elif rate != self._rate:
+                self._stress.set_weight(weight)
+            self._rate = rate
         if body.axisymmetric:
             return self._section(T, rate, S, s_max)
         u, phi = steps.u, steps.phi
@@ -208,7 +220,7 @@ class EquilibratedEstimator:
         loads, n = steps.loads, ngs.specialcf.normal(dim)
         f0 = as_cf(loads.f0, dim) if loads.f0 is not None else ngs.CF((0.0,) * dim)
         t_mech, t_elec = self._boundary_data()
-        values = self._stress(sigma_h, f0, t_mech)
+        values = self._stress(self._piecewise("stress", sigma_h), f0 if loads.f0 is not None else None, t_mech)
         rows = self._stress.gridfunctions(values)
         sigma_star = ngs.CF(tuple(rows), dims=(dim, dim))
         mesh, order = body.mesh, 2 * (max(body.order, body.order_phi) + RAISE) + 2     # (exact on straight elements)
@@ -216,11 +228,12 @@ class EquilibratedEstimator:
         diff = kin.symmetric_vector(sigma_star) - kin.symmetric_vector(sigma_h)
         parts_K = {"stress": ngs.InnerProduct(_matrix(S) * diff, diff),
                    "skew": s_max * kin.skew_square(sigma_star)}
-        fields = dict(sigma_star=sigma_star, sigma_h=sigma_h)
+        fields = dict(sigma_star=sigma_star, sigma_h=sigma_h, sigma_star_rows=rows)
         q0 = as_cf(loads.q0, 1) if loads.q0 is not None else ngs.CF(0.0)
         if self._flux is not None:
             D_h = forms.electric_displacement(T, u, phi)
-            (D_star,) = self._flux.gridfunctions(self._flux(ngs.CF(D_h, dims=(1, dim)), q0, t_elec))
+            (D_star,) = self._flux.gridfunctions(self._flux(self._piecewise("flux", ngs.CF(D_h, dims=(1, dim))),
+                                                            q0 if loads.q0 is not None else None, t_elec))
             dD = D_star - D_h
             parts_K["flux"] = ngs.InnerProduct(_matrix(np.linalg.inv(T.C)) * dD, dD)
             fields.update(D_star=D_star, D_h=D_h)
@@ -269,6 +282,25 @@ class EquilibratedEstimator:
             w * f0[1] if loads.f0 is not None else None, w * q0 if loads.q0 is not None else None,
             s_max, T, inverse_w) ** 2
         return _estimate(indicators, self._contact_term(), fields)
+
+    def _piecewise(self, key, flux):
+        """The matrix CoefficientFunction ``flux`` (σ_h or D_h) projected element by element onto
+        P_{p−1}, p the larger order of u and φ (an L2 GridFunction kept per ``key``, set anew at
+        each call): the patch problems' data read it instead of evaluating the flux's tree at the
+        quadrature points of each of their forms. On straight elements with constant tensors it is
+        the flux itself, and the patch problems stay compatible with any element-wise projection
+        (∇ψ_a is constant there), so σ* stays equilibrated; the bound measures σ* − σ_h with σ_h
+        itself. On a curved mesh the flux is used as it is."""
+        if self.body.mesh.GetCurveOrder() > 1:             # (curved elements: ∇ψ_a is not a polynomial)
+            return flux
+        if key not in self._projections:
+            order = max(self.body.order, self.body.order_phi) - 1
+            shape = flux.dims
+            space = ngs.L2(self.body.mesh, order=order) ** (shape[0] * shape[1])
+            self._projections[key] = (ngs.GridFunction(space), shape)
+        gf, shape = self._projections[key]
+        gf.Set(ngs.CF(tuple(flux[i, j] for i in range(shape[0]) for j in range(shape[1]))).Compile())
+        return ngs.CF(gf, dims=tuple(shape))
 
     def _boundary_data(self):
         """The Neumann data of σ* and D* on the boundary (CFs of dim and 1 components): the
