@@ -3,9 +3,10 @@
 The unknowns are numbered block by block (``block``: the block of every unknown, non-decreasing)
 and the entries come as COO positions, fixed, with values that change (``fill``). Small blocks
 (at most ``DENSE`` unknowns: 2D patches, about 50 unknowns at P2) are gathered into dense arrays,
-one per block size, and solved by LAPACK in a batch (``numpy.linalg.solve``; from the second
-right-hand side on with the kept inverses); larger ones (3D patches, 200-400 unknowns, sparse
-inside) by one SuperLU factorisation of the whole matrix, which uses their sparsity.
+one per block size, and solved by LAPACK in a batch (``numpy.linalg.solve``, the right-hand
+sides of a call at once; from the second call on with the kept inverses); larger ones (3D
+patches, 90-300 unknowns a row, sparse inside) by one SuperLU factorisation of the whole
+matrix, which uses their sparsity.
 """
 import numpy as np
 
@@ -58,23 +59,22 @@ class BlockDiagonal:
         self._lu = None
 
     def solve(self, rhs):
-        """The solution for the right-hand side ``rhs``."""
+        """The solution for the right-hand side ``rhs`` (a vector, or a matrix of them as columns)."""
         self._solves += 1
         if not self.dense:
             if self._lu is None:
                 import scipy.sparse.linalg as sla_sparse
                 self._lu = sla_sparse.splu(self._matrix)
             return self._lu.solve(rhs)
-        if self._inverses is None and self._solves > 1:           # a second right-hand side: keep inverses
+        if self._inverses is None and self._solves > 1:           # a second call: keep inverses
             self._inverses = [np.linalg.inv(self._blocks(g)) for g in range(len(self.groups))]
-        out = np.empty(self.size)
+        columns = rhs.reshape(self.size, -1)
+        out = np.empty(columns.shape)
         for g, (n, offset, unknowns) in enumerate(self.groups):
-            b = rhs[unknowns]
-            if self._inverses is not None:
-                out[unknowns] = np.einsum("bij,bj->bi", self._inverses[g], b)
-            else:
-                out[unknowns] = np.linalg.solve(self._blocks(g), b[:, :, None])[:, :, 0]
-        return out
+            b = columns[unknowns]                                  # (blocks, n, columns)
+            out[unknowns] = np.linalg.solve(self._blocks(g), b) if self._inverses is None else \
+                np.einsum("bij,bjk->bik", self._inverses[g], b)
+        return out.reshape(rhs.shape)
 
     def _blocks(self, g):
         n, offset, unknowns = self.groups[g]

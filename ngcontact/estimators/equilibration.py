@@ -454,6 +454,14 @@ class Equilibration:
         (rows × dim CoefficientFunction), the source f (``source``, a CF of ``rows``
         components: −div σ = f; None for none) and the Neumann data ``traction`` (a CF of ``rows`` components
         on the boundary, used where ``neumann`` says a row is prescribed)."""
+        rhs, data = self.right_hand_side(flux, source, traction)
+        with TIMERS["block solves"]:
+            z = self.system.solve(rhs)
+        return self.recover(z, data)
+
+    def right_hand_side(self, flux, source, traction):
+        """(the patch system's right-hand side, the data ``recover`` needs) for the arguments of
+        ``__call__``."""
         TIMERS["right-hand sides"].Start()
         d, rows = self.mesh.dim, self.rows
         psi = self.P1.TrialFunction()
@@ -521,8 +529,13 @@ class Equilibration:
         valid = self.pair_index >= 0
         np.add.at(rhs, self.pair_index[valid], -cond[valid])
         TIMERS["right-hand sides"].Stop()
-        with TIMERS["block solves"]:
-            z = self.system.solve(rhs)
+        return rhs, (r_X, x_fixed, y_known, X_glob)
+
+    def recover(self, z, data):
+        """σ* from the patch system's solution ``z`` for the right-hand side of ``data``."""
+        r_X, x_fixed, y_known, X_glob = data
+        rows, ne, k, pairs = self.rows, self.mesh.ne, self.pairs_per_element, len(self.pair_el)
+        valid, sig_x = self.pair_index >= 0, self.X_is_sigma
         TIMERS["recovery"].Start()
         # every pair's Y, then its X by recovery: x = M⁻¹(r_X − K_XY y)
         y = np.where(valid, z[np.where(valid, self.pair_index, 0)], y_known)
@@ -572,8 +585,15 @@ class Rows:
         data (CFs of ``rows`` components), as ``Equilibration.__call__``."""
         d = self.S.mesh.dim
         flux = ngs.CF(flux, dims=(self.rows, d))
-        return np.concatenate([equilibration(flux[i, :], None if source is None else source[i], traction[i])
-                               for i, equilibration in enumerate(self.of_row)])
+        data = [equilibration.right_hand_side(flux[i, :], None if source is None else source[i], traction[i])
+                for i, equilibration in enumerate(self.of_row)]
+        solutions = {}
+        for equilibration in dict.fromkeys(self.of_row):        # one solve of each system, its rows at once
+            rows = [i for i, e in enumerate(self.of_row) if e is equilibration]
+            with TIMERS["block solves"]:
+                z = equilibration.system.solve(np.stack([data[i][0] for i in rows], axis=1))
+            solutions.update((i, z[:, j]) for j, i in enumerate(rows))
+        return np.concatenate([e.recover(solutions[i], data[i][1]) for i, e in enumerate(self.of_row)])
 
     def gridfunctions(self, values):
         """The rows of σ* as GridFunctions of the RT space."""
