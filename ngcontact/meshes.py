@@ -23,8 +23,9 @@ COARSE = "ngcontact_hierarchy"
 """The attribute by which ``nested_mesh`` hands its ``Hierarchy`` to the Body of the mesh it makes."""
 MAX_MESHED_VERTICES = 5e4
 """The most vertices a scene's mesh maker (``scenes.hertz.mesh``, ``scenes.indenter.mesh``) asks
-Netgen to make at once (estimated, ``check_meshed``): their local size restrictions make meshing
-far slower than refining, so a finer mesh comes from ``refine=`` (``nested_mesh``)."""
+Netgen to make at once (estimated, ``check_meshed``): a finer mesh comes from ``refine=``
+(``nested_mesh``), since meshing under local size restrictions costs more than refining
+(docs/measurements.md)."""
 
 
 def check_meshed(what, name, h, fine, dim, refine=0, finer="refine=..., which halves h each time"):

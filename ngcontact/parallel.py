@@ -37,9 +37,8 @@ def world():
 
 def oversubscribed():
     """True if more MPI ranks run than this machine has cores (``os.cpu_count()``): every
-    collective operation then waits for a descheduled rank (PETSc's GMRES on 3 ranks on 2
-    cores is many times slower per iteration than on 2 ranks: docs/measurements.md, section
-    ngcontact/parallel.py). True on every rank if true on some
+    collective operation then waits for a descheduled rank (PETSc's GMRES on more ranks than
+    cores: docs/measurements.md, section ngcontact/parallel.py). True on every rank if true on some
     (nodes with fewer cores): the solver it chooses is the same on every rank. Collective:
     every rank calls it."""
     comm = world()

@@ -151,7 +151,7 @@ class Simulation:
         between Newton iterations and made again only when that pays
         (``linear_solver.KeptFactorization``): "sparsecholesky" of a symmetric Jacobian (no
         contact, or ``Contact.symmetric``), else of its symmetric part; for Nitsche's θ = −1
-        "umfpack" at every iteration (its skew Γ3 part makes GMRES slower); in 3D from 10⁵ DOFs
+        "umfpack" at every iteration (its skew Γ3 part does not suit GMRES); in 3D from 10⁵ DOFs
         without condensation, on nested meshes (``Body.hierarchy``), GMRES around multigrid.
         Distributed: MUMPS where PETSc is installed, else "masterinverse".
         A name (``solver_choice.names()``): every direct solver of NGSolve's
@@ -177,7 +177,7 @@ class Simulation:
     condense : static condensation of the element-interior DOFs (those of the elements at Γ3
         are kept); default: when the space has such DOFs (order >= 3 in 2D, >= 4 in 3D).
     realcompile : compile the Γ3 Jacobian's integrand to machine code (needs a C++ compiler,
-        takes seconds once, then assembles the Γ3 Jacobian several times faster;
+        a compile once, for cheaper assemblies of the Γ3 Jacobian after it;
         docs/measurements.md): True at once, False never, None (default) when the Newton
         iterations a run expects pay for it (``machine_code``); ``realcompile`` says whether it
         is. With ``solver="gamg"`` the same choice for the preconditioner forms' integrand

@@ -27,9 +27,10 @@ def _term_by_term(eq, weight):
                 for k in range(d):
                     c = weight[j, l, i, k]
                     if c != 0.0:
-                        K_YY[:, F(j), F(i)] += c * data.mass_FF[l][k]
-                        K_YX[:, F(j), I(i)] += c * data.mass_FI[l][k]
-                        K_XX[:, I(j), I(i)] += c * data.mass_II[l][k]
+                        FF, FI, II = data.mass(l, k)
+                        K_YY[:, F(j), F(i)] += c * FF
+                        K_YX[:, F(j), I(i)] += c * FI
+                        K_XX[:, I(j), I(i)] += c * II
     for i in range(rows):
         m = rows * nF + i
         K_YY[:, F(i), m] = K_YY[:, m, F(i)] = data.div_F[:, 0, :]

@@ -2,11 +2,11 @@
 
 The unknowns are numbered block by block (``block``: the block of every unknown, non-decreasing)
 and the entries come as COO positions, fixed, with values that change (``fill``). Small blocks
-(at most ``DENSE`` unknowns: 2D patches, about 50 unknowns at P2) are gathered into dense arrays,
+(at most ``DENSE`` unknowns: the 2D patches) are gathered into dense arrays,
 one per block size, and solved by LAPACK in a batch (``numpy.linalg.solve``, the right-hand
-sides of a call at once; from the second call on with the kept inverses); larger ones (3D
-patches, 90-300 unknowns a row, sparse inside) by one SuperLU factorisation of the whole
-matrix, which uses their sparsity.
+sides of a call at once; from the second call on with the kept inverses); larger ones (the 3D
+patches, sparse inside) by one SuperLU factorisation of the whole matrix, which uses their
+sparsity.
 """
 import numpy as np
 

@@ -140,9 +140,8 @@ class EquilibratedEstimator:
     weak_symmetry : False (default): the stress rows are equilibrated one by one, each the
         L²-nearest to ψ_a σ_h's row, and share one patch system (``equilibration.Rows``).
         True: one local problem for all rows, weighted by the compliance with a penalty
-        (``SKEW_WEIGHT``) on the skew part: a sharper bound (effectivities 10–25 % lower on the
-        manufactured cases of docs/adaptivity.md) from patch systems dim times as large (in 3D
-        P1 about 27 times the factorisation work).
+        (``SKEW_WEIGHT``) on the skew part: a sharper bound from patch systems dim times as
+        large (effectivities and cost of both: docs/adaptivity.md, docs/speed.md).
     """
 
     def __init__(self, sim, weak_symmetry=False):
@@ -477,7 +476,7 @@ class Representative:
         surface = ngs.SurfaceL2(mesh, order=body.order, definedon=self.region)
         self._traction = ngs.GridFunction(surface ** dim if dim > 1 else surface)
         self._flux = ngs.GridFunction(surface)
-        # (compiled inside: outside, BoundaryFromVolumeCF evaluates the tree node by node, 50x slower in 3D)
+        # (compiled inside: outside, BoundaryFromVolumeCF evaluates the tree node by node)
         self._pointwise_cf = (ngs.BoundaryFromVolumeCF(T_h.Compile()), ngs.BoundaryFromVolumeCF(j_h.Compile()))
         self._pointwise = (self._traction, self._flux)
 

@@ -50,9 +50,9 @@ TIMERS = {name: ngs.Timer(f"ngcontact estimate: {name}") for name in
 
 
 def _unique(values, return_index=False):
-    """np.unique of an integer array by one sort (NumPy 2.4's own np.unique took 30 times as long on
-    the millions of keys of a 3D patch system); with ``return_index``, also the position of each
-    value's first occurrence."""
+    """np.unique of an integer array by one sort (NumPy 2.4's own np.unique is far costlier on
+    the keys of a 3D patch system: docs/speed.md); with ``return_index``, also the position of
+    each value's first occurrence."""
     order = np.argsort(values, kind="stable") if return_index else None
     ordered = values[order] if return_index else np.sort(values)
     first = np.r_[True, ordered[1:] != ordered[:-1]] if len(ordered) else np.zeros(0, dtype=bool)
@@ -180,28 +180,18 @@ class ElementData:
                              "order their RT DOFs differently)")
         F, I = self.facet_order[0], self.interior[0]
         self._order, self._nF = np.concatenate([F, I]), len(F)              # local DOFs: facets, then interior
-        self._mass = {}                                                     # (l, k) -> M_kl, facets first
-        self._weighted = {}                                                 # weight -> (W σ, τ)_K
+        self._weighted = {}                                 # weight -> (W σ, τ)_K, facets first
         div = _element_blocks(div.Assemble(), mesh, self.Sd, self.Q)      # (ne, nQ_loc, nS_loc)
         self.div_F, self.div_I = div[:, :, F], div[:, :, I]
         self.mean_mass = ngs.Integrate(ngs.CF(1.0), mesh, ngs.VOL, element_wise=True).NumPy()
 
     def mass(self, l, k):
-        """(FF, FI, II): the facet and interior parts of M_kl = (σ_k, τ_l)_K, test component l,
-        trial k (elements × DOFs × DOFs), assembled when first asked (a weight that does not
-        couple two components never asks for their block; M_lk is M_klᵀ)."""
-        if (l, k) not in self._mass:
-            if (k, l) in self._mass:
-                block = np.transpose(self._mass[k, l], (0, 2, 1))
-            else:
-                sigma, tau = self.Sd.TnT()
-                form = ngs.BilinearForm(self.Sd)
-                form += mesh_dx(sigma[k] * tau[l])
-                block = _element_blocks(form.Assemble(), self.mesh, self.Sd, self.Sd)
-                block = block[:, self._order[:, None], self._order[None, :]]     # facets first (one copy)
-            self._mass[l, k] = block
-        block, nF = self._mass[l, k], self._nF
-        return block[:, :nF, :nF], block[:, :nF, nF:], block[:, nF:, nF:]
+        """(FF, FI, II) of M_kl = (σ_k, τ_l)_K, test component l, trial k: ``weighted_mass`` of
+        the weight with the one entry W[l, k] = 1 (a weight that does not couple two components
+        never asks for their block)."""
+        unit = np.zeros((self.mesh.dim, self.mesh.dim))
+        unit[l, k] = 1.0
+        return self.weighted_mass(unit)
 
     def weighted_mass(self, weight):
         """(FF, FI, II) of (W σ, τ)_K for a constant (dim × dim) weight W, assembled as one form
@@ -216,23 +206,6 @@ class ElementData:
             self._weighted[key] = block[:, self._order[:, None], self._order[None, :]]
         block, nF = self._weighted[key], self._nF
         return block[:, :nF, :nF], block[:, :nF, nF:], block[:, nF:, nF:]
-
-    def _parts(self, which):
-        d = self.mesh.dim
-        return [[self.mass(l, k)[which] for k in range(d)] for l in range(d)]
-
-    @property
-    def mass_FF(self):
-        """[l][k]: the FF parts of every component pair (all assembled)."""
-        return self._parts(0)
-
-    @property
-    def mass_FI(self):
-        return self._parts(1)
-
-    @property
-    def mass_II(self):
-        return self._parts(2)
 
 
 class Equilibration:
@@ -477,7 +450,7 @@ class Equilibration:
         W = self.weight
         weighted = [ngs.CF(tuple(sum(W[j * d + l, m] * flux[m // d, m % d] for m in range(rows * d) if W[j * d + l, m])
                                  for l in range(d))).Compile() for j in range(rows)]
-        compiled = ngs.CF(flux.Compile(), dims=(rows, d))    # (uncompiled: 6x the assembly below in 3D)
+        compiled = ngs.CF(flux.Compile(), dims=(rows, d))    # (evaluated at every point of the forms)
         for i in range(rows):
             form = ngs.BilinearForm(trialspace=self.P1, testspace=self.S)
             form += mesh_dx(psi * ngs.InnerProduct(weighted[i], tau))
@@ -558,8 +531,7 @@ class Rows:
     """A flux of ``rows`` rows (a stress) equilibrated row by row (the module docstring with the
     plain L² distance, W = I): each row's local problems are those of one row, so the rows with
     the same boundary conditions share one patch system and its factorisation. A patch then has
-    the facet DOFs and means of one row (not of all ``rows``): in 3D P1 about 90 unknowns instead
-    of 270, 27 times less to factorise. The rows are not coupled by a weight (the compliance,
+    the facet DOFs and means of one row, not of all ``rows`` (docs/speed.md). The rows are not coupled by a weight (the compliance,
     a penalty on the skew part): σ* is the row-wise nearest equilibrated flux, which the
     Prager–Synge bound takes as well as any (``estimators.equilibrated``).
 
@@ -578,7 +550,7 @@ class Rows:
                 shared[pattern] = Equilibration(mesh, 1, order, np.eye(mesh.dim),
                                                 lambda name, _, i=i: neumann(name, i), patches)
             self.of_row.append(shared[pattern])
-        self.S, self.nS = self.of_row[0].S, self.of_row[0].nS
+        self.S = self.of_row[0].S
 
     def __call__(self, flux, source, traction):
         """σ* (rows × nS coefficients) for the ``rows`` × dim flux, the source and the Neumann

@@ -52,7 +52,7 @@ class ContactSide:
         self.kinematics = kin = body.kinematics
         region = body.region("contact_side")
         # the same integrals over the volume elements at Γ3 only: ∫ indicator · f on their
-        # element boundaries (ds(skeleton=True) visits every facet of the mesh, 2 µs each)
+        # element boundaries (ds(skeleton=True) visits every facet of the mesh)
         self.on_layer, self.indicator = element_boundary_layer(kin, mesh, region)
         self.elements = elements_at(mesh, region)     # the volume elements at Γ3
         # P_B and the recorded integrals: exact for polynomials of degree 2p + 2 on a facet;
@@ -69,7 +69,7 @@ class ContactSide:
         active.Clear()
         elements = [el for el in mesh.Elements(ngs.BND) if el.mat in names]
         # the DOF of each facet of Γ3, read off the space's element table (GetDofNrs per
-        # element costs ~80 µs a call here)
+        # element is a slow call per element)
         dofs = [el.dofs[0] for el in facets.Elements(ngs.BND)]
         self._facet_dof = {el.nr: dofs[el.nr] for el in elements}
         for el in elements:

@@ -93,7 +93,7 @@ def compiled(cf, realcompile, maxderiv=2):
     """cf.Compile(), to machine code if ``realcompile`` (falls back, with a warning, when
     there is no working C++ compiler; NGSolve's ``ngscxx`` found first, ``find_compiler``);
     ``maxderiv``: the derivatives compiled (1 suffices for a Jacobian by
-    ``AssembleLinearization``, and compiles and assembles faster than 2)."""
+    ``AssembleLinearization``; the cost of 1 and 2: docs/measurements.md)."""
     if realcompile:
         if not _compiler:
             _compiler.append(find_compiler())

@@ -125,8 +125,8 @@ class Nested:
     @classmethod
     def first_order(cls, body, coarse):
         """The start "p1": the step solved with P1 on the body's own mesh first, its u
-        interpolated into the body's space (exact: P1 is in Pp). Any mesh, no hierarchy: Hertz
-        P2/P3 on one to three refinements faster than the warm start (docs/speed.md).
+        interpolated into the body's space (exact: P1 is in Pp). Any mesh, no hierarchy; against
+        the warm start: docs/speed.md.
         A ValueError naming ``guess`` for a body of order 1. ``coarse(mesh, order)``: the level's Step."""
         if body.order < 2:
             raise ValueError(f"guess='p1' starts a body of order >= 2 from P1 on its mesh; the body has order "

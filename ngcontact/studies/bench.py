@@ -62,8 +62,8 @@ OLD_PATH = dict(limit_steps=False)
 """The Simulation options of the old path (main before the kept factorisation, 71be180): full
 Newton steps, and a factorisation at every Newton iteration (``solver``)."""
 THREADS_FROM = 30_000
-"""Below this many DOFs TaskManager made steps slower (docs/speed.md: the ds(skeleton=True)
-loops over all facets lose more to threading than assembly gains)."""
+"""Below this many DOFs the steps run without TaskManager: the ds(skeleton=True) loops over
+all facets lose more to threading than assembly gains (docs/speed.md)."""
 MAXH = {2: 0.005, 3: 0.01}
 """Coarsest mesh size per dimension, m (level ℓ: ℓ times ``mesh.Refine()``)."""
 

@@ -30,8 +30,8 @@ COLUMNS = ["dim", "order", "normal", "level", "ndof", "newton", "coarse_newton",
 
 def case(order, level, normal, dim=2):
     """One solved case as (row, simulation): from level 1 on started by nested iteration
-    (``starts``: fewer Newton iterations on the finest level and a faster step on large meshes,
-    docs/measurements.md, section hertz; ``newton`` counts the finest level's, ``coarse_newton``
+    (``starts``: fewer Newton iterations on the finest level, docs/measurements.md, section
+    hertz; ``newton`` counts the finest level's, ``coarse_newton``
     the coarser levels')."""
     t0 = time.perf_counter()
     sim = hertz.simulation(order, refine=level, dim=dim, normal=normal, keep_states=False)

@@ -13,9 +13,9 @@ then a good preconditioner, and ``KeptFactorization`` solves with GMRES (``krylo
 serially, PETSc's KSP on a distributed mesh with MUMPS; NGSolve's ``GMResSolver`` reported
 breakdowns that were none with Newton's weighted inner product) instead of factorising
 again, until the Krylov iterations cost more than a factorisation would. Its serial
-Gram–Schmidt is numpy (BLAS) on a kept basis; NGSolve's C++
-``la.GMRESSolver`` is no faster here (most of the time goes to the products and preconditioner
-solves both make; docs/speed.md), and would need a Python callback for Newton's inner product.
+Gram–Schmidt is numpy (BLAS) on a kept basis: NGSolve's C++ ``la.GMRESSolver`` would spend its
+time in the same products and preconditioner solves (docs/speed.md), and would need a Python
+callback for Newton's inner product.
 
 Both solvers have ``solve(matrix, freedofs, r, w, generation=..., timer=..., weights=...)``
 (w = A⁻¹ r on the free DOFs; ``generation`` changes when the matrix changed beyond the Γ3

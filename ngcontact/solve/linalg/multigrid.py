@@ -64,8 +64,8 @@ class Hierarchy:
     body's; for BDDC on the body's own mesh (one level). ``set_rate`` changes c on the finest level only: the
     coarse levels keep the first one (a spectrally equivalent coarse correction: the viscous
     term scales the elastic one by 1 + τ/dt for Kelvin-Voigt A = τF), which saves rebuilding
-    the hierarchy at a cut-back. ``realcompile``: compile the integrands to machine code (the
-    3D Voigt-matrix integrands assemble faster: docs/measurements.md, section
+    the hierarchy at a cut-back. ``realcompile``: compile the integrands to machine code (for the
+    3D Voigt-matrix integrands: docs/measurements.md, section
     ngcontact/solve/linalg/multigrid.py). ``displacement=False``: the φ part only
     (the potential at t = 0 solves for φ with u held: no u hierarchy, larger than the φ
     one, is built for it; ``pre_u`` is then None)."""

@@ -43,8 +43,8 @@ def rigid_motion_values(body, X):
 def node_by_node(PETSc, mapping, template, rows, ncomp, n_u):
     """u's rows of J (the index set ``rows``) reordered node by node, the ``ncomp`` components
     of each scalar DOF together, as an index set of block size ncomp: GAMG then aggregates
-    nodes (its graph of the ncomp × ncomp blocks) instead of single components: a faster setup
-    and V-cycle for the same CG iterations (docs/measurements.md, section
+    nodes (its graph of the ncomp × ncomp blocks) instead of single components, a smaller graph
+    for the same CG iterations (docs/measurements.md, section
     ngcontact/solve/linalg/petsc_blocks.py). VectorH1 numbers its
     DOFs component by component (the first n_u/ncomp are x); each DOF is tagged with
     (its owner's rank, its scalar DOF, its component), which the owner's copy carries into J's

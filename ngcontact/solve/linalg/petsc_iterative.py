@@ -10,8 +10,8 @@ preconditioner (``gamma3_bulk``) on PETSc's parts instead of nested meshes:
   B: diag(GAMG_u, −GAMG_φ), PETSc's smoothed-aggregation algebraic multigrid (``PCGAMG``) of
      the SPD forms of ``forms.preconditioner_forms`` (u: the piezo-stiffened elasticity plus
      c times the viscosity; φ: the permittivity), u with the rigid-body motions as its near
-     null space (without them GAMG needs several times the CG iterations) and its rows ordered
-     node by node with block size d (``petsc_blocks.node_by_node``: a faster GAMG setup);
+     null space (without them GAMG needs more CG iterations) and its rows ordered node by
+     node with block size d (``petsc_blocks.node_by_node``: GAMG aggregates nodes);
 
   y = S r;  y += B (r − J y);  y += S (r − J y),
 

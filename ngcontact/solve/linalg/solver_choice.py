@@ -16,7 +16,7 @@ dimension.
 * else a direct factorisation: kept between Newton iterations as GMRES's preconditioner
   (``linear_solver.KeptFactorization``; of the symmetric part for a non-symmetric Jacobian),
   or made at every iteration (``{"ksp_type": "preonly"}``, and Nitsche's θ = −1, whose skew Γ3
-  part makes GMRES slower than factorising, docs/speed.md).
+  part a factorisation of the symmetric part does not precondition well, docs/speed.md).
 
 A dict of PETSc options as a PETSc user writes them (``petsc_options.check``) builds the same
 solvers: ``pc_type`` "gamg" the solver of ``solver="gamg"``; a factorisation by
