@@ -35,8 +35,9 @@ def _saddle_blocks(sizes, seed=0):
 
 @pytest.mark.parametrize("sizes", [[5, 7, 5, 3, 7, 7], [5, block_diagonal.DENSE + 10, 4]])
 def test_the_block_diagonal_solver_solves_like_a_sparse_direct_solver(sizes):
-    """Dense batches (small blocks) and SuperLU (a block above DENSE) against scipy's spsolve,
-    at the first right-hand side and at the next ones (kept inverses), after a refill."""
+    """Dense batches (small blocks) and SuperLU (a block above DENSE, factorised in the
+    background) against scipy's spsolve, at the first right-hand side and at the next ones (kept
+    inverses), after a refill, and after two refills with no solve between them."""
     rows, cols, values, size = _saddle_blocks(sizes)
     block = np.repeat(np.arange(len(sizes)), sizes)
     system = BlockDiagonal(block, rows, cols)
@@ -47,6 +48,10 @@ def test_the_block_diagonal_solver_solves_like_a_sparse_direct_solver(sizes):
         for seed in range(3):
             rhs = np.random.default_rng(seed).standard_normal(size)
             assert np.allclose(system.solve(rhs), spla.spsolve(matrix, rhs), rtol=1e-10, atol=1e-12)
+    system.fill(3.0 * values)                     # refilled before a solve (SuperLU in the background):
+    system.fill(0.5 * values)                     # the last values count
+    matrix = sp.csc_matrix((0.5 * values, (rows, cols)), shape=(size, size))
+    assert np.allclose(system.solve(rhs), spla.spsolve(matrix, rhs), rtol=1e-10, atol=1e-12)
 
 
 def test_an_entry_that_couples_two_blocks_is_refused():

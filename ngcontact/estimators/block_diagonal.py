@@ -6,12 +6,28 @@ and the entries come as COO positions, fixed, with values that change (``fill``)
 one per block size, and solved by LAPACK in a batch (``numpy.linalg.solve``, the right-hand
 sides of a call at once; from the second call on with the kept inverses); larger ones (the 3D
 patches, sparse inside) by one SuperLU factorisation of the whole matrix, which uses their
-sparsity.
+sparsity. That factorisation starts in a background thread as soon as the values are set, so
+that it runs while the caller prepares the right-hand sides (SuperLU, NGSolve's assembly and
+NumPy release the GIL); it depends on the matrix alone, so the result does not depend on the
+timing.
 """
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 
 DENSE = 120
 """The largest block solved dense (unknowns)."""
+_background = []                                   # the one worker thread of the factorisations
+
+
+def _factorise_in_background(values, rows, cols, size):
+    """A future of SuperLU's factorisation of the (size × size) matrix of the COO entries
+    (values, rows, cols), assembled and factorised by one worker thread."""
+    import scipy.sparse as sp                     # (SciPy loads when a large block is first solved)
+    import scipy.sparse.linalg as sla_sparse
+    if not _background:
+        _background.append(ThreadPoolExecutor(max_workers=1, thread_name_prefix="ngcontact-superlu"))
+    return _background[0].submit(lambda: sla_sparse.splu(sp.csc_matrix((values, (rows, cols)), shape=(size, size))))
 
 
 class BlockDiagonal:
@@ -54,18 +70,13 @@ class BlockDiagonal:
         if self.dense:
             self._data = np.bincount(self.flat, weights=values, minlength=self.total)
             return
-        import scipy.sparse as sp                     # (SciPy loads when a large block is first solved)
-        self._matrix = sp.csc_matrix((values, (self.rows, self.cols)), shape=(self.size, self.size))
-        self._lu = None
+        self._lu = _factorise_in_background(values, self.rows, self.cols, self.size)
 
     def solve(self, rhs):
         """The solution for the right-hand side ``rhs`` (a vector, or a matrix of them as columns)."""
         self._solves += 1
         if not self.dense:
-            if self._lu is None:
-                import scipy.sparse.linalg as sla_sparse
-                self._lu = sla_sparse.splu(self._matrix)
-            return self._lu.solve(rhs)
+            return self._lu.result().solve(rhs)
         if self._inverses is None and self._solves > 1:           # a second call: keep inverses
             self._inverses = [np.linalg.inv(self._blocks(g)) for g in range(len(self.groups))]
         columns = rhs.reshape(self.size, -1)

@@ -25,9 +25,9 @@ so that, bounding each term element by element and summing (Cauchy–Schwarz ove
 
 * η_σ = ‖C_c^{−½}(sym σ* − σ_h)‖, η_D = ‖C^{−½}(D* − D_h)‖ (the energy of the reconstruction),
 * η_skew = λ_min(C_c)^{−½} ‖skew σ*‖: σ* is equilibrated row by row in RT_p, each row the
-  L²-nearest to ψ_a σ_h's row on every patch (``equilibration.Rows``: the rows share one patch
-  system), so it is not symmetric (with ``weak_symmetry``, symmetric in the least-squares sense of
-  coupled local problems); C_K is the constant of ‖skew ∇v‖ ≤ C_K ‖ε(v)‖ on the body (Korn's),
+  L²-nearest to ψ_a σ_h's row on every patch (``equilibration.Rows``: the rows, and D* as one more
+  row, share one patch system), so it is not symmetric (with ``weak_symmetry``, symmetric in the
+  least-squares sense of coupled local problems, and D* nearest in C⁻¹'s norm); C_K is the constant of ‖skew ∇v‖ ≤ C_K ‖ε(v)‖ on the body (Korn's),
   taken as 1,
 * η_osc = (Σ_K η_osc,K²)^½, η_osc,K = (h_K/π) λ_min^{−½} ‖f0 − Π_p f0‖_K and its electric twin (Poincaré on a convex
   element; the data that no flux of degree p can balance),
@@ -139,9 +139,11 @@ class EquilibratedEstimator:
         (``time.step.Step``): its body, loads, contact and state are read.
     weak_symmetry : False (default): the stress rows are equilibrated one by one, each the
         L²-nearest to ψ_a σ_h's row, and share one patch system (``equilibration.Rows``).
+        D* is the L²-nearest too, one more row of the same system when φ has u's order.
         True: one local problem for all rows, weighted by the compliance with a penalty
-        (``SKEW_WEIGHT``) on the skew part: a sharper bound from patch systems dim times as
-        large (effectivities and cost of both: docs/adaptivity.md, docs/speed.md).
+        (``SKEW_WEIGHT``) on the skew part, and D* weighted by the inverse permittivity: a
+        sharper bound from patch systems dim times as large (effectivities and cost of both:
+        docs/adaptivity.md, docs/speed.md).
     """
 
     def __init__(self, sim, weak_symmetry=False):
@@ -157,14 +159,41 @@ class EquilibratedEstimator:
             for axis in support.axes:
                 held[axis] |= set(support.names)
         grounded = set(body.boundaries["grounded"])
-        self._flux = Equilibration(body.mesh, 1, body.order_phi + RAISE, self._electric_weight(T),
-                                   lambda name, i: name not in grounded, self.patches) if steps.electric else None
         stress_neumann = lambda name, i: name not in held[i]     # noqa: E731
-        self._stress = None if self.weak_symmetry else \
-            Rows(body.mesh, dim, body.order + RAISE, stress_neumann, self.patches)
         self._stress_neumann, self._rate = stress_neumann, None
+        self._stress = self._flux = self._fluxes = self._flux_alone = None
+        if self.weak_symmetry:                  # the coupled stress problem is set up at the first call
+            self._flux = Equilibration(body.mesh, 1, body.order_phi + RAISE, self._electric_weight(T),
+                                       lambda name, i: name not in grounded, self.patches) if steps.electric else None
+        else:                                   # every row in one patch system (D as the last row)
+            shared = bool(steps.electric) and body.order_phi == body.order
+            self._fluxes = Rows(body.mesh, dim + shared, body.order + RAISE,
+                                lambda name, i: stress_neumann(name, i) if i < dim else name not in grounded,
+                                self.patches)
+            if steps.electric and not shared:
+                self._flux_alone = Rows(body.mesh, 1, body.order_phi + RAISE, lambda name, i: name not in grounded,
+                                        self.patches)
         self._diameters, self._gamma3 = None, None
         self._projections = {}                     # the fluxes' element-wise projections (``_piecewise``)
+
+    def _equilibrated(self, sigma, f, t, D, q, j):
+        """σ* (dim row GridFunctions of RT_p) and D* (a GridFunction; None for D None) for the
+        stress σ_h (dim × dim CF) with its source f (dim components, None for none) and Neumann
+        data t, and the displacement D_h (1 × dim CF) with q and j."""
+        dim = self.dim
+        if self.weak_symmetry:
+            rows = self._stress.gridfunctions(self._stress(sigma, f, t))
+            return rows, None if D is None else self._flux.gridfunctions(self._flux(D, q, j))[0]
+        fluxes, sources, tractions = [sigma[i, :] for i in range(dim)], [None if f is None else f[i] for i in
+                                                                         range(dim)], [t[i] for i in range(dim)]
+        if D is not None and self._flux_alone is None:
+            fluxes, sources, tractions = fluxes + [D[0, :]], sources + [q], tractions + [j]
+        rows = self._fluxes.gridfunctions(self._fluxes(fluxes, sources, tractions))
+        if D is None:
+            return rows, None
+        if self._flux_alone is None:
+            return rows[:dim], rows[dim]
+        return rows, self._flux_alone.gridfunctions(self._flux_alone([D[0, :]], [q], [j]))[0]
 
     # ------------------------------------------------------------------ weights of the local problems
     def _compliance(self, rate):
@@ -219,8 +248,12 @@ class EquilibratedEstimator:
         loads, n = steps.loads, ngs.specialcf.normal(dim)
         f0 = as_cf(loads.f0, dim) if loads.f0 is not None else ngs.CF((0.0,) * dim)
         t_mech, t_elec = self._boundary_data()
-        values = self._stress(self._piecewise("stress", sigma_h), f0 if loads.f0 is not None else None, t_mech)
-        rows = self._stress.gridfunctions(values)
+        q0 = as_cf(loads.q0, 1) if loads.q0 is not None else ngs.CF(0.0)
+        D_h = forms.electric_displacement(T, u, phi) if steps.electric else None
+        rows, D_star = self._equilibrated(
+            self._piecewise("stress", sigma_h), f0 if loads.f0 is not None else None, t_mech,
+            None if D_h is None else self._piecewise("flux", ngs.CF(D_h, dims=(1, dim))),
+            q0 if loads.q0 is not None else None, t_elec)
         sigma_star = ngs.CF(tuple(rows), dims=(dim, dim))
         mesh, order = body.mesh, 2 * (max(body.order, body.order_phi) + RAISE) + 2     # (exact on straight elements)
         kin = body.kinematics
@@ -228,11 +261,7 @@ class EquilibratedEstimator:
         parts_K = {"stress": ngs.InnerProduct(_matrix(S) * diff, diff),
                    "skew": s_max * kin.skew_square(sigma_star)}
         fields = dict(sigma_star=sigma_star, sigma_h=sigma_h, sigma_star_rows=rows)
-        q0 = as_cf(loads.q0, 1) if loads.q0 is not None else ngs.CF(0.0)
-        if self._flux is not None:
-            D_h = forms.electric_displacement(T, u, phi)
-            (D_star,) = self._flux.gridfunctions(self._flux(self._piecewise("flux", ngs.CF(D_h, dims=(1, dim))),
-                                                            q0 if loads.q0 is not None else None, t_elec))
+        if D_h is not None:
             dD = D_star - D_h
             parts_K["flux"] = ngs.InnerProduct(_matrix(np.linalg.inv(T.C)) * dD, dD)
             fields.update(D_star=D_star, D_h=D_h)
@@ -257,7 +286,10 @@ class EquilibratedEstimator:
         f0 = as_cf(loads.f0, 2) if loads.f0 is not None else ngs.CF((0.0, 0.0))
         t_mech, t_elec = self._boundary_data()
         source = ngs.CF((w * f0[0] - 2 * np.pi * sigma_h[3], w * f0[1]))
-        rows = self._stress.gridfunctions(self._stress(w * kin.plane_stress_matrix(sigma_h), source, w * t_mech))
+        q0 = as_cf(loads.q0, 1) if loads.q0 is not None else ngs.CF(0.0)
+        D_h = forms.electric_displacement(T, u, phi) if steps.electric else None
+        rows, tau_D = self._equilibrated(w * kin.plane_stress_matrix(sigma_h), source, w * t_mech,
+                                         None if D_h is None else ngs.CF(w * D_h, dims=(1, 2)), w * q0, w * t_elec)
         tau = ngs.CF(tuple(rows), dims=(2, 2))
         hoop = ngs.div(rows[0]) / (2 * np.pi) + ngs.x * f0[0]           # the r row in balance exactly
         sigma_star = inverse_w * tau
@@ -268,10 +300,7 @@ class EquilibratedEstimator:
         fields = dict(sigma_star=ngs.CF((sigma_star[0, 0], sigma_star[0, 1], sigma_star[1, 0], sigma_star[1, 1]),
                                         dims=(2, 2)), sigma_h=kin.plane_stress_matrix(sigma_h), hoop_star=hoop,
                       hoop_h=sigma_h[3])
-        q0 = as_cf(loads.q0, 1) if loads.q0 is not None else ngs.CF(0.0)
-        if self._flux is not None:
-            D_h = forms.electric_displacement(T, u, phi)
-            (tau_D,) = self._flux.gridfunctions(self._flux(ngs.CF(w * D_h, dims=(1, 2)), w * q0, w * t_elec))
+        if D_h is not None:
             dD = inverse_w * tau_D - D_h
             parts_K["flux"] = w * ngs.InnerProduct(_matrix(np.linalg.inv(T.C)) * dD, dD)
             fields.update(D_star=inverse_w * tau_D, D_h=D_h)

@@ -31,7 +31,9 @@ of its elements, and all of them form one block-diagonal system (``block_diagona
 dense solves of the 2D blocks, SuperLU for the larger 3D ones), solved for every right-hand
 side. The hat functions enter as the trial functions of a P1 space, so that every patch's data
 is a column of an assembled matrix. No Python loop runs over patches or elements at solve time.
-``Rows`` equilibrates a stress row by row, the rows sharing one patch system.
+``Rows`` equilibrates fluxes row by row (a stress's rows and the electric displacement), the
+rows sharing one patch system; a row with other boundary conditions has patch problems of its
+own only at the vertices on the boundaries where they differ.
 """
 import ngsolve as ngs
 import numpy as np
@@ -140,6 +142,13 @@ class Patches:
         self.facet_vertices = np.array([[v.nr for v in f.vertices] for f in facets], dtype=np.int64)
         self._elements = {}
 
+    def vertices_on(self, names):
+        """The vertices on the boundaries ``names`` (a boolean array over the vertices)."""
+        out = np.zeros(self.mesh.nv, dtype=bool)
+        facets = [f for f, name in self.boundary_name.items() if name in names]
+        out[self.facet_vertices[facets].ravel()] = True
+        return out
+
     def elements(self, order):
         """The ``ElementData`` of RT_order × P_order on this mesh (built once per order)."""
         if order not in self._elements:
@@ -222,10 +231,13 @@ class Equilibration:
     neumann : function (boundary name, row) -> True where the row's flux is prescribed
         (traction or charge data), False where the row's primal unknown is (Dirichlet).
     patches : ``Patches`` of the mesh (shared between equilibrations of one mesh).
+    vertices : None (every vertex patch) or a boolean array over the vertices: the patches to
+        set up (σ* is then the sum over these patches only).
     """
 
-    def __init__(self, mesh, rows, order, weight, neumann, patches=None):
+    def __init__(self, mesh, rows, order, weight, neumann, patches=None, vertices=None):
         self.mesh, self.rows, self.order = mesh, int(rows), int(order)
+        self.vertices = None if vertices is None else np.asarray(vertices, dtype=bool)
         with TIMERS["element data"]:
             self.patches = patches or Patches(mesh)
             self.data = self.patches.elements(self.order)
@@ -269,6 +281,8 @@ class Equilibration:
             self.Minv = np.linalg.inv(K_XX)
             self.G = K_YX @ self.Minv
             self.S_cond = K_YY - self.G @ self.K_XY
+            # the columns of S_K that multiply the prescribed fluxes, one per prescribed value
+            self._S_fixed = self.S_cond[self.pair_el[self.fixed_pairs], :, self.fixed_local]
             keep, border_values = self._pattern
             self.system.fill(np.concatenate([self.S_cond.reshape(-1)[keep], border_values]))
 
@@ -340,6 +354,10 @@ class Equilibration:
             neumann[f] = [bool(self.neumann(name, i)) for i in range(rows)]
         pair_el = np.repeat(np.arange(ne), nv_el)
         pair_patch = P.element_vertices.ravel()
+        self.every_pair = self.vertices is None                           # pairs are then element-major
+        if not self.every_pair:
+            chosen = self.vertices[pair_patch]
+            pair_el, pair_patch = pair_el[chosen], pair_patch[chosen]
         pairs = len(pair_el)
         facets = P.element_facets[pair_el]                                 # (pairs, facets of an element)
         contains = (P.facet_vertices[facets] == pair_patch[:, None, None]).any(axis=2)
@@ -359,7 +377,8 @@ class Equilibration:
         facet_keys = np.broadcast_to(facet_keys, (pairs, rows, n_facets_el, w))
         facet_free = np.broadcast_to(free[:, :, :, None], (pairs, rows, n_facets_el, w))
         mean_keys = key(pair_patch[:, None], 1, pair_el[:, None] * rows + np.arange(rows)[None, :])
-        border_a, border_i = np.nonzero(~dirichlet)
+        set_up = np.ones(mesh.nv, dtype=bool) if self.every_pair else self.vertices
+        border_a, border_i = np.nonzero(~dirichlet & set_up[:, None])
         border_keys = key(border_a, 2, border_i)
         keys = _unique(np.concatenate([facet_keys[facet_free], mean_keys.ravel(), border_keys]))
         self.size = len(keys)
@@ -367,7 +386,7 @@ class Equilibration:
         index[:, :rows * nF] = np.where(facet_free, np.searchsorted(keys, facet_keys), -1).reshape(pairs, rows * nF)
         index[:, rows * nF:] = np.searchsorted(keys, mean_keys)
         self.pair_el, self.pair_patch, self.pair_index = pair_el, pair_patch, index
-        self.pairs_per_element = nv_el                                     # pairs are element-major
+        self.pairs_per_element = nv_el
         facet_pos = np.searchsorted(keys, facet_keys[facet_free])
         self.free_system, first = _unique(facet_pos, return_index=True)
         self.free_global = (np.broadcast_to(row * nS + dofs[:, None, :, :], facet_free.shape)[facet_free])[first]
@@ -376,13 +395,15 @@ class Equilibration:
         self.patch_of_unknown[index[valid]] = np.repeat(pair_patch, valid.sum(1))
         # where the condensed element matrices of every pair go in the system, and the borders
         # (as flat positions q in pairs × nY × nY: pair q // nY², local row and column (q // nY) % nY, q % nY)
-        both = valid[:, :, None] & valid[:, None, :]                       # (pairs, nY, nY)
-        r = np.broadcast_to(index[:, :, None], both.shape)[both]
-        c = np.broadcast_to(index[:, None, :], both.shape)[both]
-        # (as positions in the elements' condensed matrices, ne × nY × nY; pair p is of element p // nv_el)
-        local = (np.arange(pairs) // nv_el * (nY * nY))[:, None, None] + np.arange(nY * nY).reshape(1, nY, nY)
-        keep = local[both]
-        del both, local
+        # (one flatnonzero of the (pair, local row, local column) mask q = (pair nY + row) nY + column;
+        # in the elements' condensed matrices, ne × nY × nY, the same entry is at q − (pair − its element) nY²)
+        q = np.flatnonzero((valid[:, :, None] & valid[:, None, :]).ravel())
+        pair_of_q = q // (nY * nY)
+        flat_index = index.ravel()
+        r = flat_index[q // nY]
+        c = flat_index[pair_of_q * nY + q % nY]
+        keep = q - (pair_of_q - pair_el[pair_of_q]) * (nY * nY)
+        del q, pair_of_q
         bordered = ~dirichlet[pair_patch]                                  # (pairs, rows)
         mean_pos = index[:, rows * nF:][bordered]
         border_pos = np.searchsorted(keys, key(np.broadcast_to(pair_patch[:, None], bordered.shape)[bordered], 2,
@@ -432,9 +453,12 @@ class Equilibration:
             z = self.system.solve(rhs)
         return self.recover(z, data)
 
-    def right_hand_side(self, flux, source, traction):
-        """(the patch system's right-hand side, the data ``recover`` needs) for the arguments of
-        ``__call__``."""
+    def data_matrices(self, flux, source, traction, with_traction=None):
+        """The patch data of every hat function ψ_a (the columns) for the arguments of
+        ``__call__``: the matrices (W ψ_a σ_h, τ), (σ_h ∇ψ_a − ψ_a f, q) and, where normal fluxes
+        are prescribed (or ``with_traction``), (ψ_a t, τ·n) on the boundary, rows stacked. They
+        depend on the mesh, the order and the weight only, so equilibrations that share those
+        share them."""
         TIMERS["right-hand sides"].Start()
         d, rows = self.mesh.dim, self.rows
         psi = self.P1.TrialFunction()
@@ -461,17 +485,24 @@ class Equilibration:
                 balance = balance - psi * source[i]
             form += mesh_dx(balance * q, bonus_intorder=BONUS)
             rhs_div.append(csr(form.Assemble().mat, copy=True))
-            if len(self.fixed_facet):
+            if len(self.fixed_facet) if with_traction is None else with_traction:
                 form = ngs.BilinearForm(trialspace=self.P1, testspace=self.S)
                 form += mesh_ds(psi * traction[i] * (tau.Trace() * n), bonus_intorder=BONUS)
                 rhs_t.append(csr(form.Assemble().mat, copy=True))
         import scipy.sparse as sp                     # (SciPy loads when an estimate is first made)
-        rhs_w, rhs_div = sp.vstack(rhs_w, format="csr"), sp.vstack(rhs_div, format="csr")
-        hat_of_pair = self.hats[self.pair_patch]
+        TIMERS["right-hand sides"].Stop()
+        return (sp.vstack(rhs_w, format="csr"), sp.vstack(rhs_div, format="csr"),
+                sp.vstack(rhs_t, format="csr") if rhs_t else None)
+
+    def right_hand_side(self, flux, source, traction, matrices=None):
+        """(the patch system's right-hand side, the data ``recover`` needs) for the arguments of
+        ``__call__``, or from their ``data_matrices`` (``matrices``)."""
+        rhs_w, rhs_div, rhs_t = matrices or self.data_matrices(flux, source, traction)
+        TIMERS["right-hand sides"].Start()
+        rows, hat_of_pair = self.rows, self.hats[self.pair_patch]
         # the prescribed normal fluxes: Π(ψ_a t) facet by facet (groups of one row, patch, facet)
         x_fixed = np.zeros(0)
         if len(self.fixed_facet):
-            rhs_t = sp.vstack(rhs_t, format="csr")
             x_fixed = _entries(rhs_t, self.fixed_global, hat_of_pair[self.fixed_pairs])
             w = self.w
             x_fixed = np.einsum("gkl,gl->gk", self._facet_inverse[self._facet_group], x_fixed.reshape(-1, w)).ravel()
@@ -490,32 +521,42 @@ class Equilibration:
         # means: the element's data (row i) at the patch's hat
         means = self.pair_index[:, rows * self.nF_loc:]                  # (pairs, rows)
         rhs[means.ravel()] = _entries(rhs_div, self.Y_mean_global[self.pair_el].ravel(), np.repeat(hat_of_pair, rows))
-        # condensation: Y data − G r_X − S_K y_known, y_known the prescribed fluxes (others 0);
-        # the pairs are element-major, so the element matrices apply without copies
-        ne, k = self.mesh.ne, self.pairs_per_element
-        cond = np.einsum("eyx,ekx->eky", self.G, r_X.reshape(ne, k, -1)).reshape(pairs, -1)
+        # condensation: Y data − G r_X − S_K y_known, y_known the prescribed fluxes (others 0)
+        cond = self._per_pair(self.G, r_X)
         y_known = np.zeros((pairs, self.nY))
         if len(x_fixed):
             y_known[self.fixed_pairs, self.fixed_local] = x_fixed
-            at = _unique(self.fixed_pairs)
-            cond[at] += np.einsum("pyz,pz->py", self.S_cond[self.pair_el[at]], y_known[at])
+            np.add.at(cond, self.fixed_pairs, self._S_fixed * x_fixed[:, None])
         valid = self.pair_index >= 0
         np.add.at(rhs, self.pair_index[valid], -cond[valid])
         TIMERS["right-hand sides"].Stop()
         return rhs, (r_X, x_fixed, y_known, X_glob)
 
-    def recover(self, z, data):
-        """σ* from the patch system's solution ``z`` for the right-hand side of ``data``."""
+    def _per_pair(self, element_matrices, vectors):
+        """element_matrices[e] @ vectors[p] for every pair p of element e (element-major pairs
+        without copies of the matrices)."""
+        if self.every_pair:
+            ne, k = self.mesh.ne, self.pairs_per_element
+            return np.einsum("eab,ekb->eka", element_matrices, vectors.reshape(ne, k, -1)).reshape(len(vectors), -1)
+        return np.einsum("pab,pb->pa", element_matrices[self.pair_el], vectors)
+
+    def recover(self, z, data, exclude=None):
+        """σ* from the patch system's solution ``z`` for the right-hand side of ``data``; with
+        ``exclude`` (a boolean array over the vertices), without the patches of those vertices."""
         r_X, x_fixed, y_known, X_glob = data
-        rows, ne, k, pairs = self.rows, self.mesh.ne, self.pairs_per_element, len(self.pair_el)
         valid, sig_x = self.pair_index >= 0, self.X_is_sigma
         TIMERS["recovery"].Start()
         # every pair's Y, then its X by recovery: x = M⁻¹(r_X − K_XY y)
         y = np.where(valid, z[np.where(valid, self.pair_index, 0)], y_known)
-        rest = r_X - np.einsum("exy,eky->ekx", self.K_XY, y.reshape(ne, k, -1)).reshape(pairs, -1)
-        x = np.einsum("exw,ekw->ekx", self.Minv, rest.reshape(ne, k, -1)).reshape(pairs, -1)
-        result = np.zeros(rows * self.nS)
-        np.add.at(result, self.free_global, z[self.free_system])
+        x = self._per_pair(self.Minv, r_X - self._per_pair(self.K_XY, y))
+        facet_values = z[self.free_system]
+        if exclude is not None:
+            dropped = exclude[self.pair_patch]
+            x[dropped] = 0.0
+            facet_values = np.where(exclude[self.patch_of_unknown[self.free_system]], 0.0, facet_values)
+            x_fixed = np.where(dropped[self.fixed_pairs], 0.0, x_fixed) if len(x_fixed) else x_fixed
+        result = np.zeros(self.rows * self.nS)
+        np.add.at(result, self.free_global, facet_values)
         if len(x_fixed):
             np.add.at(result, self.fixed_global, x_fixed)
         np.add.at(result, X_glob[:, sig_x].ravel(), x[:, sig_x].ravel())
@@ -528,44 +569,58 @@ class Equilibration:
 
 
 class Rows:
-    """A flux of ``rows`` rows (a stress) equilibrated row by row (the module docstring with the
-    plain L² distance, W = I): each row's local problems are those of one row, so the rows with
-    the same boundary conditions share one patch system and its factorisation. A patch then has
-    the facet DOFs and means of one row, not of all ``rows`` (docs/speed.md). The rows are not coupled by a weight (the compliance,
-    a penalty on the skew part): σ* is the row-wise nearest equilibrated flux, which the
-    Prager–Synge bound takes as well as any (``estimators.equilibrated``).
+    """Fluxes of ``rows`` rows (the stress's, and the electric displacement as one more row)
+    equilibrated row by row (the module docstring with the plain L² distance, W = I): each row's
+    local problems are those of one row, so the rows share one patch system and its
+    factorisation (``base``). A patch then has the facet DOFs and means of one row, not of all
+    ``rows`` (docs/speed.md). A row whose boundary conditions differ from the first row's
+    differ only on the patches of the vertices on the boundaries where they differ: those
+    patches get a system of their own (``variants``, one per pattern of boundary conditions),
+    the others are read from the shared one. The rows are not coupled by a weight (the
+    compliance, a penalty on the skew part): σ* is the row-wise nearest equilibrated flux,
+    which the Prager–Synge bound takes as well as any (``estimators.equilibrated``).
 
-    ``neumann(name, row)`` as for ``Equilibration``; ``__call__`` and ``gridfunctions`` as there.
+    ``neumann(name, row)`` as for ``Equilibration``; ``gridfunctions`` as there.
     """
 
     def __init__(self, mesh, rows, order, neumann, patches=None):
         self.rows = int(rows)
         patches = patches or Patches(mesh)
         names = sorted(set(patches.boundary_name.values()))
-        shared = {}                                     # boundary pattern -> its equilibration
-        self.of_row = []
-        for i in range(self.rows):
-            pattern = tuple(bool(neumann(name, i)) for name in names)
-            if pattern not in shared:
-                shared[pattern] = Equilibration(mesh, 1, order, np.eye(mesh.dim),
-                                                lambda name, _, i=i: neumann(name, i), patches)
-            self.of_row.append(shared[pattern])
-        self.S = self.of_row[0].S
+        patterns = [tuple(bool(neumann(name, i)) for name in names) for i in range(self.rows)]
+        unit = np.eye(mesh.dim)
+        self.base = Equilibration(mesh, 1, order, unit, lambda name, _: neumann(name, 0), patches)
+        self.variants = {}                              # boundary pattern -> (its vertices, their equilibration)
+        for i, pattern in enumerate(patterns):
+            if pattern != patterns[0] and pattern not in self.variants:
+                vertices = patches.vertices_on({name for name, a, b in zip(names, patterns[0], pattern) if a != b})
+                self.variants[pattern] = None if not vertices.any() else (vertices, Equilibration(
+                    mesh, 1, order, unit, lambda name, _, i=i: neumann(name, i), patches, vertices))
+        self.of_row = [self.variants.get(pattern) for pattern in patterns]   # None: the shared system only
+        self.with_traction = any(len(e.fixed_facet) for e in [self.base] + [v[1] for v in self.of_row if v])
+        self.S = self.base.S
 
-    def __call__(self, flux, source, traction):
-        """σ* (rows × nS coefficients) for the ``rows`` × dim flux, the source and the Neumann
-        data (CFs of ``rows`` components), as ``Equilibration.__call__``."""
-        d = self.S.mesh.dim
-        flux = ngs.CF(flux, dims=(self.rows, d))
-        data = [equilibration.right_hand_side(flux[i, :], None if source is None else source[i], traction[i])
-                for i, equilibration in enumerate(self.of_row)]
-        solutions = {}
-        for equilibration in dict.fromkeys(self.of_row):        # one solve of each system, its rows at once
-            rows = [i for i, e in enumerate(self.of_row) if e is equilibration]
+    def __call__(self, fluxes, sources, tractions):
+        """σ* (rows × nS coefficients) for the rows' fluxes (CFs of dim components), sources (−div
+        σ_i = f_i; None for none) and Neumann data (CFs on the boundary), as
+        ``Equilibration.__call__`` row by row."""
+        # the patch data of a row, assembled once (the variants read the base's matrices)
+        matrices = [self.base.data_matrices(*row, with_traction=self.with_traction) for row in
+                    zip(fluxes, sources, tractions)]
+        data = [self.base.right_hand_side(None, None, None, m) for m in matrices]
+        with TIMERS["block solves"]:                    # the shared system once, the rows as its columns
+            z = self.base.system.solve(np.stack([rhs for rhs, _ in data], axis=1))
+        out = []
+        for i, variant in enumerate(self.of_row):
+            if variant is None:
+                out.append(self.base.recover(z[:, i], data[i][1]))
+                continue
+            vertices, equilibration = variant
+            rhs, own = equilibration.right_hand_side(None, None, None, matrices[i])
             with TIMERS["block solves"]:
-                z = equilibration.system.solve(np.stack([data[i][0] for i in rows], axis=1))
-            solutions.update((i, z[:, j]) for j, i in enumerate(rows))
-        return np.concatenate([e.recover(solutions[i], data[i][1]) for i, e in enumerate(self.of_row)])
+                z_own = equilibration.system.solve(rhs)
+            out.append(self.base.recover(z[:, i], data[i][1], exclude=vertices) + equilibration.recover(z_own, own))
+        return np.concatenate(out)
 
     def gridfunctions(self, values):
         """The rows of σ* as GridFunctions of the RT space."""
