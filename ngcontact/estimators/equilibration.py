@@ -190,9 +190,20 @@ class ElementData:
         F, I = self.facet_order[0], self.interior[0]
         self._order, self._nF = np.concatenate([F, I]), len(F)              # local DOFs: facets, then interior
         self._weighted = {}                                 # weight -> (W σ, τ)_K, facets first
+        self._condensed = (None, None)                      # (rows, weight), the condensed element matrices
         div = _element_blocks(div.Assemble(), mesh, self.Sd, self.Q)      # (ne, nQ_loc, nS_loc)
         self.div_F, self.div_I = div[:, :, F], div[:, :, I]
         self.mean_mass = ngs.Integrate(ngs.CF(1.0), mesh, ngs.VOL, element_wise=True).NumPy()
+
+    def condensed(self, key, make):
+        """The element matrices an equilibration condenses for ``key`` (its rows and weight),
+        made by ``make`` unless the last request had the same key: equilibrations of one mesh
+        with the same rows and weight (the patch systems of one flux with different boundary
+        conditions) share them. One is kept (a weight that follows the time step would
+        otherwise keep one per step)."""
+        if self._condensed[0] != key:
+            self._condensed = (key, make())
+        return self._condensed[1]
 
     def mass(self, l, k):
         """(FF, FI, II) of M_kl = (σ_k, τ_l)_K, test component l, trial k: ``weighted_mass`` of
@@ -275,16 +286,21 @@ class Equilibration:
                              f"{weight.shape}")
         self.weight = weight
         with TIMERS["condensation"]:
-            K_YY, K_YX, K_XX = self._blocks(weight.reshape(rows, d, rows, d))    # [j, l, i, k]
-            self.K_XY = np.ascontiguousarray(np.transpose(K_YX, (0, 2, 1)))     # K is symmetric
-            # per element: M⁻¹ = K_XX⁻¹, the condensed S_K = K_YY − K_YX M⁻¹ K_XY, and G_K = K_YX M⁻¹
-            self.Minv = np.linalg.inv(K_XX)
-            self.G = K_YX @ self.Minv
-            self.S_cond = K_YY - self.G @ self.K_XY
+            self.K_XY, self.Minv, self.G, self.S_cond = self.data.condensed(
+                (rows, weight.tobytes()), lambda: self._condense(weight.reshape(rows, d, rows, d)))
             # the columns of S_K that multiply the prescribed fluxes, one per prescribed value
             self._S_fixed = self.S_cond[self.pair_el[self.fixed_pairs], :, self.fixed_local]
             keep, border_values = self._pattern
             self.system.fill(np.concatenate([self.S_cond.reshape(-1)[keep], border_values]))
+
+    def _condense(self, weight):
+        """(K_XY, M⁻¹, G, S) of every element for the weight [j, l, i, k]: M⁻¹ = K_XX⁻¹, the
+        condensed S_K = K_YY − K_YX M⁻¹ K_XY and G_K = K_YX M⁻¹."""
+        K_YY, K_YX, K_XX = self._blocks(weight)
+        K_XY = np.ascontiguousarray(np.transpose(K_YX, (0, 2, 1)))     # K is symmetric
+        Minv = np.linalg.inv(K_XX)
+        G = K_YX @ Minv
+        return K_XY, Minv, G, K_YY - G @ K_XY
 
     def _blocks(self, weight):
         """K_YY, K_YX, K_XX of every element by slices of the split element blocks
