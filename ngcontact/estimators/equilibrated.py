@@ -66,6 +66,7 @@ from ngcontact.model.kinematics import mesh_ds
 from ngcontact import checks, parallel
 from ngcontact.model.loads import as_cf
 from ngcontact.model.voigt import matrix_cf
+from ngcontact.solve.linalg.linear_solver import reproducible
 from ngcontact.time.step import Step
 from .equilibration import BONUS, TIMERS, Equilibration, Patches, Rows
 
@@ -447,13 +448,13 @@ def pointwise_data(steps):
     zero_v, zero_s = ngs.GridFunction(V1), ngs.GridFunction(W1)
     state = (steps.u, steps.phi)
     traction = []
-    for i in range(dim):
+    for i in range(dim):                   # (P1 holds constants in its vertex values: no Set's projection)
         e_i = ngs.GridFunction(V1)
-        e_i.Set(ngs.CF(tuple(1.0 if k == i else 0.0 for k in range(dim))))
+        e_i.components[i].vec[:] = 1.0
         traction.append(-integrands.contact_terms(steps.contact, g.enforcement, g.beta.gf, g.gap, g.foundation_potential,
                                              state, (e_i, zero_s), g.normal))
     one = ngs.GridFunction(W1)
-    one.Set(1.0)
+    one.vec[:] = 1.0
     flux = -integrands.contact_terms(steps.contact, g.enforcement, g.beta.gf, g.gap, g.foundation_potential, state,
                                 (zero_v, one), g.normal)
     return ngs.CF(tuple(traction)), flux
@@ -477,7 +478,8 @@ class Representative:
         self.w = self.P1.TestFunction()
         mass = ngs.BilinearForm(self.P1)
         mass += mesh_ds(self.P1.TrialFunction() * self.w, self.region)
-        self.inverse = mass.Assemble().mat.Inverse(self.P1.FreeDofs(), inverse="sparsecholesky")
+        with reproducible():                      # (one thread: the same sums in every run)
+            self.inverse = mass.Assemble().mat.Inverse(self.P1.FreeDofs(), inverse="sparsecholesky")
         X = steps.X
         V, W = X.components
         local, targets = [], [[] for _ in range(dim + 1)]
@@ -529,7 +531,8 @@ class Representative:
             values = rhs.vec.FV().NumPy()
             values[self.local] = -residual[self.targets[i]] - given[self.local]
             gf = ngs.GridFunction(self.P1)
-            gf.vec.data = self.inverse * rhs.vec
+            with reproducible():
+                gf.vec.data = self.inverse * rhs.vec
             corrections.append(gf)
         c_t, c_j = ngs.CF(tuple(corrections[:dim])), corrections[dim]
         return T_h + c_t, j_h + c_j, (c_t, c_j)

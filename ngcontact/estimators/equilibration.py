@@ -133,14 +133,36 @@ class Patches:
         self.mesh = mesh
         self.facet_kind = meshes.facet_kind(mesh)
         self.boundary_name = {}                       # facet number -> boundary name
+        boundary_vertices = []
         for el in mesh.Elements(ngs.BND):
             self.boundary_name[meshes.facets_of(mesh, el)[0].nr] = el.mat
+            boundary_vertices.append([v.nr for v in el.vertices])
         elements = list(mesh.Elements(ngs.VOL))
         self.element_vertices = np.array([[v.nr for v in el.vertices] for el in elements], dtype=np.int64)
         self.element_facets = np.array([[f.nr for f in meshes.facets_of(mesh, el)] for el in elements], dtype=np.int64)
-        facets = meshes.facets(mesh)
-        self.facet_vertices = np.array([[v.nr for v in f.vertices] for f in facets], dtype=np.int64)
+        self.facet_vertices = self._facet_vertices(elements[0], np.array(boundary_vertices, dtype=np.int64))
         self._elements = {}
+
+    def _facet_vertices(self, first, boundary_vertices):
+        """The vertices of every facet (-1 for the facets of a refined mesh's coarser levels),
+        read from the element tables: an element lists the vertices of its k-th facet at the same
+        local positions whatever the element (read off the first one); checked on every facet
+        (the elements sharing it, and the boundary elements, must agree), else asked facet by
+        facet."""
+        mesh, vertices, facets = self.mesh, self.element_vertices, self.element_facets
+        local = [v.nr for v in first.vertices]
+        positions = [[local.index(v.nr) for v in mesh[f].vertices] for f in meshes.facets_of(mesh, first)]
+        table = np.full((mesh.nfacet, len(positions[0])), -1, dtype=np.int64)
+        for k, at in enumerate(positions):
+            table[facets[:, k]] = vertices[:, at]
+        ordered = np.sort(table, axis=1)
+        agree = all(np.array_equal(ordered[facets[:, k]], np.sort(vertices[:, at], axis=1))
+                    for k, at in enumerate(positions))
+        if agree and len(boundary_vertices):
+            agree = np.array_equal(ordered[list(self.boundary_name)], np.sort(boundary_vertices, axis=1))
+        if agree:
+            return table
+        return np.array([[v.nr for v in f.vertices] for f in meshes.facets(mesh)], dtype=np.int64)
 
     def vertices_on(self, names):
         """The vertices on the boundaries ``names`` (a boolean array over the vertices)."""
