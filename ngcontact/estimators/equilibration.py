@@ -213,9 +213,20 @@ class ElementData:
         self._order, self._nF = np.concatenate([F, I]), len(F)              # local DOFs: facets, then interior
         self._weighted = {}                                 # weight -> (W σ, τ)_K, facets first
         self._condensed = (None, None)                      # (rows, weight), the condensed element matrices
+        self._normal_trace_mass = None
         div = _element_blocks(div.Assemble(), mesh, self.Sd, self.Q)      # (ne, nQ_loc, nS_loc)
         self.div_F, self.div_I = div[:, :, F], div[:, :, I]
         self.mean_mass = ngs.Integrate(ngs.CF(1.0), mesh, ngs.VOL, element_wise=True).NumPy()
+
+    def normal_trace_mass(self):
+        """The matrix of ∫_∂Ω (σ·n)(τ·n) on RT_p (CSR; assembled at the first request)."""
+        if self._normal_trace_mass is None:
+            n = ngs.specialcf.normal(self.mesh.dim)
+            sigma, tau = self.S.TnT()
+            boundary = ngs.BilinearForm(self.S)
+            boundary += mesh_ds((sigma.Trace() * n) * (tau.Trace() * n))
+            self._normal_trace_mass = csr(boundary.Assemble().mat, copy=True)
+        return self._normal_trace_mass
 
     def condensed(self, key, make):
         """The element matrices an equilibration condenses for ``key`` (its rows and weight),
@@ -387,9 +398,11 @@ class Equilibration:
         facet_count = len(P.facet_vertices)
         on_boundary = np.zeros(facet_count, dtype=bool)
         neumann = np.zeros((facet_count, rows), dtype=bool)
-        for f, name in P.boundary_name.items():
-            on_boundary[f] = True
-            neumann[f] = [bool(self.neumann(name, i)) for i in range(rows)]
+        of_name = {name: [bool(self.neumann(name, i)) for i in range(rows)] for name in set(P.boundary_name.values())}
+        boundary_facets = np.fromiter(P.boundary_name, dtype=np.int64, count=len(P.boundary_name))
+        on_boundary[boundary_facets] = True
+        if len(boundary_facets):
+            neumann[boundary_facets] = [of_name[name] for name in P.boundary_name.values()]
         pair_el = np.repeat(np.arange(ne), nv_el)
         pair_patch = P.element_vertices.ravel()
         self.every_pair = self.vertices is None                           # pairs are then element-major
@@ -432,7 +445,6 @@ class Equilibration:
         self.patch_of_unknown = np.zeros(self.size, dtype=np.int64)
         self.patch_of_unknown[index[valid]] = np.repeat(pair_patch, valid.sum(1))
         # where the condensed element matrices of every pair go in the system, and the borders
-        # (as flat positions q in pairs × nY × nY: pair q // nY², local row and column (q // nY) % nY, q % nY)
         # (one flatnonzero of the (pair, local row, local column) mask q = (pair nY + row) nY + column;
         # in the elements' condensed matrices, ne × nY × nY, the same entry is at q − (pair − its element) nY²)
         q = np.flatnonzero((valid[:, :, None] & valid[:, None, :]).ravel())
@@ -459,11 +471,7 @@ class Equilibration:
         self.fixed_facet = facets[p_idx, f_idx]
         self._facet_inverse = None
         if len(self.fixed_facet):
-            n = ngs.specialcf.normal(mesh.dim)
-            sigma, tau = self.S.TnT()
-            boundary = ngs.BilinearForm(self.S)
-            boundary += mesh_ds((sigma.Trace() * n) * (tau.Trace() * n))
-            Mb = csr(boundary.Assemble().mat, copy=True)
+            Mb = data.normal_trace_mass()
             # the normal-trace mass matrix of every prescribed facet (w × w), inverted once; the
             # prescribed values come in groups of w (one pair, row and facet)
             groups = self.fixed_facet[::w]
