@@ -50,9 +50,10 @@ def _check(what, lengths, sizes, refine, graded=0.0):
     if min(lengths.values()) < NETGEN_RESOLUTION * longest:
         raise ValueError(f"{what}: the sides {described} differ by more than {1 / NETGEN_RESOLUTION:g} times "
                          "(Netgen cannot divide the long edges finely enough for the short ones)")
+    side = max(lengths, key=lengths.get)
     for name, value in sizes.items():
         checks.number(name, value, NETGEN_RESOLUTION * longest, longest, unit=f"m ({NETGEN_RESOLUTION:g} of the "
-                      "longest side to the longest side: Netgen's resolution)")
+                      f"longest side, {side} = {longest:g} m, to the longest side: Netgen's resolution)")
     refine = checks.integer("refine", refine, 0, checks.MAX_REFINE)
     maxh, fine = list(sizes.values())[0], list(sizes.values())[-1]
     vertices = checks.estimated_vertices(list(lengths.values()), maxh) + \

@@ -196,6 +196,15 @@ def test_invalid_values_are_named(what, parameter, valid, build, value):
     assert re.search(rf"(?<!\w){re.escape(parameter)}(?!\w)", str(err.value)), str(err.value)
 
 
+@pytest.mark.parametrize("build, side", [(lambda: block(L2=51.0), "L2"), (lambda: plate(L1=60.0), "L1")])
+def test_a_long_side_that_makes_the_default_maxh_too_fine_is_named(build, side):
+    """A side long enough that the default maxh (half the shortest side) falls below Netgen's
+    resolution of the longest: the error names that side with the maxh bound (a case the
+    property test above once drew at random)."""
+    with pytest.raises(ValueError, match=rf"maxh \(by default .*longest side, {side} = .* m,"):
+        build()
+
+
 @pytest.mark.parametrize("arguments, words", [
     (["demo", "--steps", "0"], "steps must be an integer >= 1"),
     (["demo", "--maxh", "-1"], "maxh"),
