@@ -17,17 +17,24 @@ import numpy as np
 
 DENSE = 120
 """The largest block solved dense (unknowns)."""
-_background = []                                   # the one worker thread of the factorisations
+_background = []                                   # the one worker thread of the estimators
+
+
+def in_background(call):
+    """A future of ``call()`` made by the one worker thread of the estimators (tasks run one
+    after the other, in the order given). ``call`` works with NumPy and SciPy; of NGSolve it may
+    only read sizes (no assembly, no Set: the caller's thread may be assembling)."""
+    if not _background:
+        _background.append(ThreadPoolExecutor(max_workers=1, thread_name_prefix="ngcontact-estimate"))
+    return _background[0].submit(call)
 
 
 def _factorise_in_background(values, rows, cols, size):
     """A future of SuperLU's factorisation of the (size × size) matrix of the COO entries
-    (values, rows, cols), assembled and factorised by one worker thread."""
+    (values, rows, cols), assembled and factorised by the worker thread."""
     import scipy.sparse as sp                     # (SciPy loads when a large block is first solved)
     import scipy.sparse.linalg as sla_sparse
-    if not _background:
-        _background.append(ThreadPoolExecutor(max_workers=1, thread_name_prefix="ngcontact-superlu"))
-    return _background[0].submit(lambda: sla_sparse.splu(sp.csc_matrix((values, (rows, cols)), shape=(size, size))))
+    return in_background(lambda: sla_sparse.splu(sp.csc_matrix((values, (rows, cols)), shape=(size, size))))
 
 
 class BlockDiagonal:

@@ -42,7 +42,7 @@ from ngcontact import meshes
 from ngcontact.model.kinematics import mesh_ds, mesh_dx
 from ngcontact.model.voigt import matrix_cf
 from ngcontact.solve.linalg.matrices import csr
-from .block_diagonal import BlockDiagonal
+from .block_diagonal import BlockDiagonal, in_background
 
 BONUS = 4
 """Extra quadrature order for the data (a source or traction that is not a polynomial)."""
@@ -217,6 +217,47 @@ class ElementData:
         div = _element_blocks(div.Assemble(), mesh, self.Sd, self.Q)      # (ne, nQ_loc, nS_loc)
         self.div_F, self.div_I = div[:, :, F], div[:, :, I]
         self.mean_mass = ngs.Integrate(ngs.CF(1.0), mesh, ngs.VOL, element_wise=True).NumPy()
+
+    def patch_data(self, flux, source, traction, rows, weight, with_traction):
+        """The patch data of every hat function ψ_a (the columns) for a flux of ``rows`` rows
+        (−div σ = f, σn = t; ``Equilibration.__call__``): the matrices (W ψ_a σ_h, τ),
+        (σ_h ∇ψ_a − ψ_a f, q) and, with ``with_traction``, (ψ_a t, τ·n) on the boundary, rows
+        stacked. They depend on the mesh, the order and the weight only, so equilibrations that
+        share those share them."""
+        TIMERS["right-hand sides"].Start()
+        d = self.mesh.dim
+        psi = self.P1.TrialFunction()
+        tau = self.S.TestFunction()
+        q = self.Q.TestFunction()
+        flux = ngs.CF(flux, dims=(rows, d)) if rows > 1 else ngs.CF(flux, dims=(1, d))
+        if source is not None:
+            source = ngs.CF(source) if rows > 1 else ngs.CF((source,))
+        traction = ngs.CF(traction) if rows > 1 else ngs.CF((traction,))
+        rhs_w, rhs_div, rhs_t = [], [], []               # each: (DOFs of the row) × (hat functions)
+        n = ngs.specialcf.normal(d)
+        # W σ_h row by row as a plain CF, so that the forms below are linear in their proxies
+        W = weight
+        weighted = [ngs.CF(tuple(sum(W[j * d + l, m] * flux[m // d, m % d] for m in range(rows * d) if W[j * d + l, m])
+                                 for l in range(d))).Compile() for j in range(rows)]
+        compiled = ngs.CF(flux.Compile(), dims=(rows, d))    # (evaluated at every point of the forms)
+        for i in range(rows):
+            form = ngs.BilinearForm(trialspace=self.P1, testspace=self.S)
+            form += mesh_dx(psi * ngs.InnerProduct(weighted[i], tau))
+            rhs_w.append(csr(form.Assemble().mat, copy=True))
+            form = ngs.BilinearForm(trialspace=self.P1, testspace=self.Q)
+            balance = ngs.InnerProduct(compiled[i, :], ngs.grad(psi))
+            if source is not None:
+                balance = balance - psi * source[i]
+            form += mesh_dx(balance * q, bonus_intorder=BONUS)
+            rhs_div.append(csr(form.Assemble().mat, copy=True))
+            if with_traction:
+                form = ngs.BilinearForm(trialspace=self.P1, testspace=self.S)
+                form += mesh_ds(psi * traction[i] * (tau.Trace() * n), bonus_intorder=BONUS)
+                rhs_t.append(csr(form.Assemble().mat, copy=True))
+        import scipy.sparse as sp                     # (SciPy loads when an estimate is first made)
+        TIMERS["right-hand sides"].Stop()
+        return (sp.vstack(rhs_w, format="csr"), sp.vstack(rhs_div, format="csr"),
+                sp.vstack(rhs_t, format="csr") if rhs_t else None)
 
     def normal_trace_mass(self):
         """The matrix of ∫_∂Ω (σ·n)(τ·n) on RT_p (CSR; assembled at the first request)."""
@@ -500,45 +541,11 @@ class Equilibration:
         return self.recover(z, data)
 
     def data_matrices(self, flux, source, traction, with_traction=None):
-        """The patch data of every hat function ψ_a (the columns) for the arguments of
-        ``__call__``: the matrices (W ψ_a σ_h, τ), (σ_h ∇ψ_a − ψ_a f, q) and, where normal fluxes
-        are prescribed (or ``with_traction``), (ψ_a t, τ·n) on the boundary, rows stacked. They
-        depend on the mesh, the order and the weight only, so equilibrations that share those
-        share them."""
-        TIMERS["right-hand sides"].Start()
-        d, rows = self.mesh.dim, self.rows
-        psi = self.P1.TrialFunction()
-        tau = self.S.TestFunction()
-        q = self.Q.TestFunction()
-        flux = ngs.CF(flux, dims=(rows, d)) if rows > 1 else ngs.CF(flux, dims=(1, d))
-        if source is not None:
-            source = ngs.CF(source) if rows > 1 else ngs.CF((source,))
-        traction = ngs.CF(traction) if rows > 1 else ngs.CF((traction,))
-        rhs_w, rhs_div, rhs_t = [], [], []               # each: (DOFs of the row) × (hat functions)
-        n = ngs.specialcf.normal(d)
-        # W σ_h row by row as a plain CF, so that the forms below are linear in their proxies
-        W = self.weight
-        weighted = [ngs.CF(tuple(sum(W[j * d + l, m] * flux[m // d, m % d] for m in range(rows * d) if W[j * d + l, m])
-                                 for l in range(d))).Compile() for j in range(rows)]
-        compiled = ngs.CF(flux.Compile(), dims=(rows, d))    # (evaluated at every point of the forms)
-        for i in range(rows):
-            form = ngs.BilinearForm(trialspace=self.P1, testspace=self.S)
-            form += mesh_dx(psi * ngs.InnerProduct(weighted[i], tau))
-            rhs_w.append(csr(form.Assemble().mat, copy=True))
-            form = ngs.BilinearForm(trialspace=self.P1, testspace=self.Q)
-            balance = ngs.InnerProduct(compiled[i, :], ngs.grad(psi))
-            if source is not None:
-                balance = balance - psi * source[i]
-            form += mesh_dx(balance * q, bonus_intorder=BONUS)
-            rhs_div.append(csr(form.Assemble().mat, copy=True))
-            if len(self.fixed_facet) if with_traction is None else with_traction:
-                form = ngs.BilinearForm(trialspace=self.P1, testspace=self.S)
-                form += mesh_ds(psi * traction[i] * (tau.Trace() * n), bonus_intorder=BONUS)
-                rhs_t.append(csr(form.Assemble().mat, copy=True))
-        import scipy.sparse as sp                     # (SciPy loads when an estimate is first made)
-        TIMERS["right-hand sides"].Stop()
-        return (sp.vstack(rhs_w, format="csr"), sp.vstack(rhs_div, format="csr"),
-                sp.vstack(rhs_t, format="csr") if rhs_t else None)
+        """The patch data of every hat function ψ_a for the arguments of ``__call__``
+        (``ElementData.patch_data`` with this equilibration's rows and weight; the boundary's
+        where normal fluxes are prescribed, or ``with_traction``)."""
+        return self.data.patch_data(flux, source, traction, self.rows, self.weight,
+                                    len(self.fixed_facet) > 0 if with_traction is None else with_traction)
 
     def right_hand_side(self, flux, source, traction, matrices=None):
         """(the patch system's right-hand side, the data ``recover`` needs) for the arguments of
@@ -622,7 +629,9 @@ class Rows:
     ``rows`` (docs/speed.md). A row whose boundary conditions differ from the first row's
     differ only on the patches of the vertices on the boundaries where they differ: those
     patches get a system of their own (``variants``, one per pattern of boundary conditions),
-    the others are read from the shared one. The rows are not coupled by a weight (the
+    the others are read from the shared one. The shared system is numbered, condensed and
+    factorised by a background thread (``block_diagonal.in_background``) while ``__call__``
+    assembles the patch data. The rows are not coupled by a weight (the
     compliance, a penalty on the skew part): σ* is the row-wise nearest equilibrated flux,
     which the Prager–Synge bound takes as well as any (``estimators.equilibrated``).
 
@@ -633,39 +642,69 @@ class Rows:
         self.rows = int(rows)
         patches = patches or Patches(mesh)
         names = sorted(set(patches.boundary_name.values()))
-        patterns = [tuple(bool(neumann(name, i)) for name in names) for i in range(self.rows)]
+        self.patterns = [tuple(bool(neumann(name, i)) for name in names) for i in range(self.rows)]
         unit = np.eye(mesh.dim)
-        self.base = Equilibration(mesh, 1, order, unit, lambda name, _: neumann(name, 0), patches)
-        self.variants = {}                              # boundary pattern -> (its vertices, their equilibration)
-        for i, pattern in enumerate(patterns):
-            if pattern != patterns[0] and pattern not in self.variants:
-                vertices = patches.vertices_on({name for name, a, b in zip(names, patterns[0], pattern) if a != b})
-                self.variants[pattern] = None if not vertices.any() else (vertices, Equilibration(
-                    mesh, 1, order, unit, lambda name, _, i=i: neumann(name, i), patches, vertices))
-        self.of_row = [self.variants.get(pattern) for pattern in patterns]   # None: the shared system only
-        self.with_traction = any(len(e.fixed_facet) for e in [self.base] + [v[1] for v in self.of_row if v])
-        self.S = self.base.S
+        # what NGSolve makes, here; the patch systems (NumPy, SciPy) in the background, while
+        # the caller assembles the patch data (``__call__``)
+        self.data = patches.elements(order)
+        self.data.weighted_mass(unit)
+        self.with_traction = any(any(pattern) for pattern in self.patterns)   # some flux prescribed
+        if self.with_traction:
+            self.data.normal_trace_mass()
+        self._differing = {}                            # pattern -> the vertices where it differs
+        for pattern in self.patterns:
+            if pattern != self.patterns[0] and pattern not in self._differing:
+                vertices = patches.vertices_on({name for name, a, b in zip(names, self.patterns[0], pattern) if a != b})
+                if vertices.any():
+                    self._differing[pattern] = vertices
+        self._make = lambda i, vertices=None: Equilibration(mesh, 1, order, unit, lambda name, _: neumann(name, i),
+                                                            patches, vertices)
+        self._base, self._variants = in_background(lambda: self._make(0)), None
+        self.S = self.data.S
+
+    @property
+    def base(self):
+        """The shared patch system's ``Equilibration`` (set up in the background)."""
+        return self._base.result()
+
+    @property
+    def variants(self):
+        """Boundary pattern -> (its vertices, the ``Equilibration`` of their patches), set up
+        at the first request, in this thread (the background one factorises the shared system
+        meanwhile)."""
+        if self._variants is None:
+            self._base.result()                         # (its condensed element matrices serve these too)
+            self._variants = {pattern: (vertices, self._make(self.patterns.index(pattern), vertices))
+                              for pattern, vertices in self._differing.items()}
+        return self._variants
+
+    @property
+    def of_row(self):
+        """Per row: None (the shared system only) or (vertices, their own ``Equilibration``)."""
+        return [self.variants.get(pattern) for pattern in self.patterns]
 
     def __call__(self, fluxes, sources, tractions):
         """σ* (rows × nS coefficients) for the rows' fluxes (CFs of dim components), sources (−div
         σ_i = f_i; None for none) and Neumann data (CFs on the boundary), as
         ``Equilibration.__call__`` row by row."""
         # the patch data of a row, assembled once (the variants read the base's matrices)
-        matrices = [self.base.data_matrices(*row, with_traction=self.with_traction) for row in
+        matrices = [self.data.patch_data(*row, 1, np.eye(self.S.mesh.dim), self.with_traction) for row in
                     zip(fluxes, sources, tractions)]
-        data = [self.base.right_hand_side(None, None, None, m) for m in matrices]
+        base, of_row = self.base, self.of_row           # (the variants set up while the base factorises)
+        data = [base.right_hand_side(None, None, None, m) for m in matrices]
+        own = [None if variant is None else variant[1].right_hand_side(None, None, None, m)
+               for variant, m in zip(of_row, matrices)]
         with TIMERS["block solves"]:                    # the shared system once, the rows as its columns
-            z = self.base.system.solve(np.stack([rhs for rhs, _ in data], axis=1))
+            z = base.system.solve(np.stack([rhs for rhs, _ in data], axis=1))
         out = []
-        for i, variant in enumerate(self.of_row):
+        for i, variant in enumerate(of_row):
             if variant is None:
-                out.append(self.base.recover(z[:, i], data[i][1]))
+                out.append(base.recover(z[:, i], data[i][1]))
                 continue
             vertices, equilibration = variant
-            rhs, own = equilibration.right_hand_side(None, None, None, matrices[i])
             with TIMERS["block solves"]:
-                z_own = equilibration.system.solve(rhs)
-            out.append(self.base.recover(z[:, i], data[i][1], exclude=vertices) + equilibration.recover(z_own, own))
+                z_own = equilibration.system.solve(own[i][0])
+            out.append(base.recover(z[:, i], data[i][1], exclude=vertices) + equilibration.recover(z_own, own[i][1]))
         return np.concatenate(out)
 
     def gridfunctions(self, values):
