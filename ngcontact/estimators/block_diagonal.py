@@ -23,7 +23,8 @@ _background = []                                   # the one worker thread of th
 def in_background(call):
     """A future of ``call()`` made by the one worker thread of the estimators (tasks run one
     after the other, in the order given). ``call`` works with NumPy and SciPy; of NGSolve it may
-    only read sizes (no assembly, no Set: the caller's thread may be assembling)."""
+    only read sizes (no assembly, no Set: the caller's thread may be assembling). It may queue
+    further tasks but not wait for them (they run after it)."""
     if not _background:
         _background.append(ThreadPoolExecutor(max_workers=1, thread_name_prefix="ngcontact-estimate"))
     return _background[0].submit(call)
