@@ -103,13 +103,13 @@ def _element_dofs(space):
     return np.array([el.dofs for el in space.Elements(ngs.VOL)], dtype=np.int64)
 
 
-def _facet_dofs(S, mesh, patches):
+def _facet_dofs(S, mesh, patches, el_dofs):
     """The DOFs of every facet of the RT space ``S`` (facets × w; -1 for the facets of a
-    refined mesh's coarser levels, which have none), read from the element DOF table: an
+    refined mesh's coarser levels, which have none), read from its element DOF table
+    ``el_dofs`` (``_element_dofs``): an
     element lists its facets' DOFs at the same local positions whatever the element (read off
     element 0); checked on every element (two elements sharing a facet must agree), else asked
     facet by facet."""
-    el_dofs = _element_dofs(S)
     first = list(el_dofs[0])
     local = [[first.index(d) for d in S.GetDofNrs(f)] for f in meshes.facets_of(mesh, mesh[ngs.ElementId(ngs.VOL, 0)])]
     table = np.full((len(patches.facet_vertices), len(local[0])), -1, dtype=np.int64)
@@ -196,7 +196,7 @@ class ElementData:
         div += mesh_dx(ngs.div(sigma) * self.Q.TestFunction())
         self.el_sdofs = _element_dofs(self.S)
         self.el_qdofs = _element_dofs(self.Q)
-        self.facet_dofs = _facet_dofs(self.S, mesh, patches)             # (facets, w), -1: no DOFs
+        self.facet_dofs = _facet_dofs(self.S, mesh, patches, self.el_sdofs)   # (facets, w), -1: no DOFs
         self.hats = np.zeros(mesh.nv, dtype=np.int64)                    # the P1 DOF of every vertex
         self.hats[patches.element_vertices.ravel()] = _element_dofs(self.P1).ravel()
         ne = mesh.ne
