@@ -70,3 +70,33 @@ def test_the_estimate_equals_the_term_by_term_one(dim, monkeypatch):
     assert np.abs(new.indicators - old.indicators).max() <= 1e-10 * old.indicators.max()
     for name, value in old.parts.items():
         assert new.parts[name] == pytest.approx(value, rel=1e-10, abs=1e-14 * old.total)
+
+
+def test_the_condensed_matrices_of_a_key_are_made_once_whatever_the_threads():
+    """``ElementData.condensed``: two threads asking for one key at once get one result, made
+    once (the background set-up of ``Rows`` reads what the caller's thread condenses); a new
+    key is made anew, and an error reaches every thread that asked."""
+    import threading
+    import time
+    from concurrent.futures import ThreadPoolExecutor
+    data = equilibration.Patches(ngs.Mesh(unit_square.GenerateMesh(maxh=0.5))).elements(1)
+    made, started = [], threading.Event()
+
+    def make():
+        made.append(1)
+        started.set()
+        time.sleep(0.05)
+        return "matrices"
+    with ThreadPoolExecutor(1) as other:
+        first = other.submit(data.condensed, ("key",), make)
+        started.wait()                              # the other thread is making them
+        assert data.condensed(("key",), make) == "matrices" and first.result() == "matrices"
+    assert len(made) == 1
+    assert data.condensed(("another",), lambda: "new") == "new"
+
+    def fail():
+        raise ArithmeticError("singular")
+    with pytest.raises(ArithmeticError):
+        data.condensed(("bad",), fail)
+    with pytest.raises(ArithmeticError):
+        data.condensed(("bad",), lambda: "not made again")

@@ -35,6 +35,9 @@ is a column of an assembled matrix. No Python loop runs over patches or elements
 rows sharing one patch system; a row with other boundary conditions has patch problems of its
 own only at the vertices on the boundaries where they differ.
 """
+import threading
+from concurrent.futures import Future
+
 import ngsolve as ngs
 import numpy as np
 
@@ -212,7 +215,8 @@ class ElementData:
         F, I = self.facet_order[0], self.interior[0]
         self._order, self._nF = np.concatenate([F, I]), len(F)              # local DOFs: facets, then interior
         self._weighted = {}                                 # weight -> (W σ, τ)_K, facets first
-        self._condensed = (None, None)                      # (rows, weight), the condensed element matrices
+        self._condensed = (None, None)                      # (rows, weight), a future of the condensed matrices
+        self._lock = threading.Lock()
         self._normal_trace_mass = None
         div = _element_blocks(div.Assemble(), mesh, self.Sd, self.Q)      # (ne, nQ_loc, nS_loc)
         self.div_F, self.div_I = div[:, :, F], div[:, :, I]
@@ -274,10 +278,20 @@ class ElementData:
         made by ``make`` unless the last request had the same key: equilibrations of one mesh
         with the same rows and weight (the patch systems of one flux with different boundary
         conditions) share them. One is kept (a weight that follows the time step would
-        otherwise keep one per step)."""
-        if self._condensed[0] != key:
-            self._condensed = (key, make())
-        return self._condensed[1]
+        otherwise keep one per step). A request from another thread while they are being made
+        waits for them."""
+        with self._lock:
+            made_here = self._condensed[0] != key
+            if made_here:
+                self._condensed = (key, Future())
+            future = self._condensed[1]
+        if made_here:
+            try:
+                future.set_result(make())
+            except BaseException as error:
+                future.set_exception(error)
+                raise
+        return future.result()
 
     def mass(self, l, k):
         """(FF, FI, II) of M_kl = (σ_k, τ_l)_K, test component l, trial k: ``weighted_mass`` of
@@ -320,7 +334,7 @@ class Equilibration:
         set up (σ* is then the sum over these patches only).
     """
 
-    def __init__(self, mesh, rows, order, weight, neumann, patches=None, vertices=None):
+    def __init__(self, mesh, rows, order, weight, neumann, patches=None, vertices=None, later=False):
         self.mesh, self.rows, self.order = mesh, int(rows), int(order)
         self.vertices = None if vertices is None else np.asarray(vertices, dtype=bool)
         with TIMERS["element data"]:
@@ -329,10 +343,24 @@ class Equilibration:
         self.S, self.Q, self.P1 = self.data.S, self.data.Q, self.data.P1
         self.nS, self.nQ = self.S.ndof, self.Q.ndof
         self.neumann = neumann
+        self._structure()
+        self.weight = self._checked(weight)
+        if not later:                           # (later: the caller calls set_up, possibly elsewhere)
+            self.set_up()
+
+    def set_up(self):
+        """Number the patch problems and fill their system (the constructor does it unless
+        ``later``; NumPy only, so a background thread may do it)."""
         with TIMERS["patch structure"]:
-            self._structure()
             self._patch_structure()
-        self.set_weight(weight)
+        self.set_weight(self.weight)
+
+    def condense(self):
+        """The condensed element matrices of the weight, made now (``ElementData.condensed``:
+        another thread's ``set_up`` then reads them)."""
+        rows, d = self.rows, self.mesh.dim
+        return self.data.condensed((rows, self.weight.tobytes()),
+                                   lambda: self._condense(self.weight.reshape(rows, d, rows, d)))
 
     # ------------------------------------------------------------------ element level
     def _structure(self):
@@ -347,9 +375,8 @@ class Equilibration:
         self.nF_loc, self.nI_loc, self.nQ_loc, self.nS_loc = nF, nI, nQ_loc, nS_loc
         self.nY, self.nX = rows * (nF + 1), rows * (nI + nQ_loc - 1)
 
-    def set_weight(self, weight):
-        """Use the weight ``weight`` (the class docstring): recombine the kept element matrices,
-        condense them and fill the patch system (its factorisation is made at the next call)."""
+    def _checked(self, weight):
+        """``weight`` as a (rows·dim × rows·dim) float array, else a TypeError or ValueError."""
         rows, d = self.rows, self.mesh.dim
         if callable(weight) or np.asarray(weight).dtype.kind not in "iuf":
             raise TypeError(f"Equilibration: weight must be a ({rows * d}, {rows * d}) array of numbers, got "
@@ -358,10 +385,14 @@ class Equilibration:
         if weight.shape != (rows * d, rows * d):
             raise ValueError(f"Equilibration: weight must be a ({rows * d}, {rows * d}) array (rows · dim), got shape "
                              f"{weight.shape}")
-        self.weight = weight
+        return weight
+
+    def set_weight(self, weight):
+        """Use the weight ``weight`` (the class docstring): recombine the kept element matrices,
+        condense them and fill the patch system (its factorisation is made at the next call)."""
+        self.weight = self._checked(weight)
         with TIMERS["condensation"]:
-            self.K_XY, self.Minv, self.G, self.S_cond = self.data.condensed(
-                (rows, weight.tobytes()), lambda: self._condense(weight.reshape(rows, d, rows, d)))
+            self.K_XY, self.Minv, self.G, self.S_cond = self.condense()
             # the columns of S_K that multiply the prescribed fluxes, one per prescribed value
             self._S_fixed = self.S_cond[self.pair_el[self.fixed_pairs], :, self.fixed_local]
             keep, border_values = self._pattern
@@ -629,9 +660,9 @@ class Rows:
     ``rows`` (docs/speed.md). A row whose boundary conditions differ from the first row's
     differ only on the patches of the vertices on the boundaries where they differ: those
     patches get a system of their own (``variants``, one per pattern of boundary conditions),
-    the others are read from the shared one. The shared system is numbered, condensed and
-    factorised by a background thread (``block_diagonal.in_background``) while ``__call__``
-    assembles the patch data. The rows are not coupled by a weight (the
+    the others are read from the shared one. The shared system is numbered and factorised by
+    a background thread (``block_diagonal.in_background``) while this one condenses the element
+    matrices and ``__call__`` assembles the patch data. The rows are not coupled by a weight (the
     compliance, a penalty on the skew part): σ* is the row-wise nearest equilibrated flux,
     which the Prager–Synge bound takes as well as any (``estimators.equilibrated``).
 
@@ -657,9 +688,11 @@ class Rows:
                 vertices = patches.vertices_on({name for name, a, b in zip(names, self.patterns[0], pattern) if a != b})
                 if vertices.any():
                     self._differing[pattern] = vertices
-        self._make = lambda i, vertices=None: Equilibration(mesh, 1, order, unit, lambda name, _: neumann(name, i),
-                                                            patches, vertices)
-        self._base, self._variants = in_background(lambda: self._make(0)), None
+        self._make = lambda i, vertices=None, later=False: Equilibration(
+            mesh, 1, order, unit, lambda name, _: neumann(name, i), patches, vertices, later)
+        base = self._make(0, later=True)
+        self._base, self._variants = in_background(lambda: (base.set_up(), base)[1]), None
+        base.condense()                                 # (here, while the worker numbers the patches)
         self.S = self.data.S
 
     @property
