@@ -11,8 +11,8 @@
   λ_h = −[P_γ]₋ kinks inside the facets that hold the contact edges; there the two differ by
   what neither resolves, and that is where the pressure error sits. The residual is the
   contact term of Chouly–Fabre–Hild–Pousin–Renard's estimator without its weight h^½ (it is
-  measured in L², not in the energy). It is not a bound: its effectivity is measured
-  (docs/adaptivity.md, "Goals").
+  taken in L², not in the energy). It is not a bound: its effectivity is in
+  docs/adaptivity.md, "Goals".
 * ``"force"``: the relative error |F − F_h| / |F_h| of the contact resultant. For a linear
   conforming problem loaded by a prescribed displacement d alone, Galerkin orthogonality gives
   (F_h − F) d = |||u − u_h|||² and F_h d = |||u_h|||², so the relative force error is the square

@@ -95,7 +95,7 @@ def boundary_stiffness(body, rate):
     """p² (λ_max(F + Eᵀ C⁻¹ E) + c λ_max(A))/h: the stiffness of σ_ν per unit normal
     displacement at a facet of height h = ``specialcf.mesh_size`` (Pa/m = N/m³), p the order of
     u, c the scheme's rate coefficient ``rate`` (1/s; 1/dt for backward Euler). The scale an
-    enforcement method's Γ3 stiffness is measured in, public as
+    enforcement method's Γ3 stiffness is expressed in, public as
     ``ngcontact.methods.boundary_stiffness``: Nitsche's γ and the penalty's ε are multiples of
     it (``Contact.gamma0``, default 10; ``Contact.penalty``, default 1e3), and a method of the
     user's takes its own as a factor × ``boundary_stiffness(body, coefficients.rate)`` in its

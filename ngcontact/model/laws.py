@@ -23,7 +23,7 @@ law's stiffness ``scale`` (a Parameter), which sets Nitsche's γ and the penalty
 preconditioners of iterative solvers use.
 
 The hypotheses allow any constants, and a law may be steeper at the run's strains than at
-the samples: an estimated L is then raised to the slope measured there, and the step redone
+the samples: an estimated L is then raised to the slope found there, and the step redone
 with the new γ (``law_watch``). Only evidence against (2.16)-(2.17) is refused: a slope ≤ 0
 (or below a given m), one above a given L, a non-finite stress, or a slope that grows without
 bound along a ray of strains.
@@ -199,7 +199,7 @@ class BoundLaw:
     ``checked_range``: the largest strain sampled so far; ``tangent_bound``: the largest norm
     of the tangent at the samples; ``scale`` (a Parameter, Pa or Pa·s): the slope that sets
     the contact stiffness (``MaterialTensors.contact_stiffness``), L at first, raised by the
-    law watch to the steepest slope measured at the run's strains where L was estimated."""
+    law watch to the steepest slope found at the run's strains where L was estimated."""
 
     def __init__(self, law, linear, kinematics, what):
         self.law, self.kinematics, self.what, self.name = law, kinematics, what, law.name

@@ -1,4 +1,4 @@
-"""What a run leaves: the records of each step, what is measured on Γ3 and at the supports
+"""What a run leaves: the records of each step, what is recorded on Γ3 and at the supports
 (``observables``), streamed results and resume, the scene's fingerprint, ParaView and webgui
 output, progress bars.
 

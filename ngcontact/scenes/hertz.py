@@ -4,7 +4,7 @@ pressed onto a rigid plane, with the closed forms it is checked against.
 Body {|x − (0, R)| <= R, y <= R} (2D; in 3D the half-ball about (0, 0, R) with z <= R), its
 lowest point on the plane y = 0 (z = 0), the curved side ("contact") on the plane obstacle
 ``obstacles.Plane`` (or, ``normal="body"``, the paper's form with the body's normal ν and the
-gap measured along it). Isotropic, elastic, no piezoelectric coupling. Two controls:
+gap taken along it). Isotropic, elastic, no piezoelectric coupling. Two controls:
 
 * displacement: the flat top ("top") pushed down by d (a support with prescribed displacement,
   ``Loads.displacement``);
@@ -13,7 +13,7 @@ gap measured along it). Isotropic, elastic, no piezoelectric coupling. Two contr
   the contact alone (``rigid.Floating``). ``informed_start`` is the peer's start: the body
   moved rigidly onto the plane by Hertz's approach for F.
 
-Hertz, for the measured contact force F (per unit depth in 2D), E* = E/(1 − ν²):
+Hertz, for the computed contact force F (per unit depth in 2D), E* = E/(1 − ν²):
   2D (cylinder on a plane): a = sqrt(4 F R/(π E*)), p(x) = p0 sqrt(1 − x²/a²), p0 = 2F/(π a);
   3D (sphere on a plane):   a = (3 F R/(4 E*))^(1/3), p(r) = p0 sqrt(1 − r²/a²), p0 = 3F/(2π a²).
 They hold for a/R small (the half-disk is not a half-plane; how closely they are met:

@@ -18,7 +18,7 @@ that slope and the step is redone with the Nitsche γ and penalty that follow it
 solves the step again, at most ``REDOS`` times; the γ of weak normal supports keeps the scale
 of the Simulation's build, their matrix being assembled once). Deterministic: the decision reads the law and
 the state only. Refused, by ``LawViolation`` (a ``NewtonError``, not recoverable: the cut-back
-policy does not retry it), naming the law, what was measured, the strain, the point and the
+policy does not retry it), naming the law, what was found, the strain, the point and the
 step, is evidence against the hypotheses only: a slope ≤ 0 (or below a given monotonicity), a
 slope above a given ``lipschitz``, a non-finite stress or tangent, a slope that grows without
 bound (``unbounded``: along the ray of strains through the steep point, from 1e-``DECADES`` to
@@ -49,7 +49,7 @@ LIPSCHITZ_MARGIN = 2.0
 """A law whose Lipschitz constant was estimated from samples may be steeper at the run's strains
 than its stiffness ``scale`` (or ``BoundLaw.tangent_bound``, the steepest tangent at the
 samples) by up to this factor, which the margins of γ0 and the penalty absorb; beyond it the
-scale is raised to the measured slope and the step redone. A given ``lipschitz`` is held to
+scale is raised to the sampled slope and the step redone. A given ``lipschitz`` is held to
 exactly."""
 REDOS = 6
 """Times a step is solved again because a law's stiffness scale grew (each time by more than

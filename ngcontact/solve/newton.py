@@ -1,6 +1,6 @@
 """Semismooth Newton for one step: one loop for every enforcement method.
 
-Forces (N) and charges (C) are not comparable, so residuals are measured in the norm
+Forces (N) and charges (C) are not comparable, so residuals are compared in the norm
 ‖r‖² = ‖r_u‖²/s_u + ‖r_φ‖²/s_φ (``residual_norm.ResidualNorm``), where s_u, s_φ are the mean diagonal
 entries of the two blocks of the bulk's K at the first step (N/m and C/V; the Γ3 terms left out,
 so that a stiff contact term cannot set the units): each term is an energy, in J.

@@ -7,12 +7,12 @@ the scaled norm ‖·‖ of ``residual_norm.ResidualNorm`` (J^½). The test comp
     S(x) = max(‖f_n‖, ‖K x − (1/k) K_A x_{n−1}‖),
 
 the loads of the step and the internal forces of the bulk at x (elastic, viscous and
-electric), measured over every DOF, the held ones included: there the internal forces are
+electric), taken over every DOF, the held ones included: there the internal forces are
 the reactions of the supports and the charges of the electrodes, so that a body driven only
 by prescribed displacements or potentials has its scale too (``StepSystem.force_scale``). The terms on Γ3 (Nitsche's
 γ, the penalty, the glue, the compliant layer, the conduction) are *not* part of S: a state
 that penetrates the foundation, or a contact term made absurdly stiff, cannot inflate the
-scale it is measured against, and a rigid motion of the body adds nothing to K x. At a
+scale it is compared with, and a rigid motion of the body adds nothing to K x. At a
 solution the bulk's internal forces balance the loads and the contact forces, so S is the
 size of every force that acts.
 
@@ -76,7 +76,7 @@ stiff Γ3 terms stops Newton short of rtol: a state out of equilibrium by more t
 forces that act is not taken for a solution unless its residual is at the round-off of its state."""
 SLOW = 0.1
 """The floors are evaluated at an iterate whose residual fell by less than this factor over the
-last iteration (a converging Newton solve falls faster until round-off stops it)."""
+last iteration (a converging Newton solve keeps falling until round-off stops it)."""
 
 
 @dataclass

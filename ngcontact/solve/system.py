@@ -333,7 +333,7 @@ class StepSystem:
     def bulk_diagonal(self):
         """The diagonal of the bulk's K = K_el + c K_A (numpy, cumulated on a distributed
         mesh): the scales of Newton's norms come from it (``residual_norm.ResidualNorm``), not from the
-        Γ3 terms, so that a stiff contact term cannot set the units it is measured in."""
+        Γ3 terms, so that a stiff contact term cannot set the units it is expressed in."""
         diagonal = matrix_diagonal(self.K)
         if self.laws is not None:                             # the laws' tangents at 0
             diagonal = diagonal + self.laws.diagonal()

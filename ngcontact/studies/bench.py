@@ -188,9 +188,9 @@ def run(out, *, orders=(1, 2, 3, 4), dim=2, max_ndof=1e6, steps=10, dt=2.5e-3, p
         compare=False, resume=False, **options):
     """All cases up to ``max_ndof``: prints the table as it goes, writes bench.csv,
     bench.json (rows and fitted exponents per order) and time_per_step.png into ``out``
-    after each case (long runs keep what they measured). ``compare``: each case also on the
+    after each case (long runs keep what they recorded). ``compare``: each case also on the
     old path, right after the new one. ``resume``: the cases already in ``out/bench.json``
-    (same dim, steps and dt) are kept and not measured again. The arguments are checked
+    (same dim, steps and dt) are kept and not run again. The arguments are checked
     before any case: orders in [1, 10], ``max_ndof`` finite, at least the coarsest mesh's
     DOFs of each order and within the machine's memory, steps in [1, 10⁶], dt in
     [``arguments.MIN_DT``, the history's end / steps] (the steps inside the load history)."""

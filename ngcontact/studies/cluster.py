@@ -1,5 +1,5 @@
 """``python -m ngcontact cluster``: serial against MPI ranks per solver (time per step, memory
-per rank, a scaling model; docs/cluster.md), measured reproducibly from a plain shell.
+per rank, a scaling model; docs/cluster.md), run reproducibly from a plain shell.
 
 Every run is a process of its own (``cluster_case``): ``python`` for one rank, ``mpiexec -n N
 python`` (the mpiexec next to ``sys.executable``) for N; under mpiexec rank 0 holds no
@@ -9,7 +9,7 @@ machine's drift spread over all). A configuration that cannot run (``masterinver
 serially, ``multigrid`` or ``umfpack`` under mpiexec, a PETSc solver without PETSc) is
 skipped with a note; if none can run, the command is refused before any run.
 
-``run`` writes into ``out``: ``runs/<run>.json`` (what the worker measured: per step the
+``run`` writes into ``out``: ``runs/<run>.json`` (what the worker recorded: per step the
 wall time, Newton and Krylov iterations and contact force; every rank's peak memory) and
 ``logs/<run>.log`` (its output), ``runs.csv`` (a row per run), and, by ``cluster_report``,
 ``summary.csv``/``summary.md`` (medians per size and configuration, ratios to the serial
@@ -232,7 +232,7 @@ def factorisations(out, *, scene="block", orders=(1,), levels=(3,), repeat=3, dt
     of ``dt`` s factorised ``repeat`` times each by UMFPACK, by MUMPS and by MUMPS with its
     analysis kept, interleaved (``cluster_case.factorisations``); writes ``factorisations/``,
     ``factorisations.csv`` and ``factorisations.md`` into ``out``, prints the table and returns
-    its rows: every case measured into ``out``, this call's and earlier ones'. Needs PETSc (a
+    its rows: every case run into ``out``, this call's and earlier ones'. Needs PETSc (a
     case without it is reported skipped)."""
     parallel.refuse_under_mpiexec("python -m ngcontact cluster --factorisations")
     sizes = _sizes(scene, orders, levels)
@@ -266,8 +266,8 @@ def factorisations(out, *, scene="block", orders=(1,), levels=(3,), repeat=3, dt
 
 
 def _factorisation_rows(out):
-    """The rows of every case measured in ``out`` (this call's and earlier calls' into the same
-    directory, e.g. P1 and P2 measured one after the other), by scene, order, level, rounds."""
+    """The rows of every case run into ``out`` (this call's and earlier calls' into the same
+    directory, e.g. P1 and P2 run one after the other), by scene, order, level, rounds."""
     results = [json.loads(path.read_text()) for path in (out / "factorisations").glob("*.json")]
     rows = [_factorisation_row(result) for result in results if "skipped" not in result]
     return sorted(rows, key=lambda row: (row["scene"], row["order"], row["level"], row["rounds"]))

@@ -150,7 +150,7 @@ def fit_group(points):
 
 def predict(model, n=TARGET_NDOF, ranks=TARGET_RANKS, limit=MEMORY_LIMIT_MIB):
     """The extrapolation of a distributed configuration's ``fit_group`` model to n DOFs: per
-    p in ``ranks`` the time per step (and, where a growth κ > 0 was measured and the fit has no p term, times
+    p in ``ranks`` the time per step (and, where a growth κ > 0 was fitted and the fit has no p term, times
     (p/p̄)^κ, p̄ the geometric mean of the fitted runs' p: the iterations grow with n, not
     n/p), the memory per computing rank; rank 0's memory; the smallest p whose memory per rank
     is at most ``limit`` MiB (None if none)."""

@@ -52,7 +52,7 @@ HISTORIES = {"lift": (3e8, 0.05), "debond": (1e9, 0.07)}
 STEPS = (16, 32, 64, 128, 256, 512)
 """Equal steps over [0, T] of the runs of each scheme."""
 LONG_STEPS = 4096
-"""The long BDF2 run (the former same-mesh reference of docs/time.md), measured against Radau too."""
+"""The long BDF2 run (the former same-mesh reference of docs/time.md), compared with Radau too."""
 SCHEMES = ("backward_euler", "bdf2")
 NGCONTACT_QUADRATURE = (2, 3)
 """Gauss points per facet of ngcontact's Γ3 integrals (the residual at order 2p, P_B at 2p + 2)."""

@@ -252,7 +252,7 @@ def _line(run):
 
 def rows(runs):
     """The runs as flat rows, the columns of errors.csv: order, level, h, dt, ndof, each
-    error part (max over steps, and final), observed rates, Newton iterations, setup_s and
+    error part (max over steps, and final), empirical rates, Newton iterations, setup_s and
     solve_s (the module docstring)."""
     return [dict(order=r.order, level=r.level, h=r.h, dt=r.dt, ndof=r.ndof,
                  **{f"error_{p}": r.error_max[p] for p in (*PARTS, "total")},

@@ -16,7 +16,7 @@ converge at a rate, and the families, orders and two γ0 are compared (the agree
 the reference). The profile is stored as p(x) = sqrt(max(a² − x², 0)) s(x) with s an even
 Chebyshev series in x/a (``Reference.pressure``), plus a table of p dense near ±a.
 
-How a solution is measured (``measure``): on each facet of Γ3 the unclipped Nitsche pressure
+How a solution is evaluated (``measure``): on each facet of Γ3 the unclipped Nitsche pressure
 q = −P (λ_h = max(q, 0), P = σ_ν − γ(u_ν − g), Chouly–Hild) and the facet's points are sampled at
 ``SAMPLES`` Gauss points and interpolated (a polynomial in the facet's parameter s ∈ [0, 1],
 exact for the straight and isoparametric facets up to round-off); each facet is split at the
@@ -24,7 +24,7 @@ roots of q and at x = ±a, and each piece integrated by a Gauss rule under a map
 vanishes at both ends (the square root of p at ±a and the kink of λ_h become smooth). Then
 F_h = ∫_Γ3 λ_h ds, a_h = (x_max − x_min)/2 of the contact set {q > 0} and
 ‖λ_h − p‖_L2(Γ3)/‖p‖_L2(Γ3), ds the arc length. The same measure takes the peer's samples
-(``peer_errors``), so both codes are measured alike.
+(``peer_errors``), so both codes are evaluated alike.
 """
 import json
 import math
@@ -224,7 +224,7 @@ def measure(x, y, q, reference=None, piece_points=PIECE_POINTS):
 def errors(x, y, q, reference=None, force=None, piece_points=PIECE_POINTS):
     """The race errors of samples (x, y, q) (``facet_samples``): dict(force, a, pressure_L2)
     = |F_h − F|/F, |a_h − a|/a, ‖λ_h − p‖_L2(Γ3)/‖p‖_L2(Γ3), with F_h = ``force`` if given (the
-    code's own record, N/m) else ∫_Γ3 λ_h ds, and the measured F_h, a_h; ``piece_points``: the
+    code's own record, N/m) else ∫_Γ3 λ_h ds, and the evaluated F_h, a_h; ``piece_points``: the
     Gauss points per piece of a facet (``measure``)."""
     reference = Reference.load() if reference is None else reference
     m = measure(x, y, q, reference, piece_points)
@@ -437,7 +437,7 @@ def build(out=DATA, levels=4, orders=(3, 4), gamma0s=(10.0, 100.0), terms=12, a0
 
 def agreement_table(data):
     """The agreement of a built reference as markdown: each family's finest level and each γ0
-    measured against the reference (``errors``; the reference's own row is its fit)."""
+    compared with the reference (``errors``; the reference's own row is its fit)."""
     lines = ["| case | ndof | F_h (N/m) | a_h (m) | abs(F_h − F)/F | abs(a_h − a) (m) | ‖λ_h − p‖/‖p‖ |",
              "|---|---|---|---|---|---|---|"]
     for row in data["agreement"]:

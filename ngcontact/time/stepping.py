@@ -70,7 +70,7 @@ CONTROLLED = {"u": "per step", "beta": "per unit step"}
 """The fields whose estimated local error sets the steps, and how (``error_ratio``): the ones
 with a time derivative. φ is algebraic (the electric equation has none: φ_n follows from u_n),
 as DAE codes leave algebraic variables out of the error test; its estimate is recorded in
-``rejections`` and measured against a reference in docs/time.md. With φ in the test, the soft
+``rejections`` and compared with a reference in docs/time.md. With φ in the test, the soft
 column (no conduction) rejected most of its tries, every one on φ; without, few. With β per step
 as well (as first built), the final error on the reference plate (nodal constraint) fell far
 less than rtol: the plate hangs by its glue at T, and the per-step errors of β after lift-off had

@@ -11,7 +11,7 @@ one line in ``METHODS``. No other module compares a method's name.
 A method object of the user's is checked member by member at ``Contact()`` (``check``: a
 TypeError naming the members it lacks and its class), and what its ``build`` returns where the
 simulation first calls it (``built``). ``ngcontact.methods`` is this package: the protocols, the
-methods, and ``boundary_stiffness``, the stiffness scale a method's Γ3 terms are measured in.
+methods, and ``boundary_stiffness``, the stiffness scale a method's Γ3 terms are expressed in.
 """
 import inspect
 import numbers

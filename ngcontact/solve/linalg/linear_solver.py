@@ -23,7 +23,7 @@ terms, e.g. a new time step size; ``weights`` per DOF for GMRES's inner product)
 ``factorizations``, ``krylov_iterations`` and ``krylov_failures``.
 
 A resumed run continues bitwise: ``KeptFactorization.save``/``load`` keep what its next
-decision reads (``solver_restart``; measured in docs/time.md).
+decision reads (``solver_restart``; compared in docs/time.md).
 """
 from contextlib import contextmanager, nullcontext
 
@@ -50,7 +50,7 @@ rank 0 and factorises it there (exact for non-symmetric matrices; "umfpack" and
 def factorization_worth(ndof, dim):
     """How many GMRES iterations preconditioned by a kept factorisation cost as much as one
     factorisation, for a step system of ``ndof`` DOFs in ``dim`` D: a power of ``ndof`` per
-    dimension, fitted to the ratio factorisation time / GMRES iteration time measured on the
+    dimension, fitted to the ratio factorisation time / GMRES iteration time found on the
     reference scene (docs/measurements.md, section ngcontact/solve/linalg/linear_solver.py),
     clamped to [4, 40] (the kept factorisation's ``max_budget``). A rule, not a clock: the
     solver's decisions, and so its results, are the same in every run (the wall-time ratio it
@@ -172,7 +172,7 @@ class KeptFactorization:
     direct : DirectSolver whose factorisations precondition GMRES.
     symmetric : factorise the symmetric part (A + Aᵀ)/2 instead of A (with "sparsecholesky",
         for a Jacobian that is nearly symmetric: the non-symmetric terms live on Γ3 only).
-    tol : relative reduction of the preconditioned residual in GMRES, measured in the
+    tol : relative reduction of the preconditioned residual in GMRES, taken in the
         ``weights`` inner product of ``solve`` when given.
     budget : the GMRES iterations that cost one factorisation (``factorization_worth``).
     max_budget : the most GMRES iterations allowed before refactorising.

@@ -322,7 +322,7 @@ class GamgSolver:
 
 FACTOR_BYTES = {2: 320.0, 3: 210.0}
 """Bytes of a MUMPS LU factorisation of the step Jacobian per n·log(n) DOFs in 2D and per
-n^(4/3) in 3D (nested dissection's fill), fitted to the process peaks measured on the 2D reference
+n^(4/3) in 3D (nested dissection's fill), fitted to the process peaks recorded on the 2D reference
 plate and the 3D block (docs/measurements.md, section ngcontact/solve/linalg/petsc_iterative.py;
 docs/cluster.md)."""
 FACTOR_SHARE = 0.5

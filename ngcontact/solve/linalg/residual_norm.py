@@ -1,6 +1,6 @@
 """The scaled norms of Newton's residuals and states (J^½).
 
-Forces (N) and charges (C) are not comparable, so a residual is measured as
+Forces (N) and charges (C) are not comparable, so a residual is taken as
 ‖r‖² = ‖r_u‖²/s_u + ‖r_φ‖²/s_φ and a state as ‖x‖² = s_u‖x_u‖² + s_φ‖x_φ‖², with s_u, s_φ the
 mean diagonal entries of the two blocks of the bulk's Jacobian (N/m and C/V): each term is an
 energy. ``newton`` and ``stopping`` measure with it.

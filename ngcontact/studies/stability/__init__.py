@@ -1,4 +1,4 @@
-"""Stability maps: where the discretisation and the solver fail, measured on small 2D scenes.
+"""Stability maps: where the discretisation and the solver fail, mapped on small 2D scenes.
 
 One module per study; each has ``run(out=None, *, quick=False, progress=True, ...)``
 returning its rows (flat dicts, one per run or per step) and drawing its charts into

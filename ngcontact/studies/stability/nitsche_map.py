@@ -25,7 +25,7 @@ def run(out=None, *, gamma0s=None, thetas=(1, 0, -1), maxh=0.01, order=1, steps=
     Parameters
     ----------
     out : pathlib.Path or None, where to draw ``nitsche_map.png`` (status of every run)
-        and ``nitsche_sweep.png`` (the measured quantities against γ0).
+        and ``nitsche_sweep.png`` (the recorded quantities against γ0).
     gamma0s : γ0 values; default 15 (quick: 8) log-spaced values in [1e-3, 1e4].
     thetas : Nitsche variants.
     maxh, order : mesh size (m, halved on Γ3) and polynomial order.
