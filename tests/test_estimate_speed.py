@@ -54,6 +54,36 @@ def test_the_block_diagonal_solver_solves_like_a_sparse_direct_solver(sizes):
     assert np.allclose(system.solve(rhs), spla.spsolve(matrix, rhs), rtol=1e-10, atol=1e-12)
 
 
+def test_a_sparse_system_in_parts_solves_alike_whichever_thread_factorises_them():
+    """Many blocks above DENSE: the system is factorised in parts (whole blocks). Whether the
+    background thread makes every part (the caller waits for it) or the caller makes them all
+    (the background thread busy), the solution is the same to the last bit, and that of
+    scipy's spsolve; an entry coupling blocks of two parts is refused when solving."""
+    import threading
+    sizes = [block_diagonal.DENSE + 1 + 7 * (k % 5) for k in range(3 * block_diagonal.CHUNKS)]
+    rows, cols, values, size = _saddle_blocks(sizes, seed=3)
+    block = np.repeat(np.arange(len(sizes)), sizes)
+    rhs = np.random.default_rng(4).standard_normal((size, 2))
+    system = BlockDiagonal(block, rows, cols)
+    assert len(system._layout) == block_diagonal.CHUNKS
+    system.fill(values)
+    block_diagonal.in_background(lambda: None).result()       # (tasks run in order: every part made there)
+    by_worker = system.solve(rhs)
+    release = threading.Event()
+    busy = block_diagonal.in_background(release.wait)
+    system.fill(values)
+    by_caller = system.solve(rhs)                              # (the parts made here)
+    release.set()
+    busy.result()
+    assert np.array_equal(by_worker, by_caller)
+    matrix = sp.csc_matrix((values, (rows, cols)), shape=(size, size))
+    assert np.allclose(by_worker, spla.spsolve(matrix, rhs), rtol=1e-10, atol=1e-12)
+    coupled = BlockDiagonal(block, np.r_[rows, 0], np.r_[cols, size - 1])
+    coupled.fill(np.r_[values, 1.0])
+    with pytest.raises(ValueError, match="couples two blocks"):
+        coupled.solve(rhs)
+
+
 def test_an_entry_that_couples_two_blocks_is_refused():
     with pytest.raises(ValueError, match="couples two blocks"):
         BlockDiagonal(np.array([0, 0, 1, 1]), np.array([0, 1, 2]), np.array([0, 2, 2]))

@@ -5,18 +5,23 @@ and the entries come as COO positions, fixed, with values that change (``fill``)
 (at most ``DENSE`` unknowns: the 2D patches) are gathered into dense arrays,
 one per block size, and solved by LAPACK in a batch (``numpy.linalg.solve``, the right-hand
 sides of a call at once; from the second call on with the kept inverses); larger ones (the 3D
-patches, sparse inside) by one SuperLU factorisation of the whole matrix, which uses their
-sparsity. That factorisation starts in a background thread as soon as the values are set, so
-that it runs while the caller prepares the right-hand sides (SuperLU, NGSolve's assembly and
-NumPy release the GIL); it depends on the matrix alone, so the result does not depend on the
-timing.
+patches, sparse inside) by SuperLU, which uses their sparsity. The blocks are independent, so
+the matrix is factorised in ``CHUNKS`` parts of whole blocks, each its own SuperLU factorisation.
+The parts are queued to a background thread as soon as the values are set, so that they are
+factorised while the caller prepares the right-hand sides (SuperLU, NGSolve's assembly and
+NumPy release the GIL); the caller factorises those the thread has not started when it needs
+the solution. A part's factorisation depends on its entries alone, so neither the result nor
+which thread made it depends on the timing of the other.
 """
-from concurrent.futures import ThreadPoolExecutor
+import threading
+from concurrent.futures import Future, ThreadPoolExecutor
 
 import numpy as np
 
 DENSE = 120
 """The largest block solved dense (unknowns)."""
+CHUNKS = 16
+"""The parts of a sparse system factorised one by one (whole blocks, about equal in entries)."""
 _background = []                                   # the one worker thread of the estimators
 
 
@@ -30,12 +35,52 @@ def in_background(call):
     return _background[0].submit(call)
 
 
-def _factorise_in_background(values, rows, cols, size):
-    """A future of SuperLU's factorisation of the (size × size) matrix of the COO entries
-    (values, rows, cols), assembled and factorised by the worker thread."""
-    import scipy.sparse as sp                     # (SciPy loads when a large block is first solved)
-    import scipy.sparse.linalg as sla_sparse
-    return in_background(lambda: sla_sparse.splu(sp.csc_matrix((values, (rows, cols)), shape=(size, size))))
+def load_scipy():
+    """Import SciPy's sparse solvers in the background thread (0.2 s the first time in a
+    process), queued before the factorisations that need them."""
+    in_background(lambda: __import__("scipy.sparse.linalg"))
+
+
+class _Part:
+    """One part of a sparse block-diagonal system (unknowns ``first`` to ``last`` − 1, whole
+    blocks; ``entries``: the positions of its COO entries): its SuperLU factorisation, made once
+    by whichever thread claims it first."""
+
+    def __init__(self, first, last, entries):
+        self.first, self.last, self.entries = first, last, entries
+        self._claimed, self._lock, self.lu = False, threading.Lock(), Future()
+
+    def factorise(self, values, rows, cols):
+        """Factorise the part from the system's COO entries, unless another thread has claimed it."""
+        with self._lock:
+            if self._claimed:
+                return
+            self._claimed = True
+        try:
+            import scipy.sparse as sp                 # (SciPy loads when a large block is first solved)
+            import scipy.sparse.linalg as sla_sparse
+            n, at = self.last - self.first, self.entries
+            r, c = rows[at] - self.first, cols[at] - self.first
+            if len(c) and (c.min() < 0 or c.max() >= n):
+                raise ValueError("BlockDiagonal: an entry couples two blocks")
+            self.lu.set_result(sla_sparse.splu(sp.csc_matrix((values[at], (r, c)), shape=(n, n))))
+        except BaseException as error:
+            self.lu.set_exception(error)
+
+
+def _parts(starts, sizes, size, rows):
+    """(first, last, entries) of the parts of a system with blocks starting at ``starts`` (sizes
+    ``sizes``) and entries in ``rows``: at most ``CHUNKS``, cut at block starts so that each holds
+    about as many of Σ size² as the others; ``entries`` the positions of each part's entries."""
+    work = np.cumsum(sizes.astype(float) ** 2)
+    targets = work[-1] * np.arange(1, CHUNKS) / CHUNKS
+    cuts = np.unique(starts[np.minimum(np.searchsorted(work, targets, side="right") + 1, len(starts) - 1)])
+    bounds = np.unique(np.r_[0, cuts[cuts > 0], size])
+    part = (np.searchsorted(bounds, rows, side="right") - 1).astype(np.uint8)
+    order = np.argsort(part, kind="stable")                  # (a radix sort of small integers)
+    ends = np.cumsum(np.bincount(part, minlength=len(bounds) - 1))
+    return [(int(a), int(b), order[e - k:e]) for a, b, e, k in
+            zip(bounds[:-1], bounds[1:], ends, np.diff(np.r_[0, ends]))]
 
 
 class BlockDiagonal:
@@ -49,6 +94,7 @@ class BlockDiagonal:
         sizes = np.diff(np.r_[starts, self.size])
         self.dense = self.size > 0 and sizes.max() <= DENSE
         if not self.dense:
+            self._layout, self._parts = _parts(starts, sizes, self.size, rows) if self.size else [], []
             return
         number = np.zeros(self.size, dtype=np.int64)                # the block of every unknown, 0, 1, ...
         number[starts[1:]] = 1
@@ -78,13 +124,21 @@ class BlockDiagonal:
         if self.dense:
             self._data = np.bincount(self.flat, weights=values, minlength=self.total)
             return
-        self._lu = _factorise_in_background(values, self.rows, self.cols, self.size)
+        self._values = values
+        self._parts = [_Part(*layout) for layout in self._layout]
+        for part in self._parts:
+            in_background(lambda part=part: part.factorise(values, self.rows, self.cols))
 
     def solve(self, rhs):
         """The solution for the right-hand side ``rhs`` (a vector, or a matrix of them as columns)."""
         self._solves += 1
         if not self.dense:
-            return self._lu.result().solve(rhs)
+            for part in reversed(self._parts):         # (those the background thread has not started)
+                part.factorise(self._values, self.rows, self.cols)
+            out = np.empty(rhs.shape)
+            for part in self._parts:
+                out[part.first:part.last] = part.lu.result().solve(rhs[part.first:part.last])
+            return out
         if self._inverses is None and self._solves > 1:           # a second call: keep inverses
             self._inverses = [np.linalg.inv(self._blocks(g)) for g in range(len(self.groups))]
         columns = rhs.reshape(self.size, -1)

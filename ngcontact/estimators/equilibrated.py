@@ -55,6 +55,7 @@ axis) gives a finite value that is not a proven bound; the bound is checked ther
 η_osc,K² mark elements for refinement (``adapt``). Measured effectivities (η / the true error on
 manufactured solutions): docs/adaptivity.md.
 """
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 
 import ngsolve as ngs
@@ -68,6 +69,7 @@ from ngcontact.model.loads import as_cf
 from ngcontact.model.voigt import matrix_cf
 from ngcontact.solve.linalg.linear_solver import reproducible
 from ngcontact.time.step import Step
+from . import block_diagonal
 from .equilibration import BONUS, TIMERS, Equilibration, Patches, Rows
 
 TIMERS.update({name: ngs.Timer(f"ngcontact estimate: {name}") for name in ("Γ3 data", "indicator integrals")})
@@ -150,6 +152,7 @@ class EquilibratedEstimator:
     def __init__(self, sim, weak_symmetry=False):
         steps = check(sim)
         self.weak_symmetry = checks.flag("weak_symmetry", weak_symmetry)
+        block_diagonal.load_scipy()
         body = steps.body
         self.steps, self.body, self.dim = steps, body, body.dim
         T, dim = body.tensors, body.dim
@@ -419,8 +422,10 @@ def _element_integrals(cfs, mesh, order):
     """[∫_K cf for every volume element K] for each scalar CF of ``cfs`` by a quadrature of order
     ``order``, each clipped at 0 (they are squares).
     Every CF is compiled first: its tree (the compliance times the Voigt differences) evaluated
-    uncompiled costs far more in 3D (docs/measurements.md, section ngcontact/estimators/equilibrated.py)."""
-    with TIMERS["indicator integrals"]:
+    uncompiled costs far more in 3D (docs/measurements.md, section ngcontact/estimators/equilibrated.py).
+    Outside MPI they run under NGSolve's TaskManager: nothing else runs then, and each element's
+    integral is one thread's, so the values do not depend on the threads."""
+    with TIMERS["indicator integrals"], ngs.TaskManager() if parallel.world() is None else nullcontext():
         return [np.maximum(ngs.Integrate(cf.Compile(), mesh, ngs.VOL, order=order, element_wise=True).NumPy(), 0.0)
                 for cf in cfs]
 

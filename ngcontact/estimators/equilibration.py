@@ -676,12 +676,11 @@ class Rows:
         self.patterns = [tuple(bool(neumann(name, i)) for name in names) for i in range(self.rows)]
         unit = np.eye(mesh.dim)
         # what NGSolve makes, here; the patch systems (NumPy, SciPy) in the background, while
-        # the caller assembles the patch data (``__call__``)
+        # the caller assembles the element matrices and the patch data (``__call__``)
         self.data = patches.elements(order)
-        self.data.weighted_mass(unit)
         self.with_traction = any(any(pattern) for pattern in self.patterns)   # some flux prescribed
         if self.with_traction:
-            self.data.normal_trace_mass()
+            self.data.normal_trace_mass()           # (the numbering reads it)
         self._differing = {}                            # pattern -> the vertices where it differs
         for pattern in self.patterns:
             if pattern != self.patterns[0] and pattern not in self._differing:
@@ -692,7 +691,7 @@ class Rows:
             mesh, 1, order, unit, lambda name, _: neumann(name, i), patches, vertices, later)
         base = self._make(0, later=True)
         self._base, self._variants = in_background(lambda: (base.set_up(), base)[1]), None
-        base.condense()                                 # (here, while the worker numbers the patches)
+        base.condense()         # (here, while the worker numbers the patches: the mass assembled, condensed)
         self.S = self.data.S
 
     @property
