@@ -197,6 +197,42 @@ def test_the_rows_of_the_stress_share_one_patch_system_and_are_equilibrated():
         assert difference > 1e-6 * np.abs(coupled[i].vec.FV().NumPy()).max()     # (another flux)
 
 
+@pytest.mark.parametrize("dim", [2, 3])
+def test_constant_fluxes_give_the_same_patch_data_as_element_arrays(dim, monkeypatch):
+    """P1 on straight elements: the patch data of the rows made from the fluxes' element values
+    and the kept hat moments (no assembly per row) give σ*, D* and η of the assembled data to
+    1e-12: the reference scene after first contact (Γ3 traction, prescribed boundary data), and
+    in 3D a block with a body force (the source's part)."""
+    import sympy as sp
+    from ngcontact.geometries import block
+    from ngcontact.scenes import reference
+    from ngcontact.scenes.manufactured import Manufactured, x, y, z
+    if dim == 2:
+        sim = reference.simulation(1, 0.005, keep_states=False)
+        sim.run(2.5e-3, 5 * 2.5e-3)
+    else:
+        body = ngc.Body(block(1.0, 0.5, 0.5, maxh=0.25), ngc.pzt5a(), clamped="left", grounded="bottom", order=1)
+        u = sp.Matrix([x * sp.sin(2 * y + z), x ** 2 * sp.cos(y - z), sp.sin(x) * (1 + y * z)]) / 1e4
+        mms = Manufactured(body.tensors, u * t_symbol, z * sp.cos(x + y) * t_symbol, dim=3)
+        time = ngs.Parameter(0.0)
+        sim = ngc.Simulation(body, mms.loads(body, time), time=time, keep_states=False, physical_checks=False)
+        sim.run(1.0, 1.0)
+    estimators = []
+    for route in ("elements", "assembled"):
+        if route == "assembled":
+            monkeypatch.setattr(EquilibratedEstimator, "_constants", lambda self, key: None)
+        estimator = EquilibratedEstimator(sim)
+        estimators.append(estimator())
+        if route == "elements":
+            assert estimator._constants("stress") is not None and estimator._constants("flux") is not None
+    (new, old) = estimators
+    assert new.total == pytest.approx(old.total, rel=1e-12) and old.total > 0
+    for name in ("sigma_star_rows", "D_star"):
+        a = np.concatenate([g.vec.FV().NumPy() for g in np.atleast_1d(new.fields[name])])
+        b = np.concatenate([g.vec.FV().NumPy() for g in np.atleast_1d(old.fields[name])])
+        assert np.abs(a - b).max() <= 1e-12 * np.abs(b).max(), name
+
+
 def test_weak_symmetry_gives_a_sharper_bound_from_the_same_kind_of_flux():
     """The coupled stress problems (``weak_symmetry=True``) against the default rows on the
     manufactured contact case (P2, two levels): both bound the error, the coupled one is sharper

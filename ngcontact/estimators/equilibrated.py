@@ -185,6 +185,7 @@ class EquilibratedEstimator:
         stress σ_h (dim × dim CF) with its source f (dim components, None for none) and Neumann
         data t, and the displacement D_h (1 × dim CF) with q and j."""
         dim = self.dim
+        constants = self._constants("stress")
         if self.weak_symmetry:
             rows = self._stress.gridfunctions(self._stress(sigma, f, t))
             return rows, None if D is None else self._flux.gridfunctions(self._flux(D, q, j))[0]
@@ -192,7 +193,9 @@ class EquilibratedEstimator:
                                                                          range(dim)], [t[i] for i in range(dim)]
         if D is not None and self._flux_alone is None:
             fluxes, sources, tractions = fluxes + [D[0, :]], sources + [q], tractions + [j]
-        rows = self._fluxes.gridfunctions(self._fluxes(fluxes, sources, tractions))
+            flux = self._constants("flux")
+            constants = None if constants is None or flux is None else constants + flux
+        rows = self._fluxes.gridfunctions(self._fluxes(fluxes, sources, tractions, constants))
         if D is None:
             return rows, None
         if self._flux_alone is None:
@@ -333,6 +336,16 @@ class EquilibratedEstimator:
         gf, shape = self._projections[key]
         gf.Set(ngs.CF(tuple(flux[i, j] for i in range(shape[0]) for j in range(shape[1]))).Compile())
         return ngs.CF(gf, dims=tuple(shape))
+
+    def _constants(self, key):
+        """The rows of the flux ``_piecewise`` projected for ``key``, each as its value on every
+        element (elements × dim), when the projection is onto constants (P1) on straight
+        elements; else None."""
+        if key not in self._projections or self._projections[key][0].space.globalorder != 0:
+            return None
+        gf, (rows, d) = self._projections[key]
+        values = gf.vec.FV().NumPy().reshape(rows * d, -1)                # (components, elements)
+        return [values[i * d:(i + 1) * d].T for i in range(rows)]
 
     def _boundary_data(self):
         """The Neumann data of σ* and D* on the boundary (CFs of dim and 1 components): the

@@ -126,6 +126,15 @@ def _facet_dofs(S, mesh, patches, el_dofs):
     return np.array([dofs if len(dofs) == width else [-1] * width for dofs in lists], dtype=np.int64)
 
 
+class ElementPatchData:
+    """The patch data of one row as element arrays (``ElementData.constant_patch_data``):
+    ``flux`` (ψ_a σ_h, τ_j)_K (elements × RT DOFs × vertices), ``div`` (σ_h ∇ψ_a − ψ_a f, q_m)_K
+    (elements × P_p DOFs × vertices), ``boundary`` the assembled (ψ_a t, τ·n) or None."""
+
+    def __init__(self, flux, div, boundary):
+        self.flux, self.div, self.boundary = flux, div, boundary
+
+
 class Patches:
     """The vertex patches of a mesh as arrays: the vertices and facets of every volume element
     (in NGSolve's local order), the vertices of every facet, and the boundary name of every
@@ -193,7 +202,9 @@ class ElementData:
         self.S = ngs.HDiv(mesh, order=order, RT=True)
         self.Q = ngs.L2(mesh, order=order)
         self.P1 = ngs.H1(mesh, order=1)
+        self.P1d = ngs.Discontinuous(self.P1)
         self.Sd = ngs.Discontinuous(self.S)
+        self._element_vertices, self._hat_moments = patches.element_vertices, None
         sigma = self.Sd.TrialFunction()
         div = ngs.BilinearForm(trialspace=self.Sd, testspace=self.Q)
         div += mesh_dx(ngs.div(sigma) * self.Q.TestFunction())
@@ -237,8 +248,7 @@ class ElementData:
         if source is not None:
             source = ngs.CF(source) if rows > 1 else ngs.CF((source,))
         traction = ngs.CF(traction) if rows > 1 else ngs.CF((traction,))
-        rhs_w, rhs_div, rhs_t = [], [], []               # each: (DOFs of the row) × (hat functions)
-        n = ngs.specialcf.normal(d)
+        rhs_w, rhs_div = [], []                          # each: (DOFs of the row) × (hat functions)
         # W σ_h row by row as a plain CF, so that the forms below are linear in their proxies
         W = weight
         weighted = [ngs.CF(tuple(sum(W[j * d + l, m] * flux[m // d, m % d] for m in range(rows * d) if W[j * d + l, m])
@@ -254,14 +264,60 @@ class ElementData:
                 balance = balance - psi * source[i]
             form += mesh_dx(balance * q, bonus_intorder=BONUS)
             rhs_div.append(csr(form.Assemble().mat, copy=True))
-            if with_traction:
-                form = ngs.BilinearForm(trialspace=self.P1, testspace=self.S)
-                form += mesh_ds(psi * traction[i] * (tau.Trace() * n), bonus_intorder=BONUS)
-                rhs_t.append(csr(form.Assemble().mat, copy=True))
+        rhs_t = self._traction_data(traction, rows) if with_traction else None
         import scipy.sparse as sp                     # (SciPy loads when an estimate is first made)
         TIMERS["right-hand sides"].Stop()
-        return (sp.vstack(rhs_w, format="csr"), sp.vstack(rhs_div, format="csr"),
-                sp.vstack(rhs_t, format="csr") if rhs_t else None)
+        return sp.vstack(rhs_w, format="csr"), sp.vstack(rhs_div, format="csr"), rhs_t
+
+    def constant_patch_data(self, values, source, traction, with_traction):
+        """The patch data of ``patch_data`` for one row (W = I) whose flux is constant on every
+        element (``values``, elements × dim: σ_h of P1 on straight elements), as element arrays
+        (``ElementPatchData``) instead of assembled matrices: (ψ_a σ_h, τ)_K = Σ_c σ_c(K)
+        (ψ_a e_c, τ)_K from the kept ``hat_moments``, and (σ_h ∇ψ_a, q)_K = |K| σ_h(K)·∇ψ_a(K)
+        for the mean q = 1 (0 for the L2 DOFs of zero mean), the source's part assembled."""
+        TIMERS["right-hand sides"].Start()
+        flux = np.einsum("ec,ejca->eja", values, self.hat_moments())
+        div = np.zeros((self.mesh.ne, self.el_qdofs.shape[1], flux.shape[2]))
+        div[:, 0, :] = self.mean_mass[:, None] * np.einsum("ec,eac->ea", values, self.hat_gradients())
+        if source is not None:
+            psi, q = self.P1d.TrialFunction(), self.Q.TestFunction()
+            form = ngs.BilinearForm(trialspace=self.P1d, testspace=self.Q)
+            form += mesh_dx(-psi * source * q, bonus_intorder=BONUS)
+            div += _element_blocks(form.Assemble(), self.mesh, self.P1d, self.Q)
+        boundary = self._traction_data(ngs.CF((traction,)), 1) if with_traction else None
+        TIMERS["right-hand sides"].Stop()
+        return ElementPatchData(flux, div, boundary)
+
+    def hat_moments(self):
+        """(ψ_a e_c, τ_j)_K of every element (elements × RT DOFs × dim × vertices; assembled at
+        the first request, one form of a discontinuous P1 vector trial)."""
+        if self._hat_moments is None:
+            d = self.mesh.dim
+            V = ngs.Discontinuous(ngs.VectorH1(self.mesh, order=1))
+            form = ngs.BilinearForm(trialspace=V, testspace=self.Sd)
+            form += mesh_dx(ngs.InnerProduct(V.TrialFunction(), self.Sd.TestFunction()))
+            blocks = _element_blocks(form.Assemble(), self.mesh, V, self.Sd)        # (ne, nS_loc, dim·vertices)
+            self._hat_moments = blocks.reshape(self.mesh.ne, blocks.shape[1], d, -1)
+        return self._hat_moments
+
+    def hat_gradients(self):
+        """∇ψ_a on every (straight) element (elements × vertices × dim, 1/m), from its vertices."""
+        points = np.array([v.point for v in self.mesh.vertices])[self._element_vertices]   # (ne, d + 1, d)
+        edges = points[:, 1:, :] - points[:, :1, :]                                       # rows p_k − p_0
+        inverse = np.linalg.inv(edges)                    # λ_k = (x − p_0)·(column k of edges⁻¹)
+        grads = np.transpose(inverse, (0, 2, 1))
+        return np.concatenate([-grads.sum(axis=1, keepdims=True), grads], axis=1)
+
+    def _traction_data(self, traction, rows):
+        """(ψ_a t_i, τ·n) on the boundary, rows stacked (CSR; ``patch_data``)."""
+        import scipy.sparse as sp
+        psi, tau, n = self.P1.TrialFunction(), self.S.TestFunction(), ngs.specialcf.normal(self.mesh.dim)
+        out = []
+        for i in range(rows):
+            form = ngs.BilinearForm(trialspace=self.P1, testspace=self.S)
+            form += mesh_ds(psi * traction[i] * (tau.Trace() * n), bonus_intorder=BONUS)
+            out.append(csr(form.Assemble().mat, copy=True))
+        return sp.vstack(out, format="csr")
 
     def normal_trace_mass(self):
         """The matrix of ∫_∂Ω (σ·n)(τ·n) on RT_p (CSR; assembled at the first request)."""
@@ -477,10 +533,12 @@ class Equilibration:
             neumann[boundary_facets] = [of_name[name] for name in P.boundary_name.values()]
         pair_el = np.repeat(np.arange(ne), nv_el)
         pair_patch = P.element_vertices.ravel()
+        pair_local = np.tile(np.arange(nv_el), ne)                         # the patch's vertex in the element
         self.every_pair = self.vertices is None                           # pairs are then element-major
         if not self.every_pair:
             chosen = self.vertices[pair_patch]
-            pair_el, pair_patch = pair_el[chosen], pair_patch[chosen]
+            pair_el, pair_patch, pair_local = pair_el[chosen], pair_patch[chosen], pair_local[chosen]
+        self.pair_local = pair_local
         pairs = len(pair_el)
         facets = P.element_facets[pair_el]                                 # (pairs, facets of an element)
         contains = (P.facet_vertices[facets] == pair_patch[:, None, None]).any(axis=2)
@@ -581,8 +639,10 @@ class Equilibration:
     def right_hand_side(self, flux, source, traction, matrices=None):
         """(the patch system's right-hand side, the data ``recover`` needs) for the arguments of
         ``__call__``, or from their ``data_matrices`` (``matrices``)."""
-        rhs_w, rhs_div, rhs_t = matrices or self.data_matrices(flux, source, traction)
+        matrices = matrices or self.data_matrices(flux, source, traction)
         TIMERS["right-hand sides"].Start()
+        element_wise = isinstance(matrices, ElementPatchData)
+        rhs_t = matrices.boundary if element_wise else matrices[2]
         rows, hat_of_pair = self.rows, self.hats[self.pair_patch]
         # the prescribed normal fluxes: Π(ψ_a t) facet by facet (groups of one row, patch, facet)
         x_fixed = np.zeros(0)
@@ -594,17 +654,30 @@ class Equilibration:
         pairs = len(self.pair_el)
         X_glob = self.X_global[self.pair_el]                               # (pairs, nX)
         sig_x = self.X_is_sigma
-        r_X = np.zeros((pairs, self.nX))
-        r_X[:, sig_x] = _entries(rhs_w, X_glob[:, sig_x].ravel(),
-                                 np.repeat(hat_of_pair, sig_x.sum())).reshape(pairs, -1)
-        r_X[:, ~sig_x] = _entries(rhs_div, X_glob[:, ~sig_x].ravel(),
-                                  np.repeat(hat_of_pair, (~sig_x).sum())).reshape(pairs, -1)
         rhs = np.zeros(self.size)
-        # facet unknowns: the global data of the row's DOF at the patch's hat (once per unknown)
-        rhs[self.free_system] = _entries(rhs_w, self.free_global, self.hats[self.patch_of_unknown[self.free_system]])
-        # means: the element's data (row i) at the patch's hat
         means = self.pair_index[:, rows * self.nF_loc:]                  # (pairs, rows)
-        rhs[means.ravel()] = _entries(rhs_div, self.Y_mean_global[self.pair_el].ravel(), np.repeat(hat_of_pair, rows))
+        if element_wise:                    # (one row: the pair's element and vertex index the arrays)
+            el, at = self.pair_el[:, None], self.pair_local[:, None]
+            r_X = np.concatenate([matrices.flux[el, self.data.interior[0][None, :], at],
+                                  matrices.div[el, np.arange(1, self.nQ_loc)[None, :], at]], axis=1)
+            facets = self.pair_index[:, :self.nF_loc]
+            on = facets >= 0                # a facet unknown: the data of the elements around its facet
+            rhs += np.bincount(facets[on], weights=matrices.flux[el, self.data.facet_order[0][None, :], at][on],
+                               minlength=self.size)
+            rhs[means.ravel()] = matrices.div[self.pair_el, 0, self.pair_local]
+        else:
+            rhs_w, rhs_div = matrices[0], matrices[1]
+            r_X = np.zeros((pairs, self.nX))
+            r_X[:, sig_x] = _entries(rhs_w, X_glob[:, sig_x].ravel(),
+                                     np.repeat(hat_of_pair, sig_x.sum())).reshape(pairs, -1)
+            r_X[:, ~sig_x] = _entries(rhs_div, X_glob[:, ~sig_x].ravel(),
+                                      np.repeat(hat_of_pair, (~sig_x).sum())).reshape(pairs, -1)
+            # facet unknowns: the global data of the row's DOF at the patch's hat (once per unknown)
+            rhs[self.free_system] = _entries(rhs_w, self.free_global,
+                                             self.hats[self.patch_of_unknown[self.free_system]])
+            # means: the element's data (row i) at the patch's hat
+            rhs[means.ravel()] = _entries(rhs_div, self.Y_mean_global[self.pair_el].ravel(),
+                                          np.repeat(hat_of_pair, rows))
         # condensation: Y data − G r_X − S_K y_known, y_known the prescribed fluxes (others 0)
         cond = self._per_pair(self.G, r_X)
         y_known = np.zeros((pairs, self.nY))
@@ -715,13 +788,19 @@ class Rows:
         """Per row: None (the shared system only) or (vertices, their own ``Equilibration``)."""
         return [self.variants.get(pattern) for pattern in self.patterns]
 
-    def __call__(self, fluxes, sources, tractions):
+    def __call__(self, fluxes, sources, tractions, constants=None):
         """σ* (rows × nS coefficients) for the rows' fluxes (CFs of dim components), sources (−div
         σ_i = f_i; None for none) and Neumann data (CFs on the boundary), as
-        ``Equilibration.__call__`` row by row."""
-        # the patch data of a row, assembled once (the variants read the base's matrices)
-        matrices = [self.data.patch_data(*row, 1, np.eye(self.S.mesh.dim), self.with_traction) for row in
-                    zip(fluxes, sources, tractions)]
+        ``Equilibration.__call__`` row by row. ``constants``: None, or per row the flux's value
+        on every element (elements × dim) when it is constant on each of them and the elements
+        are straight; the patch data are then element arrays, not assembled."""
+        # the patch data of a row, made once (the variants read the base's)
+        if constants is None:
+            matrices = [self.data.patch_data(*row, 1, np.eye(self.S.mesh.dim), self.with_traction) for row in
+                        zip(fluxes, sources, tractions)]
+        else:
+            matrices = [self.data.constant_patch_data(values, source, traction, self.with_traction)
+                        for values, source, traction in zip(constants, sources, tractions)]
         base, of_row = self.base, self.of_row           # (the variants set up while the base factorises)
         data = [base.right_hand_side(None, None, None, m) for m in matrices]
         own = [None if variant is None else variant[1].right_hand_side(None, None, None, m)
