@@ -76,9 +76,9 @@ def _parts(starts, sizes, size, rows):
     targets = work[-1] * np.arange(1, CHUNKS) / CHUNKS
     cuts = np.unique(starts[np.minimum(np.searchsorted(work, targets, side="right") + 1, len(starts) - 1)])
     bounds = np.unique(np.r_[0, cuts[cuts > 0], size])
-    part = (np.searchsorted(bounds, rows, side="right") - 1).astype(np.uint8)
+    part = np.repeat(np.arange(len(bounds) - 1, dtype=np.uint8), np.diff(bounds))[rows]     # of every entry
     order = np.argsort(part, kind="stable")                  # (a radix sort of small integers)
-    ends = np.cumsum(np.bincount(part, minlength=len(bounds) - 1))
+    ends = np.searchsorted(part[order], np.arange(1, len(bounds), dtype=np.uint8))
     return [(int(a), int(b), order[e - k:e]) for a, b, e, k in
             zip(bounds[:-1], bounds[1:], ends, np.diff(np.r_[0, ends]))]
 

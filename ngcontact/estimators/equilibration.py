@@ -204,7 +204,7 @@ class ElementData:
         self.P1 = ngs.H1(mesh, order=1)
         self.P1d = ngs.Discontinuous(self.P1)
         self.Sd = ngs.Discontinuous(self.S)
-        self._element_vertices, self._hat_moments = patches.element_vertices, None
+        self._element_vertices, self._hat_moments, self._hat_gradients = patches.element_vertices, None, None
         sigma = self.Sd.TrialFunction()
         div = ngs.BilinearForm(trialspace=self.Sd, testspace=self.Q)
         div += mesh_dx(ngs.div(sigma) * self.Q.TestFunction())
@@ -301,12 +301,15 @@ class ElementData:
         return self._hat_moments
 
     def hat_gradients(self):
-        """∇ψ_a on every (straight) element (elements × vertices × dim, 1/m), from its vertices."""
-        points = np.array([v.point for v in self.mesh.vertices])[self._element_vertices]   # (ne, d + 1, d)
-        edges = points[:, 1:, :] - points[:, :1, :]                                       # rows p_k − p_0
-        inverse = np.linalg.inv(edges)                    # λ_k = (x − p_0)·(column k of edges⁻¹)
-        grads = np.transpose(inverse, (0, 2, 1))
-        return np.concatenate([-grads.sum(axis=1, keepdims=True), grads], axis=1)
+        """∇ψ_a on every (straight) element (elements × vertices × dim, 1/m), from its vertices
+        (kept)."""
+        if self._hat_gradients is None:
+            points = np.array([v.point for v in self.mesh.vertices])[self._element_vertices]   # (ne, d + 1, d)
+            edges = points[:, 1:, :] - points[:, :1, :]                                   # rows p_k − p_0
+            inverse = np.linalg.inv(edges)                # λ_k = (x − p_0)·(column k of edges⁻¹)
+            grads = np.transpose(inverse, (0, 2, 1))
+            self._hat_gradients = np.concatenate([-grads.sum(axis=1, keepdims=True), grads], axis=1)
+        return self._hat_gradients
 
     def _traction_data(self, traction, rows):
         """(ψ_a t_i, τ·n) on the boundary, rows stacked (CSR; ``patch_data``)."""
@@ -563,12 +566,15 @@ class Equilibration:
         border_keys = key(border_a, 2, border_i)
         keys = _unique(np.concatenate([facet_keys[facet_free], mean_keys.ravel(), border_keys]))
         self.size = len(keys)
-        index = np.full((pairs, nY), -1, dtype=np.int64)
-        index[:, :rows * nF] = np.where(facet_free, np.searchsorted(keys, facet_keys), -1).reshape(pairs, rows * nF)
+        facet_pos = np.searchsorted(keys, facet_keys[facet_free])
+        number = np.int32 if self.size < 2 ** 31 else np.int64           # (the system's unknowns)
+        index = np.full((pairs, nY), -1, dtype=number)
+        facet_index = np.full(facet_free.shape, -1, dtype=number)
+        facet_index[facet_free] = facet_pos
+        index[:, :rows * nF] = facet_index.reshape(pairs, rows * nF)
         index[:, rows * nF:] = np.searchsorted(keys, mean_keys)
         self.pair_el, self.pair_patch, self.pair_index = pair_el, pair_patch, index
         self.pairs_per_element = nv_el
-        facet_pos = np.searchsorted(keys, facet_keys[facet_free])
         self.free_system, first = _unique(facet_pos, return_index=True)
         self.free_global = (np.broadcast_to(row * nS + dofs[:, None, :, :], facet_free.shape)[facet_free])[first]
         valid = index >= 0
@@ -577,17 +583,24 @@ class Equilibration:
         # where the condensed element matrices of every pair go in the system, and the borders
         # (one flatnonzero of the (pair, local row, local column) mask q = (pair nY + row) nY + column;
         # in the elements' condensed matrices, ne × nY × nY, the same entry is at q − (pair − its element) nY²)
-        q = np.flatnonzero((valid[:, :, None] & valid[:, None, :]).ravel())
-        pair_of_q = q // (nY * nY)
-        flat_index = index.ravel()
-        r = flat_index[q // nY]
-        c = flat_index[pair_of_q * nY + q % nY]
-        keep = q - (pair_of_q - pair_el[pair_of_q]) * (nY * nY)
-        del q, pair_of_q
+        # (int32 arithmetic where it fits: these arrays have an entry per entry of the system)
+        n2 = nY * nY
+        small = np.int32 if pairs * n2 < 2 ** 31 else np.int64
+        q = np.flatnonzero((valid[:, :, None] & valid[:, None, :]).ravel()).astype(small)
+        pair_of_q = q // small(n2)
+        local = q - pair_of_q * small(n2)                                  # row · nY + column
+        del q
+        row_of_q = local // small(nY)
+        flat_index, start = index.ravel(), pair_of_q * small(nY)
+        r = flat_index[start + row_of_q]
+        c = flat_index[start + (local - row_of_q * small(nY))]
+        keep = pair_el.astype(small)[pair_of_q] * small(n2) + local
+        del start, row_of_q, local, pair_of_q
         bordered = ~dirichlet[pair_patch]                                  # (pairs, rows)
         mean_pos = index[:, rows * nF:][bordered]
         border_pos = np.searchsorted(keys, key(np.broadcast_to(pair_patch[:, None], bordered.shape)[bordered], 2,
-                                               np.broadcast_to(np.arange(rows)[None, :], bordered.shape)[bordered]))
+                                               np.broadcast_to(np.arange(rows)[None, :], bordered.shape)[bordered]
+                                               )).astype(number)
         mass = np.broadcast_to(data.mean_mass[pair_el][:, None], bordered.shape)[bordered]
         self.system = BlockDiagonal(keys // (3 * big), np.concatenate([r, mean_pos, border_pos]),
                                     np.concatenate([c, border_pos, mean_pos]))       # one block per patch
@@ -683,9 +696,12 @@ class Equilibration:
         y_known = np.zeros((pairs, self.nY))
         if len(x_fixed):
             y_known[self.fixed_pairs, self.fixed_local] = x_fixed
-            np.add.at(cond, self.fixed_pairs, self._S_fixed * x_fixed[:, None])
+            nY = self.nY
+            at = (self.fixed_pairs[:, None] * nY + np.arange(nY)[None, :]).ravel()
+            cond += np.bincount(at, weights=(self._S_fixed * x_fixed[:, None]).ravel(),
+                                minlength=cond.size).reshape(cond.shape)
         valid = self.pair_index >= 0
-        np.add.at(rhs, self.pair_index[valid], -cond[valid])
+        rhs -= np.bincount(self.pair_index[valid], weights=cond[valid], minlength=self.size)
         TIMERS["right-hand sides"].Stop()
         return rhs, (r_X, x_fixed, y_known, X_glob)
 
