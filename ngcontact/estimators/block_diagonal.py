@@ -35,12 +35,6 @@ def in_background(call):
     return _background[0].submit(call)
 
 
-def load_scipy():
-    """Import SciPy's sparse solvers in the background thread (0.2 s the first time in a
-    process), queued before the factorisations that need them."""
-    in_background(lambda: __import__("scipy.sparse.linalg"))
-
-
 class _Part:
     """One part of a sparse block-diagonal system (unknowns ``first`` to ``last`` − 1, whole
     blocks; ``entries``: the positions of its COO entries): its SuperLU factorisation, made once

@@ -69,7 +69,6 @@ from ngcontact.model.loads import as_cf
 from ngcontact.model.voigt import matrix_cf
 from ngcontact.solve.linalg.linear_solver import reproducible
 from ngcontact.time.step import Step
-from . import block_diagonal
 from .equilibration import BONUS, TIMERS, Equilibration, Patches, Rows
 
 TIMERS.update({name: ngs.Timer(f"ngcontact estimate: {name}") for name in ("Γ3 data", "indicator integrals")})
@@ -152,7 +151,6 @@ class EquilibratedEstimator:
     def __init__(self, sim, weak_symmetry=False):
         steps = check(sim)
         self.weak_symmetry = checks.flag("weak_symmetry", weak_symmetry)
-        block_diagonal.load_scipy()
         body = steps.body
         self.steps, self.body, self.dim = steps, body, body.dim
         T, dim = body.tensors, body.dim
