@@ -55,7 +55,6 @@ axis) gives a finite value that is not a proven bound; the bound is checked ther
 η_osc,K² mark elements for refinement (``adapt``). Measured effectivities (η / the true error on
 manufactured solutions): docs/adaptivity.md.
 """
-from contextlib import nullcontext
 from dataclasses import dataclass, field
 
 import ngsolve as ngs
@@ -69,7 +68,7 @@ from ngcontact.model.loads import as_cf
 from ngcontact.model.voigt import matrix_cf
 from ngcontact.solve.linalg.linear_solver import reproducible
 from ngcontact.time.step import Step
-from .equilibration import BONUS, TIMERS, Equilibration, Patches, Rows
+from .equilibration import BONUS, TIMERS, Equilibration, Patches, Rows, all_cores
 
 TIMERS.update({name: ngs.Timer(f"ngcontact estimate: {name}") for name in ("Γ3 data", "indicator integrals")})
 
@@ -434,9 +433,8 @@ def _element_integrals(cfs, mesh, order):
     ``order``, each clipped at 0 (they are squares).
     Every CF is compiled first: its tree (the compliance times the Voigt differences) evaluated
     uncompiled costs far more in 3D (docs/measurements.md, section ngcontact/estimators/equilibrated.py).
-    Outside MPI they run under NGSolve's TaskManager: nothing else runs then, and each element's
-    integral is one thread's, so the values do not depend on the threads."""
-    with TIMERS["indicator integrals"], ngs.TaskManager() if parallel.world() is None else nullcontext():
+    They run on every core (``equilibration.all_cores``): nothing else runs then."""
+    with TIMERS["indicator integrals"], all_cores():
         return [np.maximum(ngs.Integrate(cf.Compile(), mesh, ngs.VOL, order=order, element_wise=True).NumPy(), 0.0)
                 for cf in cfs]
 

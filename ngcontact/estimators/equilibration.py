@@ -37,11 +37,12 @@ own only at the vertices on the boundaries where they differ.
 """
 import threading
 from concurrent.futures import Future
+from contextlib import nullcontext
 
 import ngsolve as ngs
 import numpy as np
 
-from ngcontact import meshes
+from ngcontact import meshes, parallel
 from ngcontact.model.kinematics import mesh_ds, mesh_dx
 from ngcontact.model.voigt import matrix_cf
 from ngcontact.solve.linalg.matrices import csr
@@ -52,6 +53,13 @@ BONUS = 4
 TIMERS = {name: ngs.Timer(f"ngcontact estimate: {name}") for name in
           ("element data", "patch structure", "condensation", "right-hand sides", "block solves", "recovery")}
 """NGSolve timers of the equilibration's parts (read by ``studies.estimate_cost``; they decide nothing)."""
+
+
+def all_cores():
+    """NGSolve's TaskManager outside MPI (else nothing), for NGSolve work while the background
+    thread is idle: element-wise integrals, each element's one thread's, so that their values
+    do not depend on the threads."""
+    return ngs.TaskManager() if parallel.world() is None else nullcontext()
 
 
 def _unique(values, return_index=False):
@@ -765,7 +773,7 @@ class Rows:
         self.patterns = [tuple(bool(neumann(name, i)) for name in names) for i in range(self.rows)]
         unit = np.eye(mesh.dim)
         # what NGSolve makes, here; the patch systems (NumPy, SciPy) in the background, while
-        # the caller assembles the element matrices and the patch data (``__call__``)
+        # the caller assembles the element mass, condenses and assembles the patch data (``__call__``)
         self.data = patches.elements(order)
         self.with_traction = any(any(pattern) for pattern in self.patterns)   # some flux prescribed
         if self.with_traction:
@@ -780,7 +788,7 @@ class Rows:
             mesh, 1, order, unit, lambda name, _: neumann(name, i), patches, vertices, later)
         base = self._make(0, later=True)
         self._base, self._variants = in_background(lambda: (base.set_up(), base)[1]), None
-        base.condense()         # (here, while the worker numbers the patches: the mass assembled, condensed)
+        base.condense()                                 # (here, while the worker numbers the patches)
         self.S = self.data.S
 
     @property
