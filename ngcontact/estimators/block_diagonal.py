@@ -21,7 +21,7 @@ import numpy as np
 DENSE = 120
 """The largest block solved dense (unknowns)."""
 CHUNKS = 16
-"""The parts of a sparse system factorised one by one (whole blocks, about equal in entries)."""
+"""The parts of a sparse system factorised one by one (whole blocks, about equal in Σ block size²)."""
 _background = []                                   # the one worker thread of the estimators
 
 
