@@ -168,3 +168,17 @@ def test_solve_to_a_tolerance_returns_a_certificate():
     assert len(result.levels) >= 2 and not all(level.certified for level in result.levels)
     with pytest.raises(ValueError, match="tol must be a finite number > 0"):
         adapt.solve(_hertz, mesh, None)
+
+
+def test_the_estimate_cost_summary_reports_medians_of_ratios_and_the_first_round_apart():
+    """``bench-estimate``'s summary: the median of the rounds' ratios estimate ÷ step (not the
+    ratio of medians), the first estimate of the process on its own line, and the split's rest."""
+    from ngcontact.studies import estimate_cost
+    rows = [dict(step_s=2.0, cold_s=3.0, warm_s=1.0, cold_split={"block solves": 1.0}, warm_split={}),
+            dict(step_s=1.0, cold_s=0.9, warm_s=0.5, cold_split={"block solves": 0.5}, warm_split={}),
+            dict(step_s=4.0, cold_s=3.2, warm_s=1.2, cold_split={"block solves": 0.7}, warm_split={})]
+    lines = estimate_cost.summary(1234, rows)
+    assert lines[0].startswith("1234 DOFs, 3 rounds, medians: step 2.000 s, estimate cold 3.000 s (÷ step 0.90)")
+    assert "warm 1.000 s (÷ step 0.50)" in lines[0]
+    assert lines[1] == "first estimate of the process (round 0): cold 3.000 s (÷ step 1.50)"
+    assert lines[2] == "cold split (s, medians): block solves 0.700, other 2.300"
