@@ -45,7 +45,8 @@ class _Part:
         self._claimed, self._lock, self.lu = False, threading.Lock(), Future()
 
     def factorise(self, values, rows, cols):
-        """Factorise the part from the system's COO entries, unless another thread has claimed it."""
+        """Factorise the part from the system's COO entries (their values ``values[k]``, or
+        ``values[0][values[1][k]]`` for a pair), unless another thread has claimed it."""
         with self._lock:
             if self._claimed:
                 return
@@ -57,7 +58,8 @@ class _Part:
             r, c = rows[at] - self.first, cols[at] - self.first
             if len(c) and (c.min() < 0 or c.max() >= n):
                 raise ValueError("BlockDiagonal: an entry couples two blocks")
-            self.lu.set_result(sla_sparse.splu(sp.csc_matrix((values[at], (r, c)), shape=(n, n))))
+            entries = values[at] if isinstance(values, np.ndarray) else values[0][values[1][at]]
+            self.lu.set_result(sla_sparse.splu(sp.csc_matrix((entries, (r, c)), shape=(n, n))))
         except BaseException as error:
             self.lu.set_exception(error)
 
@@ -72,6 +74,8 @@ def _parts(starts, sizes, size, rows):
     bounds = np.unique(np.r_[0, cuts[cuts > 0], size])
     part = np.repeat(np.arange(len(bounds) - 1, dtype=np.uint8), np.diff(bounds))[rows]     # of every entry
     order = np.argsort(part, kind="stable")                  # (a radix sort of small integers)
+    if len(order) < 2 ** 31:
+        order = order.astype(np.int32)
     ends = np.searchsorted(part[order], np.arange(1, len(bounds), dtype=np.uint8))
     return [(int(a), int(b), order[e - k:e]) for a, b, e, k in
             zip(bounds[:-1], bounds[1:], ends, np.diff(np.r_[0, ends]))]
@@ -112,12 +116,15 @@ class BlockDiagonal:
         first = starts[of_entry]
         self.flat = offset_of[of_entry] + rank[of_entry] * n_of * n_of + (rows - first) * n_of + (cols - first)
 
-    def fill(self, values):
-        """Set the entries' values (duplicates add up)."""
+    def fill(self, values, gather=None):
+        """Set the entries' values (duplicates add up): ``values``, or with ``gather``
+        ``values[gather]`` (the sparse parts then gather their own entries)."""
         self._inverses, self._solves = None, 0
         if self.dense:
-            self._data = np.bincount(self.flat, weights=values, minlength=self.total)
+            entries = values if gather is None else values[gather]
+            self._data = np.bincount(self.flat, weights=entries, minlength=self.total)
             return
+        values = values if gather is None else (values, gather)
         self._values = values
         self._parts = [_Part(*layout) for layout in self._layout]
         for part in self._parts:

@@ -462,8 +462,8 @@ class Equilibration:
             self.K_XY, self.Minv, self.G, self.S_cond = self.condense()
             # the columns of S_K that multiply the prescribed fluxes, one per prescribed value
             self._S_fixed = self.S_cond[self.pair_el[self.fixed_pairs], :, self.fixed_local]
-            keep, border_values = self._pattern
-            self.system.fill(np.concatenate([self.S_cond.reshape(-1)[keep], border_values]))
+            gather, border_values = self._pattern
+            self.system.fill(np.concatenate([self.S_cond.reshape(-1), border_values]), gather)
 
     def _condense(self, weight):
         """(K_XY, M⁻¹, G, S) of every element for the weight [j, l, i, k]: M⁻¹ = K_XX⁻¹, the
@@ -612,7 +612,9 @@ class Equilibration:
         mass = np.broadcast_to(data.mean_mass[pair_el][:, None], bordered.shape)[bordered]
         self.system = BlockDiagonal(keys // (3 * big), np.concatenate([r, mean_pos, border_pos]),
                                     np.concatenate([c, border_pos, mean_pos]))       # one block per patch
-        self._pattern = (keep, np.concatenate([mass, mass]))
+        # the entries' values: the condensed element matrices' at ``keep``, then the borders'
+        self._pattern = (np.concatenate([keep, ne * n2 + np.arange(2 * len(mass), dtype=keep.dtype)]),
+                         np.concatenate([mass, mass]))
         # prescribed normal fluxes, in groups of w entries (one pair, row, facet) in the facet's DOF order
         fixed_full = np.broadcast_to(fixed[:, :, :, None], (pairs, rows, n_facets_el, w))
         p_idx, i_idx, f_idx, k_idx = np.nonzero(fixed_full)
