@@ -125,7 +125,7 @@ def controlled(newton_rtol, scheme, dt, rtol, dt_min, event_dt, T=0.0):
     """The error-controlled steps of ``run`` with Newton's tolerance ``newton_rtol`` and the time
     scheme ``scheme``: None without ``rtol`` (then ``dt_min`` and
     ``event_dt`` must be None too), else (dt_min, event_dt) in s, checked: rtol in (0, 0.1] and
-    at least 100 times Newton's tolerance,
+    at least a hundredfold Newton's tolerance,
     a scheme with an error estimate, 0 < dt_min <= event_dt <= dt (defaults 1e-6 dt and
     1e-3 dt), dt_min at least the smallest step a run to T takes (``time_step``). A ValueError or TypeError naming the parameter otherwise. On a distributed mesh the
     steps are those of a serial run: the estimate and the events are over all ranks (``schemes.bdf2``,

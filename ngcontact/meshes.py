@@ -188,6 +188,11 @@ def refined(mesh, marked, polygonal=False):
     return copy
 
 
+def vertex_points(mesh):
+    """The coordinates of every vertex of ``mesh`` (vertices × dim, m)."""
+    return np.array([v.point for v in mesh.vertices]).reshape(mesh.nv, mesh.dim)
+
+
 # ---------------------------------------------------------------------- facets: edges in 2D, faces in 3D
 
 def facets(mesh):

@@ -130,20 +130,11 @@ def test_the_estimate_bounds_the_energy_error_in_3d(coupled):
     piezoelectric coupling (observed 1.15–1.18) and ≤ 3.5 with scaled PZT-5A's (observed
     3.36–3.45: the Prager–Synge bound of the coupled system counts the coupling energy
     (C⁻¹Eᵀ∇e_φ, Eᵀ∇e_φ) + (C_φ⁻¹E ε(e_u), E ε(e_u)) once more, docs/adaptivity.md)."""
-    import sympy as sp
-    from ngcontact.geometries import block
-    from ngcontact.scenes.manufactured import Manufactured, x, y, z
+    from ngcontact.scenes.manufactured import smooth_block
     m = ngc.pzt5a()
     material = ngc.Material(m.c / 1e10, m.e if coupled else 0 * m.e, m.eps / 1e-9, name="scaled PZT-5A")
-    u = sp.Matrix([x * sp.sin(2 * y + z), x ** 2 * sp.cos(y - z), sp.sin(x) * (1 + y * z)]) / 100
-    phi = z * sp.cos(x + y) / 10
     for order, level in ((1, 0), (1, 1), (2, 0)):
-        body = ngc.Body(block(1.0, 0.5, 0.5, maxh=0.25, refine=level), material, clamped="left",
-                        grounded="bottom", order=order)
-        mms = Manufactured(body.tensors, u * t_symbol, phi * t_symbol, dim=3)
-        time = ngs.Parameter(0.0)
-        sim = ngc.Simulation(body, mms.loads(body, time), time=time, keep_states=False, physical_checks=False)
-        sim.run(1.0, 1.0)
+        sim, mms = smooth_block(material, order, level)
         ratio = EquilibratedEstimator(sim)().total / mms.energy_error(sim)
         assert 1.0 <= ratio <= (3.5 if coupled else 1.25), (order, level, ratio)
 
@@ -156,17 +147,11 @@ def test_the_rows_of_the_stress_share_one_patch_system_and_are_equilibrated():
     patch data's quadrature of f). D, grounded on another face, is the fourth row: it reads the
     shared system except on the patches of the vertices on the two faces where its boundary
     conditions differ, and equals D* equilibrated alone to 1e-12."""
-    import sympy as sp
-    from ngcontact.geometries import block
-    from ngcontact.scenes.manufactured import Manufactured, x, y, z
+    from ngcontact.scenes.manufactured import smooth_block
     m = ngc.pzt5a()
     material = ngc.Material(m.c / 1e10, 0 * m.e, m.eps / 1e-9, name="scaled PZT-5A, uncoupled")
-    u = sp.Matrix([x * sp.sin(2 * y + z), x ** 2 * sp.cos(y - z), sp.sin(x) * (1 + y * z)]) / 100
-    body = ngc.Body(block(1.0, 0.5, 0.5, maxh=0.25), material, clamped="left", grounded="bottom", order=1)
-    mms = Manufactured(body.tensors, u * t_symbol, z * sp.cos(x + y) / 10 * t_symbol, dim=3)
-    time = ngs.Parameter(0.0)
-    sim = ngc.Simulation(body, mms.loads(body, time), time=time, keep_states=False, physical_checks=False)
-    sim.run(1.0, 1.0)
+    sim, _ = smooth_block(material, 1)
+    body = sim.body
     estimator = EquilibratedEstimator(sim)
     rows = estimator().fields["sigma_star_rows"]
     coupled = EquilibratedEstimator(sim, weak_symmetry=True)().fields["sigma_star_rows"]
@@ -203,20 +188,14 @@ def test_constant_fluxes_give_the_same_patch_data_as_element_arrays(dim, monkeyp
     and the kept hat moments (no assembly per row) give σ*, D* and η of the assembled data to
     1e-12: the reference scene after first contact (Γ3 traction, prescribed boundary data), and
     in 3D a block with a body force (the source's part)."""
-    import sympy as sp
-    from ngcontact.geometries import block
     from ngcontact.scenes import reference
-    from ngcontact.scenes.manufactured import Manufactured, x, y, z
+    from ngcontact.scenes.manufactured import smooth_block
     if dim == 2:
         sim = reference.simulation(1, 0.005, keep_states=False)
         sim.run(2.5e-3, 5 * 2.5e-3)
     else:
-        body = ngc.Body(block(1.0, 0.5, 0.5, maxh=0.25), ngc.pzt5a(), clamped="left", grounded="bottom", order=1)
-        u = sp.Matrix([x * sp.sin(2 * y + z), x ** 2 * sp.cos(y - z), sp.sin(x) * (1 + y * z)]) / 1e4
-        mms = Manufactured(body.tensors, u * t_symbol, z * sp.cos(x + y) * t_symbol, dim=3)
-        time = ngs.Parameter(0.0)
-        sim = ngc.Simulation(body, mms.loads(body, time), time=time, keep_states=False, physical_checks=False)
-        sim.run(1.0, 1.0)
+        m = ngc.pzt5a()
+        sim, _ = smooth_block(ngc.Material(m.c / 1e10, m.e, m.eps / 1e-9, name="scaled PZT-5A"), 1)
     estimators = []
     for route in ("elements", "assembled"):
         if route == "assembled":

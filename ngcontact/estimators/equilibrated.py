@@ -63,7 +63,7 @@ import numpy as np
 from ngcontact.gamma3 import integrands
 from ngcontact.model import forms, kinematics
 from ngcontact.model.kinematics import mesh_ds
-from ngcontact import checks, parallel
+from ngcontact import checks, meshes, parallel
 from ngcontact.model.loads import as_cf
 from ngcontact.model.voigt import matrix_cf
 from ngcontact.solve.linalg.linear_solver import reproducible
@@ -441,12 +441,9 @@ def _element_integrals(cfs, mesh, order):
 
 def element_diameters(mesh):
     """The diameter of every volume element (its longest edge; m)."""
-    points = np.array([v.point for v in mesh.vertices])
-    out = np.zeros(mesh.ne)
-    for el in mesh.Elements(ngs.VOL):
-        p = points[[v.nr for v in el.vertices]]
-        out[el.nr] = max(np.linalg.norm(p[i] - p[j]) for i in range(len(p)) for j in range(i))
-    return out
+    points = meshes.vertex_points(mesh)[[[v.nr for v in el.vertices] for el in mesh.Elements(ngs.VOL)]]
+    edges = points[:, :, None, :] - points[:, None, :, :]                   # (elements, vertices, vertices, dim)
+    return np.sqrt((edges ** 2).sum(axis=3)).max(axis=(1, 2))
 
 
 def pointwise_data(steps):

@@ -24,7 +24,7 @@ element's own DOF order; the conforming matrices are their sums, exactly), once 
 order (``ElementData``, shared by the equilibrations of a mesh, each block assembled when a
 weight first needs it): the weight of one row is one assembled form, that of several rows a
 combination of the components' blocks (``set_weight``). In each element the RT
-DOFs inside it and the L2 DOFs of zero mean are eliminated once (static condensation: they
+DOFs inside it and the DOFs of zero mean of L² are eliminated once (static condensation: they
 belong to that element alone in every patch problem), leaving its facet DOFs and its mean;
 every patch problem is then a small system in the facet DOFs around its vertex and the means
 of its elements, and all of them form one block-diagonal system (``block_diagonal``: batched
@@ -282,7 +282,7 @@ class ElementData:
         element (``values``, elements × dim: σ_h of P1 on straight elements), as element arrays
         (``ElementPatchData``) instead of assembled matrices: (ψ_a σ_h, τ)_K = Σ_c σ_c(K)
         (ψ_a e_c, τ)_K from the kept ``hat_moments``, and (σ_h ∇ψ_a, q)_K = |K| σ_h(K)·∇ψ_a(K)
-        for the mean q = 1 (0 for the L2 DOFs of zero mean), the source's part assembled."""
+        for the mean q = 1 (0 for the DOFs of zero mean of L²), the source's part assembled."""
         TIMERS["right-hand sides"].Start()
         flux = np.einsum("ec,ejca->eja", values, self.hat_moments())
         div = np.zeros((self.mesh.ne, self.el_qdofs.shape[1], flux.shape[2]))
@@ -312,7 +312,7 @@ class ElementData:
         """∇ψ_a on every (straight) element (elements × vertices × dim, 1/m), from its vertices
         (kept)."""
         if self._hat_gradients is None:
-            points = np.array([v.point for v in self.mesh.vertices])[self._element_vertices]   # (ne, d + 1, d)
+            points = meshes.vertex_points(self.mesh)[self._element_vertices]           # (ne, d + 1, d)
             edges = points[:, 1:, :] - points[:, :1, :]                                   # rows p_k − p_0
             inverse = np.linalg.inv(edges)                # λ_k = (x − p_0)·(column k of edges⁻¹)
             grads = np.transpose(inverse, (0, 2, 1))

@@ -146,7 +146,7 @@ def elements_at_points(mesh, region_names, points, reach=0.7):
     marked = np.zeros(mesh.ne, dtype=bool)
     if len(points) == 0:
         return marked
-    vertices = np.array([v.point for v in mesh.vertices])
+    vertices = meshes.vertex_points(mesh)
     for el in mesh.Elements(ngs.BND):
         if el.mat not in region_names:
             continue

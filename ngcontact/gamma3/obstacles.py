@@ -40,7 +40,7 @@ body's size of the smallest gap."""
 
 
 class Obstacle(Protocol):
-    """What ``Contact(obstacle=...)`` and Γ3 use of a rigid obstacle (an instance, not its class).
+    """What ``Contact(obstacle=...)`` and the contact side read of a rigid obstacle (an instance, not its class).
 
     Its public attributes (``vars()`` without the names that start with "_") are its data: the
     run's fingerprint samples them on Γ3 (so that a run is never resumed with another obstacle),

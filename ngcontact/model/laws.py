@@ -12,7 +12,7 @@ with ε_rθ = ε_zθ = 0 (``model.kinematics``):
 NGSolve differentiates the expression for Newton (``BilinearForm.AssembleLinearization``)
 and for Nitsche's variation σ_ν'(u)[v] (``CoefficientFunction.Diff``). The hypotheses are
 checked before a run (``StrainLaw.bind``): the law is evaluated at ``SAMPLES`` pairs of
-strains of sizes between 1e-3 and 1e1 times ``strain_scale`` and
+strains of sizes from a thousandth to ten of ``strain_scale`` and
 
     (F(a) − F(b)) : (a − b) ≥ m |a − b|²,   |F(a) − F(b)| ≤ L |a − b|     (Frobenius norms)
 

@@ -127,6 +127,23 @@ class Manufactured:
         return math.sqrt(max(value, 0.0))
 
 
+def smooth_block(material, order, level=0):
+    """(sim, mms): the smooth (u, φ) = t (u_b, φ_b) on the block of ``geometries.block`` (sides
+    1, 0.5, 0.5 m; clamped left, grounded bottom, the data of every other face given) in
+    ``material``, solved by one step to t = 1 at order ``order`` on ``level`` refinements of
+    its coarse mesh: the 3D case of the estimators' effectivity (docs/adaptivity.md)."""
+    from ngcontact.geometries import block
+    u = sp.Matrix([x * sp.sin(2 * y + z), x ** 2 * sp.cos(y - z), sp.sin(x) * (1 + y * z)]) / 100
+    phi = z * sp.cos(x + y) / 10
+    body = ngc.Body(block(1.0, 0.5, 0.5, maxh=0.25, refine=level), material, clamped="left", grounded="bottom",
+                    order=order)
+    mms = Manufactured(body.tensors, u * t, phi * t, dim=3)
+    time = ngs.Parameter(0.0)
+    sim = ngc.Simulation(body, mms.loads(body, time), time=time, keep_states=False, physical_checks=False)
+    sim.run(1.0, 1.0)
+    return sim, mms
+
+
 class ContactManufactured(Manufactured):
     """An exact solution of the full problem on the plate [0, L1] × [0, L2] with Γ1 = left
     (clamped), Γa = top (grounded) and Γ3 = bottom, whose contact set on Γ3 is [0, x_c].
@@ -143,7 +160,7 @@ class ContactManufactured(Manufactured):
       g = 0, ŝ = −x²(x_c − x)_+^k (compression on the contact set, σ̃_ν = 0 off it).
     * ``case="adhesive"``: static (s_u = s_φ = 1); on [0, x_c] the body presses into the
       compliant layer, u_ν = g = η x²(x_c − x)_+^k with σ̃_ν = σ_ν + c_ν u_ν < 0; on (x_c, L1]
-      it is separated and held by the glue, σ_ν = γ_ν β0² R_ν(u_ν); β0(x) = 0.6 + 0.3 sin(4x)
+      it is separated and held by the glue, σ_ν = γ_ν β0² R_ν(u_ν); β0(x) = 0.6 + 0.3 sin(4·x)
       stays constant (ε_a > γ_ν β R_ν²).
 
     Conduction everywhere on Γ3 (ramp width δ larger than any separation, L_φ large):

@@ -321,7 +321,7 @@ class LawWatch:
     def _unbounded(self, eps, steeper):
         """(message, strain) if the slope of the law grows without bound along the ray of
         strains s ε through the steepest point of ``steeper`` (s = 10^k, |k| ≤ ``DECADES``;
-        slopes |σ(s ε + h d) − σ(s ε)|/h along its direction d, h = 1e-6 s |ε|): by ``GROWTH``
+        slopes |σ(s ε + h d) − σ(s ε)|/h along its direction d, h = s |ε| · 1e-6): by ``GROWTH``
         or more per decade over the last two decades at either end, or non-finite; else None."""
         if not steeper:
             return None

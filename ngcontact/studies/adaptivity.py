@@ -20,9 +20,8 @@ the scene's DOF limit. Scenes (``SCENES``):
   is), the effectivity, and the pressure error against Hertz's closed form (itself an
   approximation at this a/R: docs/measurements.md, section adaptivity);
 * ``hertz3d``: the half-ball (P1): the estimate and the pressure error;
-* ``reference``: the reference plate's push, hold and pull over [0, 0.25 s] (25 steps of
-  10 ms; the estimate every fifth step, the largest over them marks the next mesh:
-  ``adapt.history``): the energy error at 0.25 s (the last step's norm, C_c = F + A/k) against
+* ``reference``: the reference plate's push, hold and pull over [0, T] (T in s: 0.25; 25 steps; the estimate every fifth step, the largest over them marks the next mesh:
+  ``adapt.history``): the energy error at T (the last step's norm, C_c = F + A/k) against
   an adaptive P3 reference; its effectivity uses the estimate of that last step, which bounds
   the error of the step problem and not the error carried from the steps before.
 

@@ -40,8 +40,8 @@ SCENES = {"plate": 2, "block": 3}
 SOLVERS = {"default": {}, "mumps": dict(solver="mumps"), "masterinverse": dict(solver="masterinverse"),
            "gamg": dict(solver="gamg"), "multigrid": dict(solver="multigrid"), "umfpack": dict(solver="umfpack")}
 """The solver configurations by name, as Simulation options: ``default`` (what the library
-chooses: serially a kept factorisation, NGSolve's multigrid in 3D from 1e5 DOFs; under
-mpiexec MUMPS where PETSc is installed, else "masterinverse", GAMG in 3D from 1e5 DOFs),
+chooses: serially a kept factorisation, NGSolve's multigrid for large 3D meshes; under
+mpiexec MUMPS where PETSc is installed, else "masterinverse", GAMG for large 3D meshes),
 ``mumps`` (PETSc's MUMPS), ``masterinverse`` (NGSolve gathers the matrix on rank 0),
 ``gamg`` (PETSc's GMRES with Γ3 MUMPS solves around block GAMG), ``multigrid`` (NGSolve's, on
 nested meshes), ``umfpack`` (the kept UMFPACK factorisation)."""

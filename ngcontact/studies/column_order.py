@@ -15,8 +15,8 @@ u apart from the θ = 0 system's on this mesh by a spatial consistency term, and
 different k differ by a part of it; docs/measurements.md, section column_order.) Two histories
 (``HISTORIES``):
 
-* "lift": F0 = 3e8 N/m³, T = 0.05 s: the glue stretches within L and β falls a little;
-* "debond": F0 = 1e9 N/m³, T = 0.07 s: every point of Γ3 separates beyond L before T
+* "lift" (F0 in N/m³ and T in s: 3e8, 0.05): the glue stretches within L and β falls a little;
+* "debond" (1e9, 0.07): every point of Γ3 separates beyond L before T
   (a kink in time of the semi-discrete solution: R_ν' jumps from −1 to 0) and β falls to
   nearly 0 on every facet (ε_a = 0: β decays like exp(−γ_ν L² t), never to 0).
 

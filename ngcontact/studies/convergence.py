@@ -156,7 +156,7 @@ def _manufactured_run(order, level, case, dt, T, maxh, time_profile, smoothness,
 def reference_study(orders=(1, 2), levels=3, steps=80, T=0.25, maxh=REFERENCE_MAXH, reference_order=None,
                     reference_level=None, progress=True, store=None):
     """Relative errors of the reference scene against a fine solution, ``steps`` time steps
-    over [0, T] for each (T = 0.25 s: contact growth, release, the start of debonding).
+    over [0, T] for each (``T``: contact growth, release, the start of debonding).
     ``store``: a CaseStore; the fine run streams into its directory (and resumes from it) and
     each finished case is kept there."""
     store = store or CaseStore(None)

@@ -90,7 +90,7 @@ def run(out, orders=(1, 2), levels=4, dim=2, progress=True, resume=False):
 
 def _profile(sim):
     """(r, λ_h(r), Hertz p(r)) on Γ3 near the contact zone: in 2D r = x at 9 points per facet,
-    in 3D r = |(x, y)| at 7 points per triangle (vertices moved 2 % inwards, edge midpoints,
+    in 3D r = |(x, y)| at 7 points per triangle (the vertices moved inwards by a fiftieth, the edge midpoints,
     centroid)."""
     e = hertz.errors(sim)
     side, mesh, dim = sim.side, sim.body.mesh, sim.body.dim

@@ -163,7 +163,7 @@ DENSE = np.linspace(0, 1, 257)
 
 
 def _roots(coefficients, scanned):
-    """The roots in (0, 1) of the Legendre series in 2s − 1 whose values at ``DENSE`` are
+    """The roots in (0, 1) of the Legendre series in 2·s − 1 whose values at ``DENSE`` are
     ``scanned``: its sign changes there, refined by Brent's method to round-off."""
     from scipy.optimize import brentq
     changes = np.flatnonzero(np.sign(scanned[:-1]) * np.sign(scanned[1:]) < 0)
@@ -375,7 +375,7 @@ def locate(family, order, a, gamma0=10.0, tol=1e-7, rounds=4, progress=print):
 
 
 def build(out=DATA, levels=4, orders=(3, 4), gamma0s=(10.0, 100.0), terms=12, a0=0.107, progress=print):
-    """Solve the levels of both mesh families at ``orders`` (the first γ0 of ``gamma0s``), each
+    """Solve the levels of both mesh families at ``orders`` (with the first γ0 given), each
     level graded at the contact edge of the level before (the first at the edge ``locate``d from
     ``a0``, m), the finest "restrict" level of the highest order at the other γ0; take F and a of
     the finest "restrict" level of the highest order (Richardson's limit where its levels

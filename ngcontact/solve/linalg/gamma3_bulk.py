@@ -10,7 +10,7 @@ bulk, diag(B_u, −B_φ), of the SPD forms of ``forms.preconditioner_forms``. It
 the parts (``Parts``): NGSolve's (``multigrid.Preconditioner``: UMFPACK on Γ3, NGSolve's
 multigrid or BDDC in the bulk, on NGSolve vectors) and PETSc's (``petsc_iterative``: MUMPS on
 Γ3, GAMG in the bulk, on PETSc vectors, the products with J taken by its strips J[:, Γ3] and
-J[Γ3, :]). Without Γ3 DOFs, M = B.
+J[Γ3, :]). Without DOFs on Γ3, M = B.
 """
 from typing import Protocol
 
@@ -19,7 +19,7 @@ class Parts(Protocol):
     """The parts of M on one back-end's vectors."""
 
     surface: bool
-    """Whether there are free Γ3 DOFs (else M = B)."""
+    """Whether there are free DOFs on Γ3 (else M = B)."""
 
     def clear(self, y) -> None:
         """y = 0."""

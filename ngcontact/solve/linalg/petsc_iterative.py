@@ -107,7 +107,7 @@ class GamgSolver:
     name = "GMRES preconditioned by Γ3 MUMPS solves around block GAMG (PETSc)"
 
     def _setup(self, matrix):
-        """The index sets of u, φ and the Γ3 DOFs in J, a PETSc matrix new to the solver."""
+        """The index sets of u, φ and the DOFs on Γ3 in J, a PETSc matrix new to the solver."""
         PETSc, _ = load()
         mapping, template = self.J.vectors, matrix.CreateColVector()
         n_u = self.body.V.ndof
@@ -192,7 +192,7 @@ class GamgSolver:
         return PETSc.NullSpace().create(vectors=vectors, comm=block.getComm())
 
     def _factor_surface(self):
-        """S: the MUMPS LU of J on the Γ3 DOFs (its pattern analysed once, refactorised), and
+        """S: the MUMPS LU of J on the DOFs on Γ3 (its pattern analysed once, refactorised), and
         the two strips of J that M needs besides: J[:, Γ3] and J[Γ3, :]."""
         PETSc, _ = load()
         if self.surface_rows.getSize() == 0:
@@ -230,7 +230,7 @@ class GamgSolver:
 
     @property
     def surface(self):
-        """Whether J has free Γ3 DOFs (``gamma3_bulk.Parts``; the parts on J's PETSc vectors follow)."""
+        """Whether J has free DOFs on Γ3 (``gamma3_bulk.Parts``; the parts on J's PETSc vectors follow)."""
         return self._surface is not None
 
     def clear(self, y):

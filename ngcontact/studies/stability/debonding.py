@@ -20,7 +20,7 @@ def run(out=None, *, force=3e8, dt=2e-3, T=0.2, beta_update="explicit", quick=Fa
 
     The body force lifts the column (force × H = 6 MPa against the glue's strength
     γ_ν L = 5 MPa: the glue stretches beyond L), β decays to 0 everywhere, the force
-    reverses at 0.1-0.12 s and pushes the column onto the foundation. Scene contact data
+    reverses (t in s: 0.1 to 0.12) and pushes the column onto the foundation. Scene contact data
     without conduction; cut-backs are allowed (6).
 
     Parameters

@@ -15,10 +15,10 @@ reading the gap (``Contact(gating="gap")``, the paper's ψ(u_ν − g));
   contact zone, where ψ switches within the facet, are left out) and over all pressed ones
   (|φ − φ_Γ| with φ_Γ = 0 V here).
 * Glue map: the reference plate (``scenes.reference``, its contact data) pushed onto the
-  foundation over the push ramp (0.1 s) in 2, 4 or 8 steps with the glue's adhesion γ_ν
+  foundation over the push ramp in 2, 4 or 8 steps with the glue's adhesion γ_ν
   over decades, P1 and P2; Newton's outcome and the most iterations one step took.
 * The plate grounded at its clamped end (electrode "left" instead of "top"), the reference
-  load and contact, steps of 6.25 ms.
+  load and contact, steps of ``GROUNDED_DT``.
 
 No time-step cut-backs, so that failures show; a failed solve is classified by
 ``common.failure_kind`` of its residuals (``reason`` keeps the first words of Newton's own

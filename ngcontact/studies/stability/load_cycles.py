@@ -21,6 +21,12 @@ def cycle_history(cycles, period, low):
     return tuple(history)
 
 
+DTS = (0.005, 0.01, 0.02, 0.025, 0.05)
+"""The nominal time steps of the study (s)."""
+QUICK_DTS = (0.01, 0.025)
+"""Those of the quick run (s)."""
+
+
 def run(out=None, *, dts=None, cycles=4, period=0.1, low=-0.2, maxh=0.01, quick=False, progress=True):
     """The top load goes 0 → 1 → ``low`` (× 2 MPa) every ``period`` s, ``cycles`` times.
 
@@ -30,7 +36,7 @@ def run(out=None, *, dts=None, cycles=4, period=0.1, low=-0.2, maxh=0.01, quick=
     Parameters
     ----------
     out : pathlib.Path or None, where to draw ``load_cycles.png``.
-    dts : nominal time steps, s; default 5, 10, 20, 25, 50 ms (quick: 10, 25 ms).
+    dts : nominal time steps (s); default ``DTS``, quick ``QUICK_DTS``.
     cycles, period, low : the load history.
     maxh : mesh size, m.
     quick : fewer time steps, two cycles.
@@ -46,7 +52,7 @@ def run(out=None, *, dts=None, cycles=4, period=0.1, low=-0.2, maxh=0.01, quick=
     ``beta_min_final``.
     """
     if dts is None:
-        dts = (0.01, 0.025) if quick else (0.005, 0.01, 0.02, 0.025, 0.05)
+        dts = QUICK_DTS if quick else DTS
     if quick:
         cycles = 2
     history = cycle_history(cycles, period, low)

@@ -29,7 +29,7 @@ def run(out=None, *, gamma0s=None, thetas=(1, 0, -1), maxh=0.01, order=1, steps=
     gamma0s : γ0 values; default 15 (quick: 8) log-spaced values in [1e-3, 1e4].
     thetas : Nitsche variants.
     maxh, order : mesh size (m, halved on Γ3) and polynomial order.
-    steps : time steps over the push ramp (0 to 0.1 s), no cut-backs.
+    steps : time steps over the push ramp, no cut-backs.
     reference_gamma0 : the reference force is the θ = −1 solution with this γ0 on the
         same mesh, so that the error measures the method, not the mesh.
     force_tol : relative force error above which a converged run counts as "wrong".

@@ -1,7 +1,7 @@
 """The pull-off of the reference plate: Newton iterations per step against the Gauss points of
 Γ3 that the release front crosses in the step, for several time steps and meshes.
 
-After the load reverses (t = 0.15 s) the contact zone opens from its inner edge while the glue
+After the load reverses (the reference history's pull) the contact zone opens from its inner edge while the glue
 holds the plate. The semismooth Newton releases the points of Γ3 that are in tension under the
 current contact set; releasing them loads the next ones, so a step whose front crosses many
 points takes about one iteration per point crossed. The study measures that relation on the
@@ -29,14 +29,19 @@ T_END = 0.2
 """The end of the history studied, s: the load has reversed into the pull (``reference``)."""
 
 
+CASES = ((0.0025, 0.005), (0.005, 0.005), (0.01, 0.005), (0.02, 0.005), (0.005, 0.0025), (0.005, 0.01))
+"""The (dt in s, maxh in m) cases of the study: four steps on one mesh, three meshes at one step."""
+QUICK_CASES = ((0.01, 0.005),)
+"""The quick run's case."""
+
+
 def run(out=None, *, cases=None, order=2, quick=False, progress=True):
     """The reference history to ``T_END`` at each (dt, maxh) of ``cases``.
 
     Parameters
     ----------
     out : pathlib.Path or None, where to draw ``pull_off.png``.
-    cases : (dt in s, maxh in m) pairs; default dt 2.5, 5, 10, 20 ms at maxh 5 mm and maxh
-        2.5, 10 mm at dt 5 ms (quick: 10 ms at 5 mm). Checked before any run (``checked``):
+    cases : (dt in s, maxh in m) pairs; default ``CASES``, quick ``QUICK_CASES``. Checked before any run (``checked``):
         dt finite in [``smallest_dt``, T_END / 2] (at least two steps to ``T_END``, at most
         ``checks.MAX_STEPS``), maxh finite in (0, L2] (the plate's thickness) and within memory.
     order : polynomial order.
@@ -54,8 +59,7 @@ def run(out=None, *, cases=None, order=2, quick=False, progress=True):
     """
     quick = checks.flag("quick", quick)
     if cases is None:
-        cases = ((0.01, 0.005),) if quick else \
-            ((0.0025, 0.005), (0.005, 0.005), (0.01, 0.005), (0.02, 0.005), (0.005, 0.0025), (0.005, 0.01))
+        cases = QUICK_CASES if quick else CASES
     cases, order = checked(cases, order)
     rows, traces = [], {}
     with bar(len(cases), "pull_off", progress, unit="run") as shown:

@@ -18,7 +18,7 @@ RATE = reference.CONTACT["adhesion"] * reference.CONTACT["bond_length"] ** 2
 
 def pulled_plate(update, maxh, pull):
     """The reference plate, glued (scene contact data), pulled off from rest: the top load
-    ramps to ``pull`` × the scene's pressure (negative: upwards) in 10 ms and is held."""
+    ramps to ``pull`` × the scene's pressure (negative: upwards) over a ramp and is held."""
     history = ((0.0, 0.0), (0.01, pull), (1e3, pull))
     return reference.simulation(1, maxh, load_history=history, keep_states=False,
                                 contact=reference.contact(beta_update=update))
@@ -45,7 +45,7 @@ def run(out=None, *, dt_gamma_L2s=None, reference_dt_gamma_L2=0.125, T=0.32, pul
         quick=False, progress=True):
     """The explicit β update (4.5) against the implicit one for dt γ_ν L² from below to above 1.
 
-    The glued reference plate is pulled off from rest (top load −0.2 × 2 MPa, 10 ms ramp,
+    The glued reference plate is pulled off from rest (the top load a fifth of the scene's pressure upwards, reached by a ramp,
     then held): the glue stretches, β decays from the free end and the plate lifts off
     (R_ν = L there, so the explicit decay factor per step is 1 − dt γ_ν L²).
 

@@ -61,8 +61,8 @@ class BackwardEuler:
         self._last = None                                   # (x_{n−1}, dt_n) for the predictor
 
     def start(self):
-        """Step 0 at t = 0 (u held at u0, for the potential φ0): the terms of a step of 1 s from
-        u0 (c = 1/s, û = u0)."""
+        """Step 0 at t = 0 (u held at u0, for the potential φ0): the terms of a step of unit length
+        from u0 (c = 1 per second, û = u0)."""
         self.coefficients.set(0.0, 1.0, self.state.components[0].vec)
         self.system.begin_step(self.state)
 
