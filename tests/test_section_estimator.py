@@ -91,7 +91,7 @@ def _effectivity(solution, coupled, order, refinements, width=1.0, maxh=0.34):
 @pytest.mark.parametrize("order", [1, 2])
 def test_the_estimate_bounds_the_energy_error_of_a_manufactured_section(order):
     """The elastic section (no coupling) on three meshes halved by refinement: η ÷ |||e||| in
-    [1, 3] (measured 1.81–2.19 for P1, 1.72–2.12 for P2), the energy part alone above the error,
+    [1, 3] (measured 1.73–2.10 for P1, 1.66–2.06 for P2), the energy part alone above the error,
     the estimate falling at the rate p; a reconstruction without the hoop stress or the weight
     2π r misses the bound."""
     estimates = []
@@ -107,12 +107,12 @@ def test_the_estimate_bounds_the_energy_error_of_a_manufactured_section(order):
 
 @pytest.mark.long
 def test_the_estimate_bounds_the_energy_error_of_a_piezoelectric_section():
-    """Scaled PZT-5A, P1 on three meshes and P2 on two: η ≥ |||e|||, η ÷ |||e||| ≤ 3.5 (measured
-    2.73–3.29: as in the plane and 3D cases the Prager–Synge bound of the coupled system counts
+    """Scaled PZT-5A, P1 on three meshes and P2 on two: η ≥ |||e|||, η ÷ |||e||| ≤ 3.25 (measured
+    2.56–3.08: as in the plane and 3D cases the Prager–Synge bound of the coupled system counts
     the coupling energy once more, docs/adaptivity.md)."""
     for order, level in ((1, 0), (1, 1), (1, 2), (2, 0), (2, 1)):
         ratio, estimate, _, _ = _effectivity(SMOOTH, True, order, level)
-        assert 1.0 <= ratio <= 3.5, (order, level, ratio, estimate.parts)
+        assert 1.0 <= ratio <= 3.25, (order, level, ratio, estimate.parts)
 
 
 def test_the_bound_holds_where_the_error_sits_at_the_axis():
@@ -145,17 +145,19 @@ FINE_SECTION_FORCE = 1.5766e-3
 """The section's force (N) on a uniform fine mesh (h_contact 0.0025 R, P2; docs/axisymmetric.md)."""
 
 
-@pytest.mark.parametrize("tol, force_tolerance, radius_tolerance", [
-    (0.15, 0.04, 0.02),
-    pytest.param(0.1, 3e-3, 5e-3, marks=pytest.mark.long)], ids=["tol 0.15", "tol 0.1"])
-def test_an_adaptive_hertz_sphere_on_its_section_meets_hertz(tol, force_tolerance, radius_tolerance):
+@pytest.mark.parametrize("tol, stop_newton, force_tolerance, radius_tolerance", [
+    (0.15, 0.1, 0.04, 0.02),
+    pytest.param(0.1, 0.01, 3e-3, 5e-3, marks=pytest.mark.long)], ids=["tol 0.15", "tol 0.1"])
+def test_an_adaptive_hertz_sphere_on_its_section_meets_hertz(tol, stop_newton, force_tolerance, radius_tolerance):
     """adapt.solve on the half-ball's meridian section (P1, from h_contact 0.05 R) to a relative
     bound ``tol``: reached and certified; the refinement gathers at the end of the contact zone
     (the smallest facet of Γ3 within 0.02 R of r = a); the force near the uniform fine run's and
     the contact radius near Hertz's a = (3FR/(4E*))^(1/3) at that force (measured: 2.5 % and
-    1.4 % at tol 0.15, 0.08 % and 0.1 % at tol 0.1; a missing weight 2π r would miss the force
-    by a factor)."""
-    result = adapt.solve(_section, hertz.mesh(2, h_contact=0.05, axisymmetric=True), tol)
+    1.4 % at tol 0.15, 0.08 % and 0.1 % at tol 0.1 with Newton stopped at 0.01 of the
+    estimate; at the default 0.1 the last level's force is 2.9 % off, since the energy
+    tolerance does not bound the force; a missing weight 2π r would miss the force by a
+    factor)."""
+    result = adapt.solve(_section, hertz.mesh(2, h_contact=0.05, axisymmetric=True), tol, stop_newton=stop_newton)
     assert result.reached and result.last.certified and result.last.relative <= tol
     assert len(result.levels) >= 4
     errors = hertz.errors(result.last.sim)

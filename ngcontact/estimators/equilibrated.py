@@ -18,19 +18,22 @@ same for the charge flux of (2.7)). With the piezoelectric coupling written as i
            = (σ* − σ_h, ε(e_u)) − (D* − D_h, ∇e_φ) + (skew σ*, ∇e_u)
              + ∫_Γ3 (t − t_h)·e_u − ∫_Γ3 (j − j_h) e_φ + (f0 − Π f0, e_u) − (q0 − Π q0, e_φ),
 
-so that, bounding each term element by element and summing (Cauchy–Schwarz over the elements),
+so that, with X = ‖C_c^{½} ε(e_u)‖ and Y = ‖C^{½} ∇e_φ‖ (|||e|||² = X² + Y²), Cauchy–Schwarz
+gives |||e|||² ≤ (η_σ + C_K η_skew + η_osc,u) X + (η_D + η_osc,φ) Y + η_Γ3 |||e||| and
 
-  |||e||| ≤ η = (Σ_K ((η_σ,K² + η_D,K²)^½ + C_K η_skew,K + η_osc,K)²)^½ + η_Γ3
-          ≤ (η_σ² + η_D²)^½ + C_K η_skew + η_osc + η_Γ3,  with
+  |||e||| ≤ η = ((η_σ + C_K η_skew + η_osc,u)² + (η_D + η_osc,φ)²)^½ + η_Γ3,  with
 
 * η_σ = ‖C_c^{−½}(sym σ* − σ_h)‖, η_D = ‖C^{−½}(D* − D_h)‖ (the energy of the reconstruction),
-* η_skew = λ_min(C_c)^{−½} ‖skew σ*‖: σ* is equilibrated row by row in RT_p, each row the
+* η_skew = μ^{−½} ‖skew σ*‖, μ = min ε:C_c:ε / |ε|² over strain matrices (Frobenius norm;
+  ``_skew_weight``), with ‖skew ∇e_u‖ ≤ C_K ‖ε(e_u)‖ on the whole body (Korn's inequality: the
+  skew term is bounded globally, not element by element, where a rotation has no strain). σ* is
+  equilibrated row by row in RT_p, each row the
   L²-nearest to ψ_a σ_h's row on every patch (``equilibration.Rows``: the rows, and D* as one more
   row, share one patch system), so it is not symmetric (with ``weak_symmetry``, symmetric in the
-  least-squares sense of coupled local problems, and D* nearest in C⁻¹'s norm); C_K is the constant of ‖skew ∇v‖ ≤ C_K ‖ε(v)‖ on the body (Korn's),
-  taken as 1,
-* η_osc = (Σ_K η_osc,K²)^½, η_osc,K = (h_K/π) λ_min^{−½} ‖f0 − Π_p f0‖_K and its electric twin (Poincaré on a convex
-  element; the data that no flux of degree p can balance),
+  least-squares sense of coupled local problems, and D* nearest in C⁻¹'s norm); C_K is
+  taken as 1 (its value for a body clamped on its whole boundary),
+* η_osc,u = (Σ_K η_osc,K²)^½, η_osc,K = (h_K/π) λ_min(C_c)^{−½} ‖f0 − Π_p f0‖_K, and η_osc,φ its
+  electric twin (Poincaré on a convex element; the data that no flux of degree p can balance),
 * η_Γ3 = (∫_Γ3 λ_h |u_hν − g|)^½ (the complementarity of the discrete contact pressure λ_h =
   −[P_h]_- and the gap: the Signorini part of ∫(t − t_h)·e_u, with the exact pressure replaced
   by λ_h); the glue and the compliant layer are monotone and only lower the error, the
@@ -52,10 +55,11 @@ weighted Poincaré inequality (weight r, log-concave on a convex K: constant h_K
 integrable on the elements with an edge on it: there the element quadrature (points off the
 axis) gives a finite value that is not a proven bound; the bound is checked there numerically
 (docs/adaptivity.md). Element indicators η_K² = η_σ,K² + η_D,K² + η_skew,K² +
-η_osc,K² mark elements for refinement (``adapt``). Measured effectivities (η / the true error on
+(η_osc,u,K + η_osc,φ,K)² mark elements for refinement (``adapt``). Measured effectivities (η / the true error on
 manufactured solutions): docs/adaptivity.md.
 """
 from dataclasses import dataclass, field
+import math
 
 import ngsolve as ngs
 import numpy as np
@@ -95,8 +99,9 @@ class Estimate:
     """An error estimate of one step in the energy norm |||·||| (J^½ in 3D and on a body of
     revolution, (J/m)^½ in 2D).
 
-    total : η, the bound (module docstring: the element-wise sum).
-    parts : {"stress": η_σ, "flux": η_D, "skew": η_skew, "oscillation": η_osc, "contact": η_Γ3}.
+    total : η, the bound (module docstring).
+    parts : {"stress": η_σ, "flux": η_D, "skew": η_skew, "oscillation": (Σ_K (η_osc,u,K + η_osc,φ,K)²)^½,
+             "contact": η_Γ3}.
     indicators : η_K per volume element (numpy), for marking.
     """
     total: float
@@ -206,6 +211,13 @@ class EquilibratedEstimator:
         S = np.linalg.inv(C)
         return C, S, float(np.linalg.eigvalsh(S).max())
 
+    def _skew_weight(self, S):
+        """1/μ, μ = min ε:C_c:ε / |ε|² over strain matrices (Frobenius norm): the weight of
+        ‖skew σ*‖² in η_skew. In the engineering Voigt vector |ε|² = Σ m_k ε_k², m_k = 1 on the
+        diagonal entries and ½ on the shears, so 1/μ = λ_max(M^½ S M^½) ≤ λ_max(S)."""
+        r = np.sqrt([1.0 if i == j else 0.5 for i, j in self.body.kinematics.pairs])
+        return float(np.linalg.eigvalsh(r[:, None] * S * r[None, :]).max())
+
     def _stress_weight(self, S, skew):
         """The weight of the coupled stress problems (``weak_symmetry``) as a matrix on row-major
         dim × dim matrices (``Equilibration``):
@@ -263,16 +275,16 @@ class EquilibratedEstimator:
         kin = body.kinematics
         diff = kin.symmetric_vector(sigma_star) - kin.symmetric_vector(sigma_h)
         parts_K = {"stress": ngs.InnerProduct(_matrix(S) * diff, diff),
-                   "skew": s_max * kin.skew_square(sigma_star)}
+                   "skew": self._skew_weight(S) * kin.skew_square(sigma_star)}
         fields = dict(sigma_star=sigma_star, sigma_h=sigma_h, sigma_star_rows=rows)
         if D_h is not None:
             dD = D_star - D_h
             parts_K["flux"] = ngs.InnerProduct(_matrix(np.linalg.inv(T.C)) * dD, dD)
             fields.update(D_star=D_star, D_h=D_h)
         indicators = dict(zip(parts_K, _element_integrals(list(parts_K.values()), mesh, order)))
-        indicators["oscillation"] = self._oscillation(f0 if loads.f0 is not None else None,
-                                                      q0 if loads.q0 is not None else None, s_max, T) ** 2
-        return _estimate(indicators, self._contact_term(), fields)
+        oscillation = self._oscillation(f0 if loads.f0 is not None else None,
+                                        q0 if loads.q0 is not None else None, s_max, T)
+        return _estimate(indicators, oscillation, self._contact_term(), fields)
 
     def _section(self, T, rate, S, s_max):
         """The ``Estimate`` of a body of revolution (module docstring, section "Bodies of
@@ -300,7 +312,7 @@ class EquilibratedEstimator:
         diff = ngs.CF((sigma_star[0, 0], sigma_star[1, 1], 0.5 * (sigma_star[0, 1] + sigma_star[1, 0]), hoop)) \
             - sigma_h
         parts_K = {"stress": w * ngs.InnerProduct(_matrix(S) * diff, diff),
-                   "skew": w * s_max * kinematics.of(2).skew_square(sigma_star)}
+                   "skew": w * self._skew_weight(S) * kinematics.of(2).skew_square(sigma_star)}
         fields = dict(sigma_star=ngs.CF((sigma_star[0, 0], sigma_star[0, 1], sigma_star[1, 0], sigma_star[1, 1]),
                                         dims=(2, 2)), sigma_h=kin.plane_stress_matrix(sigma_h), hoop_star=hoop,
                       hoop_h=sigma_h[3])
@@ -310,10 +322,10 @@ class EquilibratedEstimator:
             fields.update(D_star=inverse_w * tau_D, D_h=D_h)
         order = 2 * (max(body.order, body.order_phi) + RAISE) + 2 + SECTION_BONUS
         indicators = dict(zip(parts_K, _element_integrals(list(parts_K.values()), mesh, order)))
-        indicators["oscillation"] = self._oscillation(
+        oscillation = self._oscillation(
             w * f0[1] if loads.f0 is not None else None, w * q0 if loads.q0 is not None else None,
-            s_max, T, inverse_w) ** 2
-        return _estimate(indicators, self._contact_term(), fields)
+            s_max, T, inverse_w)
+        return _estimate(indicators, oscillation, self._contact_term(), fields)
 
     def _piecewise(self, key, flux):
         """The matrix CoefficientFunction ``flux`` (σ_h or D_h) projected element by element onto
@@ -373,20 +385,20 @@ class EquilibratedEstimator:
         return mesh.BoundaryCF(t, default=ngs.CF((0.0,) * dim)), mesh.BoundaryCF(q, default=ngs.CF(0.0))
 
     def _oscillation(self, f0, q0, s_max, T, inverse_w=None):
-        """η_osc,K = (h_K/π)(λ_min(C_c)^{−½}‖f0 − Π_p f0‖_K + λ_min(C)^{−½}‖q0 − Π_p q0‖_K) per
-        element, h_K its diameter (Poincaré on a convex element); 0 without a body force or
-        charge density (None). For a body of revolution (``inverse_w`` = 1/w, w = 2π r) f0 and q0
+        """The mechanical and electric oscillation per element, (h_K/π) λ_min(C_c)^{−½}‖f0 − Π_p f0‖_K
+        and (h_K/π) λ_min(C)^{−½}‖q0 − Π_p q0‖_K, h_K its diameter (Poincaré on a convex element);
+        0 without a body force or charge density (None). For a body of revolution (``inverse_w`` = 1/w, w = 2π r) f0 and q0
         are the weighted sources g of the z row and of the charge, and the norms those of
         (g − Π_p g)/w weighted by w (the weighted Poincaré inequality, module docstring)."""
         body, mesh = self.body, self.body.mesh
-        out = np.zeros(mesh.ne)
+        out = (np.zeros(mesh.ne), np.zeros(mesh.ne))
         if f0 is None and q0 is None:
             return out
         if self._diameters is None:
             self._diameters = element_diameters(mesh)
         h = self._diameters
-        for data, order, weight in ((f0, body.order + RAISE, s_max), (q0, body.order_phi + RAISE,
-                                                                float(np.linalg.eigvalsh(np.linalg.inv(T.C)).max()))):
+        for k, (data, order, weight) in enumerate(((f0, body.order + RAISE, s_max), (q0, body.order_phi + RAISE,
+                                                                float(np.linalg.eigvalsh(np.linalg.inv(T.C)).max())))):
             if data is None:
                 continue
             space = ngs.L2(mesh, order=order) ** data.dim if data.dim > 1 else ngs.L2(mesh, order=order)
@@ -401,7 +413,7 @@ class EquilibratedEstimator:
                 square = (rest * rest * inverse_w).Compile()
             norm = np.sqrt(np.maximum(ngs.Integrate(square, mesh, ngs.VOL, order=2 * order + 6,
                                                     element_wise=True).NumPy(), 0.0))
-            out += h / np.pi * np.sqrt(weight) * norm
+            out[k][:] = h / np.pi * np.sqrt(weight) * norm
         return out
 
     def _contact_term(self):
@@ -416,15 +428,19 @@ class EquilibratedEstimator:
         return float(np.sqrt(max(value, 0.0)))
 
 
-def _estimate(indicators, contact, fields):
-    """The ``Estimate`` from the element parts (squares) and the Γ3 term (module docstring)."""
+def _estimate(indicators, oscillation, contact, fields):
+    """The ``Estimate`` from the element parts (squares), the mechanical and electric
+    oscillation per element and the Γ3 term (module docstring)."""
+    mechanical, electric = oscillation
+    indicators["oscillation"] = (mechanical + electric) ** 2
     total_sq = sum(indicators.values())
     parts = {name: float(np.sqrt(v.sum())) for name, v in indicators.items()}
     parts.setdefault("flux", 0.0)                        # no electric unknown
     parts["contact"] = contact
-    per_element = (np.sqrt(indicators["stress"] + indicators.get("flux", 0.0)) + np.sqrt(indicators["skew"])
-                   + np.sqrt(indicators["oscillation"]))
-    total = np.sqrt(np.sum(per_element ** 2)) + contact
+    def norm(squares):
+        return float(np.sqrt(np.sum(squares)))
+    total = math.hypot(parts["stress"] + parts["skew"] + norm(mechanical ** 2),
+                       parts["flux"] + norm(electric ** 2)) + contact
     return Estimate(total=float(total), parts=parts, indicators=np.sqrt(total_sq), fields=fields)
 
 
