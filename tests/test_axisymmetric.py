@@ -354,35 +354,11 @@ def test_time_to_an_error_interpolates_between_the_runs_that_bracket_it():
 def _glued_disk(kind, maxh, pull=4e-6, steps=10):
     """A PZT-5A disk (radius 5 mm, 1 mm thick, poled along its axis) glued on its bottom to a
     rigid plane (γ_ν = 1e14 Pa/m, L = 1 µm, implicit β) and pulled up 4 µm by a stud of radius
-    1 mm on its top (grounded), over 10 steps: on its section, or the 3D quarter of it. Returns
-    the stud's force (N, the whole disk's) and the debonding front (m: the largest radius of a
-    facet with β < 1/2) at every step."""
-    from netgen.geom2d import SplineGeometry
-    from netgen.occ import Box, Cylinder, Glue, Pnt, Z
-    W, H, S = 5e-3, 1e-3, 1e-3
-    if kind == "section":
-        geometry = SplineGeometry()
-        points = [geometry.AppendPoint(*p) for p in ((0, 0), (W, 0), (W, H), (S, H), (0, H))]
-        for (a, b), name in zip(((0, 1), (1, 2), (2, 3), (3, 4), (4, 0)), ("bottom", "rim", "top", "stud", "axis")):
-            geometry.Append(["line", points[a], points[b]], bc=name)
-        mesh = ngs.Mesh(geometry.GenerateMesh(maxh=maxh))
-        supports, up = {"stud": "all"}, (0, 1)
-    else:
-        box = Box(Pnt(0, 0, 0), Pnt(W, W, H))
-        inner = Cylinder(Pnt(0, 0, 0), Z, r=S, h=H) * box
-        shape = Glue([inner, (Cylinder(Pnt(0, 0, 0), Z, r=W, h=H) - Cylinder(Pnt(0, 0, 0), Z, r=S, h=H)) * box])
-        for face in shape.faces:
-            c = face.center
-            face.name = ("stud" if math.hypot(c.x, c.y) < S else "top") if abs(c.z - H) < 1e-9 else \
-                "bottom" if abs(c.z) < 1e-9 else "symx" if abs(c.x) < 1e-9 else "symy" if abs(c.y) < 1e-9 else "rim"
-        mesh = ngs.Mesh(OCCGeometry(shape).GenerateMesh(maxh=maxh))
-        supports, up = {"stud": "all", "symx": "x", "symy": "y"}, (0, 0, 1)
-    t = ngs.Parameter(0.0)
-    body = ngc.Body(mesh, ngc.pzt5a(), supports=supports, grounded="stud", contact_side="bottom",
-                    axisymmetric=kind == "section")
-    contact = ngc.Contact(obstacle=Plane((0,) * len(up), up), adhesion=1e14, bond_length=1e-6, beta_update="implicit")
-    sim = ngc.Simulation(body, ngc.Loads(displacement={"stud": tuple(pull * t * c for c in up)}), contact=contact,
-                         time=t, keep_states=False)
+    1 mm on its top (grounded), over 10 steps: on its section, or the 3D quarter of it
+    (``scenes.glued_disk``). Returns the stud's force (N, the whole disk's) and the debonding
+    front (m: the largest radius of a facet with β < 1/2) at every step."""
+    from ngcontact.scenes import glued_disk
+    sim = glued_disk.simulation(kind, maxh, pull, keep_states=False)
     share, points = (1, sim.side.midpoints[:, 0]) if kind == "section" else \
         (4, np.hypot(sim.side.midpoints[:, 0], sim.side.midpoints[:, 1]))
     force, front = [], []

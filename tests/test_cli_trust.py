@@ -216,10 +216,13 @@ def test_the_pull_off_cases_are_refused_before_any_run(cases, error, words, monk
 
 
 def test_the_pull_off_in_two_steps_runs():
-    """The fewest steps allowed (dt = T_END / 2): the row is measured, its force balance holds."""
+    """The fewest steps allowed (dt = T_END / 2): the rows (plain corrections and the inner loop)
+    are measured, their force balance holds."""
     from ngcontact.studies.stability import pull_off
-    (row,) = pull_off.run(cases=[(0.1, 0.01)], order=1, progress=False)
-    assert row["failure"] == "" and row["steps"] == 2 and row["balance"] < 1e-8
+    rows = pull_off.run(cases=[(0.1, 0.01)], order=1, progress=False)
+    assert [row["switch_loop"] for row in rows] == [False, True]
+    for row in rows:
+        assert row["failure"] == "" and row["steps"] == 2 and row["balance"] < 1e-8
 
 
 # ----------------------------------------------------------------------------- the compiler

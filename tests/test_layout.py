@@ -466,6 +466,11 @@ INTERNALS_ALLOWED = {
     ("tests/test_contact.py", "test_reduces_to_chouly_hild"): "the step system's residual against a hand-written form",
     ("tests/test_supports.py", "test_a_step_starts_from_the_last_state_away_from_the_supports"):
         "the step system's begin_step on the state",
+    ("tests/test_switch_loop.py", "test_the_signorini_points_give_the_contact_part_of_the_jacobian"):
+        "the inner loop's rank-one data against the step system's Γ3 Jacobian",
+    ("tests/test_switch_loop.py", "test_a_pull_off_takes_a_few_newton_iterations_and_ends_where_plain_newton_does"):
+        "the inner loop's count of the points it switched",
+    ("tests/test_switch_loop.py", "test_the_switch_loop_is_an_option_of_its_own"): "whether Newton has the inner loop",
     # instruments: a public read would expose mutable internals
     ("tests/test_globalisation.py", "test_a_search_given_up_names_the_laws_that_changed"):
         "the continuation path removed to reach the line search's last resort",

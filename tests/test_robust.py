@@ -19,16 +19,18 @@ def test_cutback_recovers_the_load_reversal():
     failed steps are halved, and every record is in equilibrium. With the defaults (the
     step-length limit and the globalisation), or with the globalisation alone (the line search
     engages on the cycle), no cut-back is needed, and their records are in equilibrium too.
+    (Plain Newton corrections: the Signorini switch's inner loop, ``switch_loop``, solves
+    the reversal without a cycle.)
     (The step-length limit alone no longer suffices: where Γ3 touches at a solve's start its
     deeper cut leaves this reversal to the globalisation.)"""
-    sim, _ = reference(limit_steps=False, globalise=False)
+    sim, _ = reference(limit_steps=False, globalise=False, switch_loop=False)
     with pytest.raises(ngc.NewtonError, match="cycles: the iterates repeat"):
         sim.run(dt=0.02, T=0.3, max_cutbacks=0)
     limited, _ = reference()
     limited.run(dt=0.02, T=0.3, max_cutbacks=0)
     searched, _ = reference(limit_steps=False)
     searched.run(dt=0.02, T=0.3, max_cutbacks=0)
-    sim, t = reference(limit_steps=False, globalise=False)
+    sim, t = reference(limit_steps=False, globalise=False, switch_loop=False)
     h = sim.run(dt=0.02, T=0.3)
     assert h.times[-1] == pytest.approx(0.3, abs=1e-12) and len(sim.cutbacks) >= 1
     assert len(h) - 1 > 15                                     # more records than nominal steps

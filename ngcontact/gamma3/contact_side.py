@@ -84,7 +84,9 @@ class ContactSide:
         order = {d: i for i, d in enumerate(np.flatnonzero(np.array(list(active))))}
         points = np.array([v.point for v in mesh.vertices]) if mesh.nv else np.zeros((0, self.dim))
         self.facet_vertex_numbers = np.zeros((self.B.ndof, self.dim), dtype=int)
+        self.facet_elements = np.zeros(self.B.ndof, dtype=int)     # the volume element of each facet
         for el in elements:
+            self.facet_elements[order[self._facet_dof[el.nr]]] = mesh[meshes.facets_of(mesh, el)[0]].elements[0].nr
             self.facet_vertex_numbers[order[self._facet_dof[el.nr]]] = [v.nr for v in el.vertices]
         self.facet_vertices = points[self.facet_vertex_numbers]
         self.midpoints = self.facet_vertices.mean(axis=1)

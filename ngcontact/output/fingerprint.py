@@ -121,6 +121,7 @@ def options(newton, scheme, electric, condense, machine_code_rule):
     return {"options.rtol": newton.rtol, "options.maxit": newton.maxit, "options.electric": bool(electric),
             "options.predictor": bool(scheme.predictor), "options.limit_steps": newton.step_length is not None,
             "options.globalise": newton.line_search is not None, "options.condense": bool(condense),
+            "options.switch_loop": newton.switch_loop is not None,
             "options.solver": newton.solver_name, **describe(newton.solver),
             "options.realcompile": None if machine_code_rule else bool(scheme.system.machine_code),
             "scheme": scheme.name, **({} if type(scheme) in SCHEMES.values() else {"scheme.class": _class(scheme)})}

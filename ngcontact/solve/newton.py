@@ -142,6 +142,9 @@ class Newton:
     rtol : the residual to reach, relative to the step's force scale (``stopping``).
     maxit : maximum number of linear solves per solve.
     hook : an ``enforcement.NewtonHook`` of the enforcement method, or None.
+
+    ``switch_loop`` (None by default): a ``switch_loop.SwitchLoop`` that replaces each correction
+    by the solution of the linear model whose Signorini contact set is its own.
     step_length : None, or a callable w ↦ α ∈ (0, 1]: the correction is x − α w (with
         optional ``start()``, called when a solve begins, and ``cut``, whether the solve
         shortened a step).
@@ -171,6 +174,7 @@ class Newton:
         self.line_search = LineSearch()   # engaged when full steps stop making progress; None: full steps only
         self.continuation = None       # ``continuation.Continuation``: the path a solve without progress follows
         self.reduction = None          # stop at this fraction of the first residual (a path's stage)
+        self.switch_loop = None        # ``switch_loop.SwitchLoop``: the Signorini switch settled in each correction
         self._best = None              # [the iterate of least residual of a first try, that residual]
         self.solver = solver if solver is not None else DirectSolver("umfpack")
         self.rtol, self.maxit = rtol, int(maxit)
@@ -200,7 +204,30 @@ class Newton:
         making progress (``line_search`` not None), the ``continuation`` follows its path from the
         try's iterate of least residual where its laws flip, else the line search takes over; last come
         full steps from the start without the search (a step solved without globalisation is never
-        lost to it). The result's ``discarded`` counts the iterations of every try given up."""
+        lost to it). The result's ``discarded`` counts the iterations of every try given up.
+        With a ``switch_loop``, a solve that fails is made again from its start without it (the
+        loop's model keeps the other laws of Γ3 at their pieces, which an extreme conduction
+        can make far off), and a failure then is the one reported."""
+        if self.switch_loop is None:
+            return self._globalised(step, time, timer)
+        start = self.gfu.vec.CreateVector()
+        start.data = self.gfu.vec
+        try:
+            return self._globalised(step, time, timer)
+        except NewtonError as failure:
+            spent = failure.iteration + getattr(failure, "spent", 0)
+        self.gfu.vec.data = start
+        loop, self.switch_loop = self.switch_loop, None
+        getattr(self.solver, "forget", lambda: None)()
+        try:
+            result = self._globalised(step, time, timer)
+        finally:
+            self.switch_loop = loop
+        result.discarded += spent
+        return result
+
+    def _globalised(self, step, time, timer):
+        """``solve`` without the retry that leaves the ``switch_loop`` out."""
         if self.line_search is None:
             return self.tries(step, time, timer)
         start = self.gfu.vec.CreateVector()
@@ -343,6 +370,9 @@ class Newton:
                     raise fail(f"{SINGULAR} (the factorisation failed: {err})", it + 1, SINGULAR_HINT,
                                False) from err
                 linear.append(self._linear_counts(since=before))
+                if self.switch_loop is not None:
+                    with timer("solve"):
+                        self.switch_loop(self, x, residuals)
                 self._check_correction(fail, it)
                 alpha = self.step_length(self.w) if limit else 1.0
                 # a shortened correction says nothing of the error left: no adaptive stop after it

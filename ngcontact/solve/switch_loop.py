@@ -1,0 +1,305 @@
+"""Newton's corrections with the Signorini switch of Γ3 settled in an inner loop.
+
+When the contact zone shrinks (the load reversed, a pull-off), the semismooth Newton releases
+about one Gauss point of Γ3 per iteration: releasing the points in tension loads the next ones,
+which the next correction releases, and the points of the front's facets open and close again
+meanwhile (docs/stability.md, "The pull-off"). Each of those iterations assembles the Γ3 terms
+and solves the whole system.
+
+Nitsche's Signorini term (``enforcement.nitsche``) is a sum over the Gauss points q of Γ3 of
+rank-one terms: with P_q(x) = σ̃_ν − γ(u_ν − g) at q, a_q = θ σ_ν'(v, ξ)_q − γ_q v_ν(q) (the test
+functions' part) and the weight ω_q of the point (m in 2D, m² in 3D and on a section),
+
+  R(x) ∋ Σ_q (ω_q/γ_q) χ_q [P_q(x)] a_q,   χ_q = 1 where P_q ≤ 0 (the contact set), else 0,
+
+so the Jacobian's contact part is Σ_q (ω_q/γ_q) χ_q a_q b_qᵀ, b_q = ∂P_q/∂x (``SignoriniPoints``:
+σ_ν'(·)_q and u_ν(q) as sparse rows, γ_q, P_q and the slope of σ̃_ν in u_ν at the state). A Newton
+correction w solves J w = r at x with the contact set χ of x. The linear model of R with another
+contact set χ' (the other laws' pieces kept) differs from it by the switched points only:
+
+  (J + Σ_{q∈Q} s_q c_q a_q b_qᵀ) w = r + Σ_{q∈Q} s_q c_q P_q a_q,   s_q = χ'_q − χ_q, c_q = ω_q/γ_q,
+
+a change of rank |Q|: with Z = J⁻¹ a_Q (one solve with the correction's factorisation per
+switched point) it is solved by Woodbury's identity in a |Q| × |Q| system. ``SwitchLoop``
+iterates χ' ← {P_q − b_q·w ≤ 0} (a primal–dual active set step on the linear model) until χ'
+repeats, and replaces the correction by that model's solution: the cascade of a shrinking
+contact zone is followed inside one Newton iteration, each switch costing one solve with a
+kept factorisation instead of an assembly and a solve of the whole system.
+
+Where the correction's solver is the kept factorisation of an earlier Jacobian (GMRES,
+``linear_solver.KeptFactorization``), Z comes from that factorisation and the corrected w is
+solved again by GMRES on J + U Vᵀ to the correction's accuracy. Newton then goes on as after any
+correction: the residual at the new iterate and its convergence test decide (``stopping``), so
+the loop changes how many iterations a step takes, not the state it converges to.
+
+Where the model is far from R the loop rests: in a solve that starts with Γ3 open (first
+contact, where ``step_length`` governs), and in an iteration after which a law in ``KEPT``
+changed piece. A solve that fails with the loop is made again without it (``Newton.solve``).
+Measured (docs/stability.md, section 13): the reference history's pull-off in 3–6 iterations a
+step instead of 9–23.
+"""
+import ngsolve as ngs
+import numpy as np
+
+from ngcontact.gamma3 import integrands
+from ngcontact.model.forms import step_normal_stress_variation
+from ngcontact.solve.linalg.gmres import gmres
+from ngcontact.solve.linalg.linear_solver import DirectSolver, KeptFactorization, reproducible
+
+MAX_LOOP = 30
+"""The most contact sets the loop tries in one Newton iteration."""
+EXACT_TRIES = 5
+"""With the kept factorisation: the most GMRES solves of the model, each followed by the contact
+set its solution gives."""
+KEPT = ("the compliant layer p", "the glue R_ν", "the potential truncation φ_L")
+"""The switches of ``switches.Switches`` the model keeps at their pieces: where one of them changed
+between Newton's last two iterates (the bond ending, say), the loop rests for that iteration."""
+
+
+class SignoriniPoints:
+    """The rank-one data of Nitsche's Signorini term at the Gauss points of Γ3 (module
+    docstring), for the Γ3 parts ``gamma3`` (``gamma3.build.Gamma3`` with Nitsche's terms) of
+    the Contact ``contact`` on the product space ``X`` and the state ``state`` (u, φ)."""
+
+    def __init__(self, gamma3, contact, X, state):
+        self.enforcement, self.side, self.X = gamma3.enforcement, gamma3.side, X
+        self.weights = gamma3.side.gauss_weights.ravel()
+        enf = self.enforcement
+        u, phi = state.components
+        self._probe = ngs.GridFunction(X)
+        v, xi = self._probe.components
+        self._variation = step_normal_stress_variation(enf.tensors, v, xi, enf.coefficients.rate, enf.n).Compile()
+        self._normal_part = (v * enf.n).Compile()
+        shift = ngs.Parameter(0.0)
+        u_n = u * enf.n
+        traction = integrands.adhesion_traction(contact, gamma3.beta.gf, u_n)
+        self._P = enf.P(u, phi, traction).Compile()
+        self._gamma = (enf.gamma * ngs.CF(1.0)).Compile()
+        self._slope = integrands.adhesion_traction(contact, gamma3.beta.gf, u_n + shift).Diff(shift).Compile()
+        self._rows, self._rate = None, None
+
+    def rows(self):
+        """(σ_ν'(·)_q, u_ν(q)) as scipy CSR matrices (points × DOFs), made again when the rate
+        coefficient c of the step changed (σ_ν' holds c A). Each DOF of the volume elements at
+        Γ3 is probed at once with the others of its colour: DOFs that share no such element."""
+        rate = self.enforcement.coefficients.rate.Get()
+        if self._rows is None or rate != self._rate:
+            self._rows, self._rate = self._make_rows(), rate
+        return self._rows
+
+    def _make_rows(self):
+        import scipy.sparse as sp
+        side, X = self.side, self.X
+        facets, points = side.gauss_points.shape[:2]
+        element_dofs = {nr: np.array([d for d in X.GetDofNrs(ngs.ElementId(ngs.VOL, int(nr))) if d >= 0])
+                        for nr in np.unique(side.facet_elements)}
+        elements_of = {}
+        for nr, dofs in element_dofs.items():
+            for d in dofs:
+                elements_of.setdefault(d, []).append(nr)
+        colour = {}
+        for d in sorted(elements_of):                 # greedy: no two DOFs of an element alike
+            used = {colour[n] for nr in elements_of[d] for n in element_dofs[nr] if n in colour}
+            c = 0
+            while c in used:
+                c += 1
+            colour[d] = c
+        ncolours = max(colour.values()) + 1
+        by_colour = [[] for _ in range(ncolours)]
+        for d, c in colour.items():
+            by_colour[c].append(d)
+        owner = np.full((ncolours, facets), -1)       # the DOF of each colour on each facet's element
+        for f, nr in enumerate(side.facet_elements):
+            for d in element_dofs[nr]:
+                owner[colour[d], f] = d
+        values = self._probe.vec.FV().NumPy()
+        out = []
+        for cf in (self._variation, self._normal_part):
+            rows, cols, vals = [], [], []
+            for c, dofs in enumerate(by_colour):
+                values[:] = 0.0
+                values[dofs] = 1.0
+                at = side.at_gauss_points(cf)                     # facets × points
+                dof = np.repeat(owner[c], points)
+                flat = at.ravel()
+                keep = (dof >= 0) & (flat != 0.0)
+                rows.append(np.flatnonzero(keep))
+                cols.append(dof[keep])
+                vals.append(flat[keep])
+            out.append(sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                                     shape=(facets * points, X.ndof)))
+        values[:] = 0.0
+        return tuple(out)
+
+    def at_state(self):
+        """(P_q (Pa), γ_q (Pa/m), ∂σ̃_ν/∂u_ν at q (Pa/m)) at the current state."""
+        side = self.side
+        return tuple(side.at_gauss_points(cf).ravel() for cf in (self._P, self._gamma, self._slope))
+
+
+class _Updated(ngs.BaseMatrix):
+    """J + U Vᵀ: ``matrix`` plus the rank-k term U (numpy n × k) Vᵀ (scipy k × n)."""
+
+    def __init__(self, matrix, U, V):
+        super().__init__()
+        self.matrix, self.U, self.V = matrix, U, V
+
+    def Mult(self, x, y):
+        y.data = self.matrix * x
+        y.FV().NumPy()[:] += self.U @ (self.V @ x.FV().NumPy())
+
+    def Height(self):
+        return self.matrix.height
+
+    def Width(self):
+        return self.matrix.width
+
+    def CreateRowVector(self):
+        return self.matrix.CreateRowVector()
+
+    def CreateColVector(self):
+        return self.matrix.CreateColVector()
+
+
+class SwitchLoop:
+    """The inner loop of Newton's corrections (module docstring) on the Signorini points
+    ``points``; ``theta``: Nitsche's θ. ``switches`` counts the points the loop switched,
+    ``tries`` the contact sets it tried, over the simulation."""
+
+    def __init__(self, points, theta):
+        self.points, self.theta = points, theta
+        self.switches = self.tries = 0
+        self._pieces = None              # the other laws' pieces at the last iterate
+        self._pressed = False            # whether Γ3 pressed at the solve's start
+
+    @staticmethod
+    def applies(solver, hook):
+        """Whether the loop can run with this correction solver (it needs the factorisation
+        the correction was solved with) and enforcement hook (none: Nitsche's own unknowns are
+        the state's)."""
+        return hook is None and type(solver) in (DirectSolver, KeptFactorization)
+
+    @staticmethod
+    def _other_pieces(newton):
+        """The pieces of the laws of Γ3 the model keeps fixed and that do not follow the contact
+        set (``switches.Switches``: the compliant layer, the glue, the potential truncation)."""
+        if newton.switches is None:
+            return {}
+        return {name: value for name, value in newton.switches().items() if name in KEPT}
+
+    def _factorisation(self, solver):
+        return solver.inverse if isinstance(solver, DirectSolver) else solver.direct.inverse
+
+    def __call__(self, newton, x, residuals):
+        """Replace Newton's last correction ``newton.w`` (for the residual ``newton.r`` at the
+        state ``x``; ``residuals``: the solve's residual history) by the solution of the linear
+        model whose contact set is its own; it rests where a law the model keeps at its pieces
+        (``KEPT``) changed between the last two iterates."""
+        import scipy.sparse as sp
+        P, gamma, slope = self.points.at_state()
+        if len(residuals) == 1:                      # a solve (or a try of it) begins
+            self._pressed, self._pieces = bool((P <= 0.0).any()), None
+        if not self._pressed:
+            return
+        pieces = self._other_pieces(newton)
+        moved = self._pieces is not None and any(not np.array_equal(pieces[name], self._pieces[name])
+                                                 for name in pieces)
+        self._pieces = pieces
+        if moved:
+            return
+        S, N = self.points.rows()
+        a = (self.theta * S - sp.diags(gamma) @ N).tocsr()
+        b = (S + sp.diags(slope - gamma) @ N).tocsr()
+        c = self.points.weights / gamma
+        w0 = newton.w.FV().NumPy().copy()
+        before = P <= 0.0
+        inverse = self._factorisation(newton.solver)
+        solve = _CorrectionSolve(newton, inverse)
+        Z, w, tried, chosen = {}, w0, set(), None
+        for _ in range(MAX_LOOP):
+            now = P - b @ w <= 0.0
+            key = now.tobytes()
+            if key in tried:
+                break
+            tried.add(key)
+            self.tries += 1
+            Q = np.flatnonzero(now != before)
+            chosen = (now, Q)
+            if not len(Q):
+                w = w0
+                continue
+            for q in Q:
+                if q not in Z:
+                    Z[q] = solve(a[q].toarray().ravel())
+            Zq = np.stack([Z[q] for q in Q], axis=1)
+            s = np.where(now[Q], 1.0, -1.0)
+            V = sp.diags(c[Q] * s) @ b[Q]
+            m = c[Q] * s * P[Q]
+            y = w0 + Zq @ m
+            try:
+                w = y - Zq @ np.linalg.solve(np.eye(len(Q)) + V @ Zq, V @ y)
+            except np.linalg.LinAlgError:            # the model is singular there: the plain correction
+                return
+        if chosen is None:
+            return
+        now, Q = chosen
+        if isinstance(newton.solver, KeptFactorization):    # Z was approximate: the model solved again
+            for _ in range(EXACT_TRIES):
+                if not len(Q):
+                    w = w0
+                else:
+                    s = np.where(now[Q], 1.0, -1.0)
+                    w = solve.exactly(a[Q].T.toarray(), (sp.diags(c[Q] * s) @ b[Q]).tocsr(), c[Q] * s * P[Q], w)
+                settled = P - b @ w <= 0.0
+                if np.array_equal(settled, now):
+                    break
+                now, Q = settled, np.flatnonzero(settled != before)
+        self.switches += len(Q)
+        newton.w.FV().NumPy()[:] = w
+
+
+class _CorrectionSolve:
+    """Solves with the factorisation of Newton's last correction, through the static
+    condensation of the system when it has one (as ``Newton.linear_solve``)."""
+
+    def __init__(self, newton, inverse):
+        self.newton, self.inverse = newton, inverse
+        self.system = newton.system
+        self._rhs, self._out = newton.w.CreateVector(), newton.w.CreateVector()
+
+    def __call__(self, values):
+        rhs, out, system = self._rhs, self._out, self.system
+        rhs.FV().NumPy()[:] = values
+        with reproducible():
+            if self.newton.condense:
+                work = rhs.CreateVector()
+                work.data = rhs + system.harmonic_extension_trans * rhs
+                out.data = self.inverse * work
+                out.data += system.harmonic_extension * out
+                out.data += system.inner_solve * rhs
+            else:
+                out.data = self.inverse * rhs
+        return out.FV().NumPy().copy()
+
+    def exactly(self, U, V, m, start):
+        """The solution of (J + U Vᵀ) w = r + U m by GMRES preconditioned by the kept
+        factorisation, to the accuracy of the correction (KeptFactorization.tol), from scratch;
+        ``start`` is returned where GMRES does not converge."""
+        newton, system = self.newton, self.system
+        solver = newton.solver
+        rhs = newton.r.CreateVector()
+        rhs.FV().NumPy()[:] = newton.r.FV().NumPy() + U @ m
+        w = newton.w.CreateVector()
+        if newton.condense:                    # (the low-rank term lives on the coupling DOFs)
+            rc = rhs.CreateVector()
+            rc.data = rhs + system.harmonic_extension_trans * rhs
+            with reproducible():
+                converged, _ = gmres(_Updated(system.mat, U, V), self.inverse, rc, w, newton.norm.weights,
+                                     solver.tol, solver.max_budget)
+            w.data += system.harmonic_extension * w
+            w.data += system.inner_solve * rhs
+        else:
+            with reproducible():
+                converged, _ = gmres(_Updated(system.mat, U, V), self.inverse, rhs, w, newton.norm.weights,
+                                     solver.tol, solver.max_budget)
+        return w.FV().NumPy().copy() if converged else start
