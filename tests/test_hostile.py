@@ -1239,7 +1239,8 @@ PROCESS_CASES = ["demo --order abc", "demo --maxh 1e-6", "demo --refine 12", "de
                  "stability --out /proc/hostile", ""]
 for arguments, words in CLI_CASES:
     cli(arguments, words, process=True, slow=arguments not in PROCESS_CASES)
-cli("demo --steps 2 --maxh 0.02 --gamma0 1e-6", "step|gamma0", process=True, within=HANG["cli"],   # fails by name
+# fails by name (γ0 = 1e-6 converges since the Signorini switch's inner loop, with the warning on γ0 below 3)
+cli("demo --steps 2 --maxh 0.02 --gamma0 1e-9", "step|gamma0", process=True, within=HANG["cli"],
     slow="long")
 
 

@@ -267,7 +267,8 @@ def test_the_error_estimator_refuses_a_law_by_name():
 @pytest.mark.long
 def test_every_contact_method_takes_a_law():
     """The reference scene, 10 steps, with Nitsche, the penalty method and the nodal active
-    set: ζ = 0 equals the linear run to 1e-12; with ζ = 5e10 the three contact forces agree
+    set: ζ = 0 equals the linear run to 1e-12 (both with plain Newton corrections: a law's bulk
+    leaves out the Signorini switch's inner loop, which converges along another path); with ζ = 5e10 the three contact forces agree
     to 0.1 % (as the linear ones do: 95 259, 95 222, 95 222 N/m) and are 10-15 % below the linear."""
     from ngcontact.gamma3.enforcement import METHODS
     base = ngc.pzt5a(relaxation_time=reference.RELAXATION_TIME)
@@ -277,7 +278,7 @@ def test_every_contact_method_takes_a_law():
         for material in (base, base.with_elasticity(laws.ProjectionLaw(0.0, laws.VonMisesBall(1e-5))),
                          base.with_elasticity(laws.ProjectionLaw(5e10, laws.VonMisesBall(1e-5)))):
             sim = reference.simulation(1, 0.005, material=material, keep_states=False,
-                                       contact=reference.contact(method=method))
+                                       contact=reference.contact(method=method), switch_loop=False)
             sim.run(0.01, 0.1)
             runs.append((sim.gfu.vec.FV().NumPy().copy(), float(sim.history[-1].contact.force[1])))
         (linear, f_linear), (zero, _), (_, f_law) = runs

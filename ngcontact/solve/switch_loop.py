@@ -44,6 +44,7 @@ import numpy as np
 from ngcontact.gamma3 import integrands
 from ngcontact.model.forms import step_normal_stress_variation
 from ngcontact.solve.linalg.gmres import gmres
+from ngcontact.solve.linalg import petsc_solver
 from ngcontact.solve.linalg.linear_solver import DirectSolver, KeptFactorization, reproducible
 
 MAX_LOOP = 30
@@ -175,9 +176,12 @@ class SwitchLoop:
     @staticmethod
     def applies(solver, hook):
         """Whether the loop can run with this correction solver (it needs the factorisation
-        the correction was solved with) and enforcement hook (none: Nitsche's own unknowns are
-        the state's)."""
-        return hook is None and type(solver) in (DirectSolver, KeptFactorization)
+        the correction was solved with, an NGSolve one: not PETSc's MUMPS) and enforcement hook
+        (none: Nitsche's own unknowns are the state's)."""
+        if hook is not None or type(solver) not in (DirectSolver, KeptFactorization):
+            return False
+        direct = solver if isinstance(solver, DirectSolver) else solver.direct
+        return direct.name not in petsc_solver.NAMES            # (an NGSolve factorisation: its inverse applies)
 
     @staticmethod
     def _other_pieces(newton):
