@@ -48,7 +48,7 @@ def header(dim):
 
 
 def run(order=1, out="results", maxh=None, steps=200, theta=1, gamma0=10.0, resume=False, dim=2, refine=0,
-        scheme="backward_euler", rtol=None, progress=None):
+        scheme="backward_euler", rtol=None, progress=None, switch_loop=True):
     """Run the reference scene (``scenes.reference``) over its load history in ``steps``
     time steps, print about ``LINES`` lines of them (charge fluxes below the step's
     ``noise_floor`` as 0), write summary.json and charts into ``out``. Every
@@ -75,6 +75,9 @@ def run(order=1, out="results", maxh=None, steps=200, theta=1, gamma0=10.0, resu
     rtol : steps chosen by this error target (``Simulation.run``; needs "bdf2"), the first of
         length (the history's end) / ``steps``; the chart history.png shows the steps taken.
     progress : a progress bar of the steps on stderr (default: when stderr is a terminal).
+    switch_loop : Newton's corrections with the Signorini switch settled in an inner loop
+        (``Simulation(switch_loop=...)``; one process only: a run under mpiexec has plain
+        corrections, which ``False`` gives serially).
 
     Returns
     -------
@@ -98,13 +101,17 @@ def run(order=1, out="results", maxh=None, steps=200, theta=1, gamma0=10.0, resu
                           checks.estimated_ndof(checks.estimated_vertices(sides, maxh), dim, refine, order))
     out = checks.writable_directory(out)
     settings = dict(order=order, maxh=maxh, dim=dim, refine=refine, steps=steps, theta=theta, gamma0=gamma0)
+    switch_loop = checks.flag("switch_loop", switch_loop)
     if scheme != "backward_euler" or rtol is not None:     # (demo.json of earlier runs have neither)
         settings.update(scheme=scheme, rtol=rtol)
+    if not switch_loop:
+        settings.update(switch_loop=False)
     if resume:                                       # before meshing
-        _check_resumable(out / "run", dict(settings, scheme=scheme, rtol=rtol))
+        _check_resumable(out / "run", dict(settings, scheme=scheme, rtol=rtol, switch_loop=switch_loop))
     lead = parallel.rank() == 0                      # under mpiexec rank 0 prints and writes
     say = print if lead else _quiet
-    sim = reference.simulation(order, maxh, refine, dim, contact=contact, keep_states=dim == 2, scheme=scheme)
+    sim = reference.simulation(order, maxh, refine, dim, contact=contact, keep_states=dim == 2, scheme=scheme,
+                               switch_loop=switch_loop)
     body, mesh = sim.body, sim.body.mesh
     distributed = parallel.is_distributed(mesh)
     tip = [(reference.L1, 0.0) if dim == 2 else (reference.L1, reference.WIDTH / 2, 0.0)]
@@ -185,10 +192,12 @@ def _check_resumable(directory, settings):
     except (OSError, ValueError):
         stored = {}                                  # none or unreadable: resume's scene check decides
     if stored:                                       # a demo.json names scheme and rtol where not the defaults
-        stored = dict(dict(scheme="backward_euler", rtol=None), **stored)
+        stored = dict(dict(scheme="backward_euler", rtol=None, switch_loop=True), **stored)
     changed = [key for key in settings if key in stored and stored[key] != settings[key]]
     if changed:
         def given(key, value):
+            if key == "switch_loop":
+                return "no --no-switch-loop" if value else "--no-switch-loop"
             return f"no --{key}" if value is None else f"--{key} {value}"
         raise ValueError(f"resume: {str(directory)!r} holds a demo run with "
                          + ", ".join(given(key, stored[key]) for key in changed) + "; this one has "

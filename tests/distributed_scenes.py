@@ -49,7 +49,8 @@ PETSC_OPTIONS = {"petsc-gamg": {"pc_type": "gamg", "pc_gamg_threshold": 0.02, "k
                  "petsc-lu": {"pc_type": "lu", "ksp_type": "preonly", "mat_mumps_icntl_7": 2}}
 """argv[2] naming ``Simulation(solver={...})``."""
 scene, solver, out = sys.argv[1], None if sys.argv[2] == "default" else sys.argv[2], sys.argv[3]
-options = dict(solver=PETSC_OPTIONS.get(solver, solver))    # a name, or the solver as a dict of PETSc options
+options = dict(solver=PETSC_OPTIONS.get(solver, solver),    # a name, or the solver as a dict of PETSc options
+               switch_loop=False)      # (a distributed run has plain corrections: the serial one alike)
 T, probe = reference.LOAD_HISTORY[-1][0], None
 if scene == "reference":
     sim, steps = reference.simulation(2, 0.01, keep_states=False, **options), 20

@@ -36,7 +36,7 @@ class Interrupted(Exception):
 
 
 def simulation(**options):
-    return reference.simulation(1, 0.01, **options)
+    return reference.simulation(1, 0.01, **dict(dict(switch_loop=False), **options))   # (as a distributed run)
 
 
 def refusal(attempt):

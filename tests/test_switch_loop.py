@@ -71,3 +71,15 @@ def test_the_switch_loop_is_an_option_of_its_own():
     on = reference.simulation(1, 0.01)
     assert off.newton.switch_loop is None and on.newton.switch_loop is not None
     assert on.fingerprint(0.1)["options.switch_loop"] is True and off.fingerprint(0.1)["options.switch_loop"] is False
+
+
+def test_the_demo_takes_plain_corrections_and_resumes_only_with_them(tmp_path):
+    """``demo.run(switch_loop=False)`` (``--no-switch-loop``) runs with plain corrections; a
+    resume without the flag is refused naming it, with it the run goes on."""
+    from ngcontact import demo
+    demo.run(out=tmp_path, maxh=0.02, steps=2, switch_loop=False, progress=False)
+    with pytest.raises(ValueError, match="--no-switch-loop"):
+        demo.run(out=tmp_path, maxh=0.02, steps=2, resume=True, progress=False)
+    demo.run(out=tmp_path, maxh=0.02, steps=2, resume=True, switch_loop=False, progress=False)
+    with pytest.raises(TypeError, match="switch_loop"):
+        demo.run(out=tmp_path / "other", maxh=0.02, steps=2, switch_loop="no", progress=False)
