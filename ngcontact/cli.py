@@ -94,7 +94,7 @@ def parser():
     demo.add_argument("--rtol", type=float, default=None,
                       help="choose the time steps by this local error target (with --scheme bdf2; the first step "
                            "0.5 s / STEPS; default: STEPS equal steps)")
-    demo.add_argument("--no-switch-loop", dest="switch_loop", action="store_false",
+    demo.add_argument("--no-switch-loop", dest="plain_corrections", action="store_true",
                       help="plain Newton corrections: without the inner loop that settles the contact set of "
                            "Γ3 inside each correction (on one process it is on by default)")
     demo.add_argument("--resume", action="store_true",
@@ -386,7 +386,7 @@ def _dispatch(args):
         from ngcontact import demo
         demo.run(order=args.order, out=args.out, maxh=args.maxh, steps=args.steps, theta=args.theta,
                  gamma0=args.gamma0, resume=args.resume, dim=args.dim, refine=args.refine, scheme=args.scheme,
-                 rtol=args.rtol, switch_loop=args.switch_loop)
+                 rtol=args.rtol, switch_loop=not args.plain_corrections)
     elif args.command == "convergence":
         from ngcontact.studies import convergence
         convergence.command(args.orders, args.levels, args.case, args.smoothness, args.dt_halvings, args.out,
