@@ -44,7 +44,6 @@ from ngcontact.solve.starts import Approach, Starts
 from ngcontact.time.step import Step
 from ngcontact.solve.step_length import StepLength
 from ngcontact.solve.switch_loop import SignoriniPoints, SwitchLoop
-from ngcontact.gamma3.enforcement.nitsche import NitscheTerms
 from ngcontact.solve.linalg.matrices import free_jacobian
 from ngcontact.solve.linalg.protocol import LinearSolver
 from ngcontact.solve.system import StepSystem, has_interior_dofs
@@ -114,10 +113,8 @@ def assemble(body, loads, contact, time, Scheme, solver, choice, options, coarse
         limit = StepLength(gamma3.side, gfu, gamma3.gap, normal=gamma3.sampled_normal)
     newton = Newton(system, gfu, solver=solver, rtol=options["rtol"], maxit=options["maxit"], hook=hook,
                     step_length=limit)
-    if contact is not None and options["switch_loop"] and isinstance(gamma3.enforcement, NitscheTerms) \
-            and (contact.adhesion > 0 or contact.conducts) and system.laws is None \
-            and SwitchLoop.applies(solver, hook) and not distributed:
-        newton.switch_loop = SwitchLoop(SignoriniPoints(gamma3, contact, X, gfu), gamma3.enforcement.theta)
+    if options["switch_loop"] and SwitchLoop.applies(contact, gamma3, system, solver, distributed):
+        newton.switch_loop = SwitchLoop(SignoriniPoints(gamma3, contact, gfu), gamma3.enforcement.theta)
     continuation.build(newton, gamma3, gfu, body.size, options["globalise"])
     scheme = Scheme(coefficients, system, newton, gfu, gamma3.beta if contact is not None else None,
                     options["predictor"], gamma3.normal if contact is not None else None)

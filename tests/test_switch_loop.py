@@ -26,13 +26,12 @@ def test_the_signorini_points_give_the_contact_part_of_the_jacobian():
     sim = reference.simulation(2, 0.005, keep_states=False, contact=reference.contact(bare=True))
     for _ in range(12):
         sim.step(DT)
-    points = SignoriniPoints(sim.gamma3, sim.contact, sim.X, sim.gfu)
-    S, N = points.rows()
-    P, gamma, slope = points.at_state()
+    theta = sim.gamma3.enforcement.theta
+    points = SignoriniPoints(sim.gamma3, sim.contact, sim.gfu)
+    S, N, gamma, a = points.linear(theta)
+    P, slope = points.at_state()
     active = P <= 0
     assert 0 < active.sum() < len(active)
-    theta = sim.gamma3.enforcement.theta
-    a = theta * S - sp.diags(gamma) @ N
     b = S + sp.diags(slope - gamma) @ N
     c = points.weights / gamma
     e = np.random.default_rng(0).standard_normal(sim.X.ndof)

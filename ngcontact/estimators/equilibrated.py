@@ -437,10 +437,8 @@ def _estimate(indicators, oscillation, contact, fields):
     parts = {name: float(np.sqrt(v.sum())) for name, v in indicators.items()}
     parts.setdefault("flux", 0.0)                        # no electric unknown
     parts["contact"] = contact
-    def norm(squares):
-        return float(np.sqrt(np.sum(squares)))
-    total = math.hypot(parts["stress"] + parts["skew"] + norm(mechanical ** 2),
-                       parts["flux"] + norm(electric ** 2)) + contact
+    total = math.hypot(parts["stress"] + parts["skew"] + np.linalg.norm(mechanical),
+                       parts["flux"] + np.linalg.norm(electric)) + contact
     return Estimate(total=float(total), parts=parts, indicators=np.sqrt(total_sq), fields=fields)
 
 

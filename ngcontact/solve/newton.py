@@ -142,9 +142,6 @@ class Newton:
     rtol : the residual to reach, relative to the step's force scale (``stopping``).
     maxit : maximum number of linear solves per solve.
     hook : an ``enforcement.NewtonHook`` of the enforcement method, or None.
-
-    ``switch_loop`` (None by default): a ``switch_loop.SwitchLoop`` that replaces each correction
-    by the solution of the linear model whose Signorini contact set is its own.
     step_length : None, or a callable w ↦ α ∈ (0, 1]: the correction is x − α w (with
         optional ``start()``, called when a solve begins, and ``cut``, whether the solve
         shortened a step).
@@ -158,6 +155,8 @@ class Newton:
     stops a solve first where it holds. ``estimate_stops`` counts the solves the target stopped.
     ``reduction`` (None by default): a solve also stops ("reduction") at the first residual at
     most this fraction of its first (``continuation``'s stages before the last).
+    ``switch_loop`` (None by default): a ``switch_loop.SwitchLoop`` that replaces each correction
+    by the solution of the linear model whose Signorini contact set is its own.
     """
 
     def __init__(self, system, gfu, *, solver=None, freedofs=None, rtol=1e-10, maxit=50, hook=None,

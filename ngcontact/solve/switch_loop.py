@@ -42,6 +42,7 @@ import ngsolve as ngs
 import numpy as np
 
 from ngcontact.gamma3 import integrands
+from ngcontact.gamma3.enforcement.nitsche import NitscheTerms
 from ngcontact.model.forms import step_normal_stress_variation
 from ngcontact.solve.linalg.gmres import gmres
 from ngcontact.solve.linalg import petsc_solver
@@ -60,14 +61,14 @@ between Newton's last two iterates (the bond ending, say), the loop rests for th
 class SignoriniPoints:
     """The rank-one data of Nitsche's Signorini term at the Gauss points of Γ3 (module
     docstring), for the Γ3 parts ``gamma3`` (``gamma3.build.Gamma3`` with Nitsche's terms) of
-    the Contact ``contact`` on the product space ``X`` and the state ``state`` (u, φ)."""
+    the Contact ``contact`` and the state ``state`` (the GridFunction of (u, φ))."""
 
-    def __init__(self, gamma3, contact, X, state):
-        self.enforcement, self.side, self.X = gamma3.enforcement, gamma3.side, X
+    def __init__(self, gamma3, contact, state):
+        self.enforcement, self.side, self.X = gamma3.enforcement, gamma3.side, state.space
         self.weights = gamma3.side.gauss_weights.ravel()
         enf = self.enforcement
         u, phi = state.components
-        self._probe = ngs.GridFunction(X)
+        self._probe = ngs.GridFunction(self.X)
         v, xi = self._probe.components
         self._variation = step_normal_stress_variation(enf.tensors, v, xi, enf.coefficients.rate, enf.n).Compile()
         self._normal_part = (v * enf.n).Compile()
@@ -77,16 +78,21 @@ class SignoriniPoints:
         self._P = enf.P(u, phi, traction).Compile()
         self._gamma = (enf.gamma * ngs.CF(1.0)).Compile()
         self._slope = integrands.adhesion_traction(contact, gamma3.beta.gf, u_n + shift).Diff(shift).Compile()
-        self._rows, self._rate = None, None
+        self._linear, self._rate = None, None
 
-    def rows(self):
-        """(σ_ν'(·)_q, u_ν(q)) as scipy CSR matrices (points × DOFs), made again when the rate
-        coefficient c of the step changed (σ_ν' holds c A). Each DOF of the volume elements at
-        Γ3 is probed at once with the others of its colour: DOFs that share no such element."""
+    def linear(self, theta):
+        """(σ_ν'(·)_q, u_ν(q), γ_q (Pa/m), a_q = θ σ_ν'(·)_q − γ_q u_ν(q)): scipy CSR matrices
+        (points × DOFs) and γ per point, made again only when the rate coefficient c of the step
+        changed (σ_ν' holds c A, γ follows the step's stiffness). Each DOF of the volume elements
+        at Γ3 is probed at once with the others of its colour: DOFs that share no such element."""
+        import scipy.sparse as sp
         rate = self.enforcement.coefficients.rate.Get()
-        if self._rows is None or rate != self._rate:
-            self._rows, self._rate = self._make_rows(), rate
-        return self._rows
+        if self._linear is None or rate != self._rate:
+            S, N = self._make_rows()
+            gamma = self.side.at_gauss_points(self._gamma).ravel()
+            self._linear = (S, N, gamma, (theta * S - sp.diags(gamma) @ N).tocsr())
+            self._rate = rate
+        return self._linear
 
     def _make_rows(self):
         import scipy.sparse as sp
@@ -133,9 +139,8 @@ class SignoriniPoints:
         return tuple(out)
 
     def at_state(self):
-        """(P_q (Pa), γ_q (Pa/m), ∂σ̃_ν/∂u_ν at q (Pa/m)) at the current state."""
-        side = self.side
-        return tuple(side.at_gauss_points(cf).ravel() for cf in (self._P, self._gamma, self._slope))
+        """(P_q (Pa), ∂σ̃_ν/∂u_ν at q (Pa/m)) at the current state."""
+        return tuple(self.side.at_gauss_points(cf).ravel() for cf in (self._P, self._slope))
 
 
 class _Updated(ngs.BaseMatrix):
@@ -174,14 +179,18 @@ class SwitchLoop:
         self._pressed = False            # whether Γ3 pressed at the solve's start
 
     @staticmethod
-    def applies(solver, hook):
-        """Whether the loop can run with this correction solver (it needs the factorisation
-        the correction was solved with, an NGSolve one: not PETSc's MUMPS) and enforcement hook
-        (none: Nitsche's own unknowns are the state's)."""
-        if hook is not None or type(solver) not in (DirectSolver, KeptFactorization):
+    def applies(contact, gamma3, system, solver, distributed):
+        """Whether the loop runs for ``contact`` (None: no Γ3) with the built ``gamma3``, the
+        StepSystem ``system`` and the correction ``solver``: Nitsche's method on a contact with
+        glue or conduction, a linear bulk (no law's terms in K), one process, and a solver whose
+        factorisation it can apply again (the built-in direct or kept one, an NGSolve
+        factorisation: not PETSc's MUMPS)."""
+        if contact is None or distributed or system.laws is not None or not isinstance(gamma3.enforcement, NitscheTerms):
+            return False
+        if not (contact.adhesion > 0 or contact.conducts) or type(solver) not in (DirectSolver, KeptFactorization):
             return False
         direct = solver if isinstance(solver, DirectSolver) else solver.direct
-        return direct.name not in petsc_solver.NAMES            # (an NGSolve factorisation: its inverse applies)
+        return direct.name not in petsc_solver.NAMES
 
     @staticmethod
     def _other_pieces(newton):
@@ -200,7 +209,7 @@ class SwitchLoop:
         model whose contact set is its own; it rests where a law the model keeps at its pieces
         (``KEPT``) changed between the last two iterates."""
         import scipy.sparse as sp
-        P, gamma, slope = self.points.at_state()
+        P, slope = self.points.at_state()
         if len(residuals) == 1:                      # a solve (or a try of it) begins
             self._pressed, self._pieces = bool((P <= 0.0).any()), None
         if not self._pressed:
@@ -211,8 +220,7 @@ class SwitchLoop:
         self._pieces = pieces
         if moved:
             return
-        S, N = self.points.rows()
-        a = (self.theta * S - sp.diags(gamma) @ N).tocsr()
+        S, N, gamma, a = self.points.linear(self.theta)
         b = (S + sp.diags(slope - gamma) @ N).tocsr()
         c = self.points.weights / gamma
         w0 = newton.w.FV().NumPy().copy()
@@ -269,41 +277,40 @@ class _CorrectionSolve:
     def __init__(self, newton, inverse):
         self.newton, self.inverse = newton, inverse
         self.system = newton.system
-        self._rhs, self._out = newton.w.CreateVector(), newton.w.CreateVector()
 
-    def __call__(self, values):
-        rhs, out, system = self._rhs, self._out, self.system
+    def _condensed(self, values, solve):
+        """The full solution for the right-hand side ``values`` (numpy), ``solve(rc, out)``
+        solving on the coupling DOFs (all DOFs without condensation)."""
+        system = self.system
+        rhs, out = self.newton.w.CreateVector(), self.newton.w.CreateVector()
         rhs.FV().NumPy()[:] = values
+        out[:] = 0.0
         with reproducible():
             if self.newton.condense:
-                work = rhs.CreateVector()
-                work.data = rhs + system.harmonic_extension_trans * rhs
-                out.data = self.inverse * work
+                rc = rhs.CreateVector()
+                rc.data = rhs + system.harmonic_extension_trans * rhs
+                solve(rc, out)
                 out.data += system.harmonic_extension * out
                 out.data += system.inner_solve * rhs
             else:
-                out.data = self.inverse * rhs
+                solve(rhs, out)
         return out.FV().NumPy().copy()
+
+    def __call__(self, values):
+        def solve(rc, out):
+            out.data = self.inverse * rc
+        return self._condensed(values, solve)
 
     def exactly(self, U, V, m, start):
         """The solution of (J + U Vᵀ) w = r + U m by GMRES preconditioned by the kept
-        factorisation, to the accuracy of the correction (KeptFactorization.tol), from scratch;
-        ``start`` is returned where GMRES does not converge."""
-        newton, system = self.newton, self.system
-        solver = newton.solver
-        rhs = newton.r.CreateVector()
-        rhs.FV().NumPy()[:] = newton.r.FV().NumPy() + U @ m
-        w = newton.w.CreateVector()
-        if newton.condense:                    # (the low-rank term lives on the coupling DOFs)
-            rc = rhs.CreateVector()
-            rc.data = rhs + system.harmonic_extension_trans * rhs
-            with reproducible():
-                converged, _ = gmres(_Updated(system.mat, U, V), self.inverse, rc, w, newton.norm.weights,
-                                     solver.tol, solver.max_budget)
-            w.data += system.harmonic_extension * w
-            w.data += system.inner_solve * rhs
-        else:
-            with reproducible():
-                converged, _ = gmres(_Updated(system.mat, U, V), self.inverse, rhs, w, newton.norm.weights,
-                                     solver.tol, solver.max_budget)
-        return w.FV().NumPy().copy() if converged else start
+        factorisation, to the solver's own accuracy (``KeptFactorization.tol``), from zero;
+        ``start`` where GMRES does not converge."""
+        newton, solver = self.newton, self.newton.solver
+        operator = _Updated(self.system.mat, U, V)
+        converged = []
+
+        def solve(rc, out):
+            converged.append(gmres(operator, self.inverse, rc, out, newton.norm.weights, solver.tol,
+                                   solver.max_budget)[0])
+        w = self._condensed(newton.r.FV().NumPy() + U @ m, solve)
+        return w if converged[0] else start
