@@ -96,6 +96,19 @@ def test_law_at_kinks(mesh, name, r, value):
     assert at(mesh, LAWS[name][0], r) == pytest.approx(value, abs=1e-14)
 
 
+def test_the_bond_truncation_takes_the_slope_of_either_side_at_rest(mesh):
+    """R_ν with ``pressed`` 0 or 1 has the same values on a sweep across its kinks, and its
+    derivative at s = 0 (a body at rest) is the glued side's −1 or the pressed side's 0; a step
+    away from 0 (±1e-9 m) both have the slope of that side."""
+    shift = ngs.Parameter(0.0)
+    glued, pressed = laws.bond_truncation(L, 0.0), laws.bond_truncation(L, ngs.Parameter(1.0))
+    np.testing.assert_array_equal(sweep(mesh, glued, -1.0, 0.5)[1], sweep(mesh, pressed, -1.0, 0.5)[1])
+    slope = lambda law, s: law(ngs.CF(s) + shift).Diff(shift)(mesh(0.5, 0.5))   # noqa: E731
+    assert (slope(glued, 0.0), slope(pressed, 0.0)) == (-1.0, 0.0)
+    assert slope(glued, -1e-9) == slope(pressed, -1e-9) == -1.0
+    assert slope(glued, 1e-9) == slope(pressed, 1e-9) == 0.0
+
+
 def test_literal_conductance_is_off_where_the_ramp_is_on(mesh):
     """For every admissible state r = u_ν − g ≤ 0 the literal ψ is 0; the ramp is k_e at contact."""
     r, literal = sweep(mesh, LAWS["conductance_literal"][0], -0.5, 0.0)

@@ -146,7 +146,9 @@ def test_the_load_cannot_hide_under_the_charges_scale():
     depends on the machine's round-off."""
     material = ngc.Material.isotropic(60e9, 0.3, permittivity=1e-8, e33=10.0)
     object.__setattr__(material, "eps", 1e-30 * np.eye(3))
-    sim = scene.simulation(1, 0.01, material=material)
+    # plain corrections: with the switch loop the first step converges, and the second is accepted
+    # at its start, the forces out of balance by 1e-6 of their own scale (the per-field tolerance)
+    sim = scene.simulation(1, 0.01, material=material, switch_loop=False)
     for n in (1, 2):
         try:
             sim.step(0.025)

@@ -176,7 +176,8 @@ class Contact:
                                 "CoefficientFunction (the law itself), not a CoefficientFunction")
         self.p = laws.checked("Contact.compliance", self.compliance, "p", 0.0) \
             if callable(self.compliance) else laws.compliance_law(self.compliance)
-        self.R = laws.bond_truncation(self.bond_length)
+        self.rest_side = ngs.Parameter(0.0)    # R_ν's slope at u_ν = 0: 0 glued, 1 pressed (``switch_loop``)
+        self.R = laws.bond_truncation(self.bond_length, self.rest_side)
         self.truncation_widening = ngs.Parameter(1.0)    # of φ_L's level, for ``continuation``
         self.phi_L = laws.potential_truncation(self.potential_truncation, self.truncation_widening)
         self.widening = ngs.Parameter(1.0)      # of ψ's ramp, for ``continuation`` (1: as given)

@@ -30,11 +30,13 @@ def compliance_law(c_nu):
     return lambda r: c_nu * positive_part(r)
 
 
-def bond_truncation(L):
+def bond_truncation(L, pressed=0.0):
     """R_ν(s) = L for s < -L, -s for -L <= s <= 0, 0 for s > 0 (docs/model.md's reading of (2.8));
-    L > 0 is the bond length in m."""
+    L > 0 is the bond length in m. At the kink s = 0 (a body at rest) the value is 0 either way;
+    ``pressed`` (a number or Parameter in {0, 1}) picks the slope Newton linearises with there:
+    0 the glued side's −1, 1 the pressed side's 0."""
     _positive("bond length L", L, "m")
-    return lambda s: clip(-s, 0, L)
+    return lambda s: ngs.IfPos(-s - L, L, ngs.IfPos(s, 0.0, ngs.IfPos(-s, -s, (pressed - 1.0) * s)))
 
 
 def potential_truncation(L_phi, widening=1.0):

@@ -371,7 +371,7 @@ class Newton:
                 linear.append(self._linear_counts(since=before))
                 if self.switch_loop is not None:
                     with timer("solve"):
-                        self.switch_loop(self, x, residuals)
+                        self.switch_loop(self, x, residuals, tol)
                 self._check_correction(fail, it)
                 alpha = self.step_length(self.w) if limit else 1.0
                 # a shortened correction says nothing of the error left: no adaptive stop after it

@@ -66,6 +66,11 @@ class StepLength:
         """Whether the current solve shortened a step."""
         return self.cuts > 0
 
+    @property
+    def spent(self):
+        """Whether the current solve shortened all the corrections it may (later ones are full)."""
+        return self.touching is not None and self.cuts >= (self.max_cuts_touching if self.touching else self.max_cuts)
+
     def __call__(self, w):
         """α for the correction w (the step is x − α w)."""
         if self.cuts >= (self.max_cuts_touching if self.touching else self.max_cuts):

@@ -32,11 +32,19 @@ solved again by GMRES on J + U Vᵀ to the correction's accuracy. Newton then go
 correction: the residual at the new iterate and its convergence test decide (``stopping``), so
 the loop changes how many iterations a step takes, not the state it converges to.
 
-Where the model is far from R the loop rests: in a solve that starts with Γ3 open (first
-contact, where ``step_length`` governs), and in an iteration after which a law in ``KEPT``
-changed piece. A solve that fails with the loop is made again without it (``Newton.solve``).
+Where the model is far from R the loop rests: in a solve that starts with Γ3 open (a first
+contact) until ``step_length`` has made its cuts and an iterate presses, and throughout such a
+solve where Γ3 has no glue (conduction alone: the conduction's switches, which the model does
+not follow, lead its first contact), and in an iteration after which a law in ``KEPT`` changed
+piece. A solve that fails with the loop is made again
+without it (``Newton.solve``).
+
+At a solve's first correction the loop also picks the slope of the glue's R_ν at its kink
+u_ν = 0, where a body at rest sits: the pressed side's where the correction moves every such
+point into the foundation (the correction is then made again), else the glued side's.
+
 Measured (docs/stability.md, section 13): the reference history's pull-off in 3–6 iterations a
-step instead of 9–23.
+step instead of 9–23, its first contact in 5–6.
 """
 import ngsolve as ngs
 import numpy as np
@@ -64,7 +72,7 @@ class SignoriniPoints:
     the Contact ``contact`` and the state ``state`` (the GridFunction of (u, φ))."""
 
     def __init__(self, gamma3, contact, state):
-        self.enforcement, self.side, self.X = gamma3.enforcement, gamma3.side, state.space
+        self.enforcement, self.side, self.X, self.contact = gamma3.enforcement, gamma3.side, state.space, contact
         self.weights = gamma3.side.gauss_weights.ravel()
         enf = self.enforcement
         u, phi = state.components
@@ -200,18 +208,40 @@ class SwitchLoop:
             return {}
         return {name: value for name, value in newton.switches().items() if name in KEPT}
 
+    def _rest_side(self, newton, x, tol):
+        """A solve's first correction: where points of Γ3 sit on the glue's kink u_ν = 0 (a body
+        at rest) and the correction presses every one of them, R_ν is linearised on its pressed
+        side there (``Contact.rest_side``) and the correction made again; else on its glued side.
+        Either is a slope of R_ν at the kink; the one the body moves to saves the iteration that
+        would switch them all."""
+        contact = self.points.contact
+        contact.rest_side.Set(0.0)
+        if contact.adhesion <= 0:
+            return
+        N = self.points.linear(self.theta)[1]
+        kink = N @ x.FV().NumPy() == 0.0
+        if kink.any() and (N[kink] @ newton.w.FV().NumPy() < 0.0).all():     # u_ν grows along −w
+            contact.rest_side.Set(1.0)
+            newton.linear_solve(x, tol=tol)
+
     def _factorisation(self, solver):
         return solver.inverse if isinstance(solver, DirectSolver) else solver.direct.inverse
 
-    def __call__(self, newton, x, residuals):
+    def __call__(self, newton, x, residuals, tol=None):
         """Replace Newton's last correction ``newton.w`` (for the residual ``newton.r`` at the
-        state ``x``; ``residuals``: the solve's residual history) by the solution of the linear
-        model whose contact set is its own; it rests where a law the model keeps at its pieces
-        (``KEPT``) changed between the last two iterates."""
+        state ``x``; ``residuals``: the solve's residual history; ``tol``: the accuracy it was
+        solved to) by the solution of the linear model whose contact set is its own; it rests
+        where a law the model keeps at its pieces (``KEPT``) changed between the last two
+        iterates."""
         import scipy.sparse as sp
         P, slope = self.points.at_state()
         if len(residuals) == 1:                      # a solve (or a try of it) begins
             self._pressed, self._pieces = bool((P <= 0.0).any()), None
+            self._rest_side(newton, x, tol)
+        limit = newton.step_length
+        if not self._pressed and self.points.contact.adhesion > 0 and (P <= 0.0).any() and \
+                (limit is None or limit.spent):
+            self._pressed = True                     # a glued first contact, once the step length cuts no more
         if not self._pressed:
             return
         pieces = self._other_pieces(newton)

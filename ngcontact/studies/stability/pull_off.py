@@ -26,7 +26,7 @@ from ngcontact.scenes import reference
 from ngcontact.studies.common import failure_kind, line, table
 from .shared import APPLIED, save
 
-COLUMNS = ("scene", "switch_loop", "dt", "maxh", "steps", "newton_total", "worst_time", "worst_newton",
+COLUMNS = ("scene", "switch_loop", "dt", "maxh", "steps", "newton_total", "first_newton", "worst_time", "worst_newton",
            "worst_crossed", "crossed_max", "per_point", "over_10", "balance", "wall_s")
 """The columns of the summary table."""
 T_END = 0.2
@@ -61,7 +61,8 @@ def run(out=None, *, cases=None, order=2, quick=False, progress=True, disks=None
     -------
     list of dict, one per case and ``switch_loop`` (False, True): ``scene`` ("reference", or
     "disk section" / "disk quarter" with dt the step and maxh the mesh size), ``steps``,
-    ``newton_total``, ``wall_s`` (the run's wall time, one run); the worst step after the first contact
+    ``newton_total``, ``wall_s`` (the run's wall time, one run); ``first_newton``: the iterations of
+    the first contact's step (the disk: its first step, from rest); the worst step after the first contact
     (``worst_time`` s, ``worst_newton`` linear solves with those of given-up tries,
     ``worst_crossed`` Gauss points of Γ3 whose contact state changed in it); ``crossed_max``;
     ``per_point``: the median of newton / crossed over the steps that cross at least 4 points;
@@ -143,7 +144,8 @@ def _disk(kind, maxh, loop, steps=10):
     nan = float("nan")
     worst = int(np.argmax(newton)) if newton else 0
     return dict(scene=f"disk {kind}", switch_loop=loop, dt=1.0 / steps, maxh=maxh, order=1, failure=failure,
-                steps=len(newton), newton_total=int(sum(newton)), worst_time=(worst + 1) / steps if newton else nan,
+                steps=len(newton), newton_total=int(sum(newton)), first_newton=newton[0] if newton else 0,
+                worst_time=(worst + 1) / steps if newton else nan,
                 worst_newton=max(newton, default=0), worst_crossed=0, crossed_max=0, per_point=nan,
                 over_10=sum(n > 10 for n in newton), balance=nan, wall_s=wallclock.perf_counter() - start)
 
@@ -167,7 +169,7 @@ def _case(dt, maxh, order, loop=False):
     if not steps:                      # the first step failed: nothing measured
         nan = float("nan")
         return dict(scene="reference", switch_loop=loop, dt=dt, maxh=maxh, order=order, failure=failure, steps=0,
-                    newton_total=0, worst_time=nan, worst_newton=0, worst_crossed=0, crossed_max=0, per_point=nan,
+                    newton_total=0, first_newton=0, worst_time=nan, worst_newton=0, worst_crossed=0, crossed_max=0, per_point=nan,
                     over_10=0, balance=nan, wall_s=wallclock.perf_counter() - start), ((), (), ())
     load = APPLIED * np.interp(h.times[1:], *np.array(reference.LOAD_HISTORY).T)
     balance = h.reactions[1:, 1] + h.contact_column("force")[1:, 1] - load
@@ -179,7 +181,7 @@ def _case(dt, maxh, order, loop=False):
     worst = int(np.flatnonzero(after)[np.argmax(newton[after])])
     fronts = after & (crossed >= 4)
     row = dict(scene="reference", switch_loop=loop, dt=dt, maxh=maxh, order=order, failure=failure,
-               steps=len(steps), newton_total=int(newton.sum()),
+               steps=len(steps), newton_total=int(newton.sum()), first_newton=int(newton[first]),
                worst_time=float(times[worst]), worst_newton=int(newton[worst]), worst_crossed=int(crossed[worst]),
                crossed_max=int(crossed[after].max()),
                per_point=float(np.median(newton[fronts] / crossed[fronts])) if fronts.any() else float("nan"),
