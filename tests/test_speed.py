@@ -100,18 +100,26 @@ def test_predictor_changes_the_start_not_the_solution():
 
 @pytest.mark.long
 def test_first_contact_iterations_do_not_grow_with_the_mesh():
-    """The 6-step first-contact window of the reference scene (P1, maxh 5 mm, levels 0-2):
-    with the step-length limit the first-contact step takes 5 Newton iterations on every
-    mesh; with full steps 11, 12, 14 (docs/speed.md). Both reach the same states."""
+    """The 6-step first-contact window of the reference scene (P1, maxh 5 mm, levels 0-2), plain
+    corrections: with the step-length limit the first-contact step takes 5 Newton iterations on
+    every mesh; with full steps 11, 12, 14 (docs/speed.md). With full steps and the switch loop
+    (which follows the overshoot's release at a glued first contact) at most 6 on the finest
+    (measured 6, 4, 5 on levels 0-2). All reach the same states."""
     for level in (0, 1, 2):
-        limited, full = (scene.simulation(1, 0.005, level, keep_states=False, limit_steps=limit)
+        limited, full = (scene.simulation(1, 0.005, level, keep_states=False, limit_steps=limit, switch_loop=False)
                          for limit in (True, False))
-        for sim in (limited, full):
+        runs = [limited, full]
+        if level == 2:
+            runs.append(scene.simulation(1, 0.005, level, keep_states=False, limit_steps=False))
+        for sim in runs:
             sim.run(2.5e-3, 6 * 2.5e-3)
         assert limited.history.newton_iterations.max() <= 6
         assert full.history.newton_iterations.max() >= 11
-        x, y = limited.gfu.vec.FV().NumPy(), full.gfu.vec.FV().NumPy()
-        assert np.abs(x - y).max() <= 1e-8 * np.abs(y).max()
+        if level == 2:
+            assert runs[2].history.newton_iterations.max() <= 6
+        y = full.gfu.vec.FV().NumPy()
+        for sim in runs:
+            assert np.abs(sim.gfu.vec.FV().NumPy() - y).max() <= 1e-8 * np.abs(y).max()
 
 
 def test_a_solve_that_starts_touching_cuts_deeper():
