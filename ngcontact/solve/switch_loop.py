@@ -36,8 +36,7 @@ Where the model is far from R the loop rests: in a solve that starts with Γ3 op
 contact) until ``step_length`` has made its cuts and an iterate presses, and throughout such a
 solve where Γ3 has no glue (conduction alone: the conduction's switches, which the model does
 not follow, lead its first contact), and in an iteration after which a law in ``KEPT`` changed
-piece. A solve that fails with the loop is made again
-without it (``Newton.solve``).
+piece. A solve that fails with the loop is made again without it (``Newton.solve``).
 
 At a solve's first correction the loop also picks the slope of the glue's R_ν at its kink
 u_ν = 0, where a body at rest sits: the pressed side's where the correction moves every such
