@@ -250,3 +250,20 @@ def test_weak_symmetry_gives_a_sharper_bound_from_the_same_kind_of_flux():
         assert plain().total == pytest.approx(rows.total, rel=1e-10)
     with pytest.raises(TypeError, match="weak_symmetry"):
         EquilibratedEstimator(sim, weak_symmetry="yes")
+
+
+def test_an_estimator_built_before_the_step_estimates_the_state_after_it_alike():
+    """``adapt`` builds the estimator of a level it certifies before the level's solve (its patch
+    system, independent of the state, is set up meanwhile): on the reference plate after first
+    contact (P1 and P2, 3D P1), the estimator built before a step and called after it gives the
+    bits of one built after it."""
+    from ngcontact.scenes import reference
+    for order, dim, maxh in ((1, 2, 0.01), (2, 2, 0.01), (1, 3, 0.01)):
+        sim = reference.simulation(order, maxh, dim=dim, keep_states=False)
+        for _ in range(3):
+            sim.step(0.01)
+        early = EquilibratedEstimator(sim)
+        sim.step(0.01)
+        assert sim.history[-1].contact.contact_area > 0
+        a, b = early(), EquilibratedEstimator(sim)()
+        assert a.total == b.total and np.array_equal(a.indicators, b.indicators), (order, dim)
