@@ -256,7 +256,7 @@ class SwitchLoop:
         before = P <= 0.0
         inverse = self._factorisation(newton.solver)
         solve = _CorrectionSolve(newton, inverse)
-        Z, w, tried, chosen = {}, w0, set(), None
+        Z, w, tried = {}, w0, set()
         for _ in range(MAX_LOOP):
             now = P - b @ w <= 0.0
             key = now.tobytes()
@@ -273,30 +273,35 @@ class SwitchLoop:
                 if q not in Z:
                     Z[q] = solve(a[q].toarray().ravel())
             Zq = np.stack([Z[q] for q in Q], axis=1)
-            s = np.where(now[Q], 1.0, -1.0)
-            V = sp.diags(c[Q] * s) @ b[Q]
-            m = c[Q] * s * P[Q]
+            V, m = _switched(now, Q, b, c, P)
             y = w0 + Zq @ m
             try:
                 w = y - Zq @ np.linalg.solve(np.eye(len(Q)) + V @ Zq, V @ y)
             except np.linalg.LinAlgError:            # the model is singular there: the plain correction
                 return
-        if chosen is None:
-            return
-        now, Q = chosen
+        now, Q = chosen                              # (the first set tried, at least)
         if isinstance(newton.solver, KeptFactorization):    # Z was approximate: the model solved again
             for _ in range(EXACT_TRIES):
                 if not len(Q):
                     w = w0
                 else:
-                    s = np.where(now[Q], 1.0, -1.0)
-                    w = solve.exactly(a[Q].T.toarray(), (sp.diags(c[Q] * s) @ b[Q]).tocsr(), c[Q] * s * P[Q], w)
+                    V, m = _switched(now, Q, b, c, P)
+                    w = solve.exactly(a[Q].T.toarray(), V, m, w)
                 settled = P - b @ w <= 0.0
                 if np.array_equal(settled, now):
                     break
                 now, Q = settled, np.flatnonzero(settled != before)
         self.switches += len(Q)
         newton.w.FV().NumPy()[:] = w
+
+
+def _switched(now, Q, b, c, P):
+    """The rank-|Q| change of the linear model where the points Q switch to the contact set
+    ``now`` (module docstring): V = diag(s c) b_Q (CSR) and m = s c P_Q, s = ±1 as a point enters
+    or leaves the contact set."""
+    import scipy.sparse as sp
+    s = np.where(now[Q], 1.0, -1.0) * c[Q]
+    return (sp.diags(s) @ b[Q]).tocsr(), s * P[Q]
 
 
 class _CorrectionSolve:
