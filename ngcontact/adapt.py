@@ -354,14 +354,21 @@ def step(scene, mesh, dt, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5
         start, sim = sim.u, following                # the start interpolated onto the next mesh (``starts``)
 
 
+STOP_NEWTON = 0.1
+"""``solve``'s ``stop_newton`` for the energy goal. The other goals converge Newton to its fixed
+tolerances: the stop is an energy criterion, and a correction small in energy may still move
+the contact set, which the pressure and force on Γ3 feel (docs/adaptivity.md, "Goals")."""
+
+
 def solve(scene, mesh, tol, *, dt=1.0, fraction=0.5, max_levels=30, max_ndof=2e5, guess=None, on_level=None,
-          stop_newton=0.1, polygonal=False, marking="averaging", goal="energy", certify=None):
+          stop_newton="default", polygonal=False, marking="averaging", goal="energy", certify=None):
     """Solve the first step, of length dt (s) from the scene's initial state, to a tolerance:
     refine until the equilibrated bound of the energy error, relative to the energy of the
     discrete state, is at most ``tol``
     (certified: the last level's ``estimate`` is that bound), marking by the cheap averaging
     indicator (``MARKINGS``) and stopping Newton and GMRES at ``stop_newton`` times the
-    estimate expected on each level (None: the fixed tolerances). ``step`` with these defaults;
+    estimate expected on each level (None: the fixed tolerances; "default": ``STOP_NEWTON`` for
+    the energy goal, None for the others). ``step`` with these defaults;
     returns its ``Adaptation`` (``reached`` False and the reason if a limit came first). A
     scene whose Simulation has already stepped is refused (ValueError, before its first solve):
     its state at the start of the step would be computed anew on every level's mesh, so the
@@ -372,6 +379,8 @@ def solve(scene, mesh, tol, *, dt=1.0, fraction=0.5, max_levels=30, max_ndof=2e5
     is computed only with ``certify=True``."""
     if tol is None:
         raise ValueError("adapt.solve: tol must be a finite number > 0 (the relative estimate to certify), got None")
+    if isinstance(stop_newton, str) and stop_newton == "default":
+        stop_newton = STOP_NEWTON if goal == "energy" else None
     return step(scene, mesh, dt, tol=tol, fraction=fraction, max_levels=max_levels, max_ndof=max_ndof, guess=guess,
                 on_level=on_level, stop_newton=stop_newton, polygonal=polygonal, marking=marking, goal=goal,
                 certify=certify)

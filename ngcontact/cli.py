@@ -218,7 +218,8 @@ def parser():
                        help="polynomial orders (default 1 2; hertz3d runs P1 only)")
     adapt.add_argument("--stop-newton", metavar="F", type=float, default=None,
                        help="adaptive stopping: Newton stops once its correction is below F times the "
-                            "estimate (0 < F <= 1; default: the fixed tolerances, with --tol 0.1)")
+                            "estimate (0 < F <= 1; default: the fixed tolerances, with --tol 0.1 for the energy "
+                            "goal)")
     adapt.add_argument("--marking", choices=("equilibrated", "averaging"), default=None,
                        help="what the adaptive runs mark by: the equilibrated estimate on every level (the study's "
                             "default), or the cheap averaging indicator with the equilibrated bound on the first and "

@@ -100,15 +100,32 @@ class Recorder:
         resultant vanishes by symmetry; ∫ σν·e_r da is no force)."""
         modes = []
         for i in range(self.body.dim + 1):
-            w = ngs.GridFunction(self.state.space)
             if i < self.body.dim and i not in self.body.kinematics.resultants:
-                pass
+                modes.append(ngs.GridFunction(self.state.space).vec)
             elif i < self.body.dim:
-                w.components[0].Set(ngs.CF(tuple(float(i == j) for j in range(self.body.dim))))
+                modes.append(self._constant(0, i))
             else:
-                w.components[1].Set(1.0)
-            modes.append(w.vec)
+                modes.append(self._constant(1))
         return modes
+
+    def _constant(self, component, axis=0):
+        """The vector of the state's space whose ``component`` (0: u, 1: φ) is the constant 1
+        (u: along ``axis``) and the other 0. A constant has only vertex DOFs in NGSolve's H1
+        (the higher ones are bubbles, 0 at the vertices), and H1 numbers vertex k as DOF k: the
+        vector is written directly, not projected by ``Set`` (a sixth of a level's build at P2
+        and P3, docs/speed.md); ``Set`` where that numbering does not hold (a distributed mesh)."""
+        space, mesh = self.state.space, self.body.mesh
+        part = space.components[component]
+        scalar = part.components[axis] if component == 0 else part
+        vertices = [scalar.GetDofNrs(ngs.NodeId(ngs.VERTEX, k)) for k in (0, mesh.nv - 1)] if mesh.nv else []
+        w = ngs.GridFunction(space)
+        if parallel.is_distributed(mesh) or vertices != [(0,), (mesh.nv - 1,)]:
+            value = ngs.CF(tuple(float(axis == j) for j in range(self.body.dim))) if component == 0 else 1.0
+            w.components[component].Set(value)
+            return w.vec
+        start = space.Range(component).start + (axis * scalar.ndof if component == 0 else 0)
+        w.vec.FV().NumPy()[start:start + mesh.nv] = 1.0
+        return w.vec
 
     def _build_facet_fields(self):
         """Facet integrals over Γ3 of the recorded fields, built once."""

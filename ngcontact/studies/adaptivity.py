@@ -356,8 +356,8 @@ def to_tolerance(tol, scenes=("hertz",), orders=(2,), fraction=None, progress=Tr
     [``TOL_FLOOR``, 1)): print every level (DOFs, averaging indicator, the bound where
     certified, times) and the certificate reached, or that it was not and why (a limit came
     first); returns {(scene, order): Adaptation}. ``marking``, ``stop_newton`` and ``fraction``
-    go to ``adapt.solve`` (None: its defaults, averaging marking and Newton stopped at 0.1 of
-    the expected estimate). ``out``: a directory (or None) that receives, as each adaptation
+    go to ``adapt.solve`` (None: its defaults, averaging marking and, for the energy goal,
+    Newton stopped at 0.1 of the expected estimate). ``out``: a directory (or None) that receives, as each adaptation
     ends, ``tolerance.csv`` (every level of every adaptation so far: scene, order, level, ndof,
     indicator, estimate and relative where certified (J^½; (J/m)^½ in 2D), wall times in s),
     ``tolerance.json`` (per adaptation: tol, reached, reason, the last level's ndof and
