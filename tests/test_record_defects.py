@@ -54,3 +54,37 @@ def test_multiplier_at_the_gauss_points_shows_what_the_facet_average_hides():
         points = c.multiplier_points[inside]
         spreads[normal] = np.max((points.max(axis=1) - points.min(axis=1)) / points.mean(axis=1))
     assert spreads["body"] > 0.6 and spreads["body"] > 2.5 * spreads["obstacle"]   # 0.82 and 0.28 measured
+
+
+def _rigid_mode_cases():
+    from ngcontact.scenes import hertz
+    yield hertz.simulation(3, dim=2, h_contact=0.05, keep_states=False)                 # curved, P3
+    yield hertz.simulation(2, dim=2, h_contact=0.05, axisymmetric=True, keep_states=False)   # a section
+
+
+def test_the_force_test_vectors_are_the_constant_translations():
+    """Γ3's force and charge flux are −R_Γ3(w) for w = (e_i, 0) and (0, 1), written at the vertex
+    DOFs: evaluated anywhere in the body they are the constants to round-off, and they equal
+    ``Set``'s projection of those constants within its round-off (1e-12); the radial mode of a
+    body of revolution, no resultant, is 0."""
+    for sim in _rigid_mode_cases():
+        X, mesh, dim = sim.X, sim.body.mesh, sim.body.dim
+        modes = sim.recorder._rigid_modes
+        points = [mesh(*p) for p in sim.side.midpoints[:3]] + [mesh(*np.mean(sim.side.midpoints, axis=0))]
+        for i, vec in enumerate(modes):
+            w = ngs.GridFunction(X)
+            w.vec.data = vec
+            expected = ngs.GridFunction(X)
+            if i < dim and i not in sim.body.kinematics.resultants:
+                assert ngs.Norm(vec) == 0.0
+                continue
+            if i < dim:
+                expected.components[0].Set(ngs.CF(tuple(float(i == j) for j in range(dim))))
+                values = [w.components[0](p) for p in points]
+                assert np.allclose(values, [[float(i == j) for j in range(dim)]] * len(points), rtol=0, atol=1e-14)
+            else:
+                expected.components[1].Set(1.0)
+                assert np.allclose([w.components[1](p) for p in points], 1.0, rtol=0, atol=1e-14)
+            difference = vec.FV().NumPy() - expected.vec.FV().NumPy()
+            assert np.abs(difference).max() < 1e-12
+            assert np.abs(vec.FV().NumPy()).sum() > 0

@@ -110,10 +110,10 @@ class Recorder:
 
     def _constant(self, component, axis=0):
         """The vector of the state's space whose ``component`` (0: u, 1: φ) is the constant 1
-        (u: along ``axis``) and the other 0. A constant has only vertex DOFs in NGSolve's H1
-        (the higher ones are bubbles, 0 at the vertices), and H1 numbers vertex k as DOF k: the
-        vector is written directly, not projected by ``Set`` (a sixth of a level's build at P2
-        and P3, docs/speed.md); ``Set`` where that numbering does not hold (a distributed mesh)."""
+        (u: along ``axis``) and the other 0, written at the vertex DOFs: a constant has no
+        higher-order part in NGSolve's H1, which numbers vertex k as DOF k. ``Set`` (a projection,
+        a fifth of a level's build at P2, docs/speed.md) on a distributed mesh or where that
+        numbering is not found."""
         space, mesh = self.state.space, self.body.mesh
         part = space.components[component]
         scalar = part.components[axis] if component == 0 else part
