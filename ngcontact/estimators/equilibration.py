@@ -109,9 +109,50 @@ def _element_blocks(form, mesh, trial, test):
     return np.array(blocks)
 
 
-def _element_dofs(space):
-    """The DOFs of every volume element of ``space`` in its local order (elements × DOFs)."""
+def _element_dofs(space, numbered=None):
+    """The DOFs of every volume element of ``space`` in its local order (elements × DOFs):
+    ``numbered`` (the table NGSolve's numbering gives, ``_numbered_dofs``) where it agrees with
+    the space on ``SAMPLED_ELEMENTS`` elements spread over the mesh, else read element by element
+    (a Python call per element: a quarter of a small 2D certificate)."""
+    ne = space.mesh.ne
+    if numbered is not None and numbered.shape[0] == ne and ne:
+        sample = np.unique(np.linspace(0, ne - 1, SAMPLED_ELEMENTS).astype(int))
+        if all(list(numbered[k]) == list(space.GetDofNrs(ngs.ElementId(ngs.VOL, int(k)))) for k in sample):
+            return numbered
     return np.array([el.dofs for el in space.Elements(ngs.VOL)], dtype=np.int64)
+
+
+SAMPLED_ELEMENTS = 64
+"""Elements on which a DOF table from NGSolve's numbering is checked against the space."""
+
+
+def _numbered_dofs(space, patches, kind):
+    """The element DOF table that NGSolve's numbering gives, or None if the space's sizes do not
+    fit it (``_element_dofs`` checks it): "hats" (H1, order 1: vertex k is DOF k), "L2" (each
+    element's DOFs together, element by element), "RT" (HDiv: the facets' lowest-order DOFs are
+    the facet numbers, then the higher-order DOFs of each facet of an element together, facet by
+    facet, then each element's interior DOFs together, element by element; an element lists its
+    facets' lowest DOFs, then their higher ones, then its interior, facets in its own order)."""
+    mesh = space.mesh
+    ne, nf = mesh.ne, mesh.nfacet
+    first = list(space.GetDofNrs(ngs.ElementId(ngs.VOL, 0))) if ne else []
+    if kind == "hats":
+        return patches.element_vertices if space.ndof == mesh.nv else None
+    if kind == "L2":
+        n = len(first)
+        return np.arange(ne * n, dtype=np.int64).reshape(ne, n) if space.ndof == ne * n else None
+    facets = patches.element_facets                          # (ne, facets of an element), its order
+    count = facets.shape[1]
+    used = np.unique(facets)            # a refined mesh keeps its coarser facets: lowest DOF only
+    rank = np.searchsorted(used, facets)
+    # the element's DOFs: count lowest, count·(w − 1) higher, the interior
+    for w in range(1, len(first) // count + 1):
+        interior = len(first) - count * w
+        if nf + (w - 1) * len(used) + ne * interior == space.ndof:
+            higher = nf + (w - 1) * rank[:, :, None] + np.arange(w - 1)         # (ne, count, w − 1)
+            inner = nf + (w - 1) * len(used) + interior * np.arange(ne)[:, None] + np.arange(interior)
+            return np.concatenate([facets, higher.reshape(ne, -1), inner], axis=1).astype(np.int64)
+    return None
 
 
 def _facet_dofs(S, mesh, patches, el_dofs):
@@ -216,11 +257,12 @@ class ElementData:
         sigma = self.Sd.TrialFunction()
         div = ngs.BilinearForm(trialspace=self.Sd, testspace=self.Q)
         div += mesh_dx(ngs.div(sigma) * self.Q.TestFunction())
-        self.el_sdofs = _element_dofs(self.S)
-        self.el_qdofs = _element_dofs(self.Q)
+        self.el_sdofs = _element_dofs(self.S, _numbered_dofs(self.S, patches, "RT"))
+        self.el_qdofs = _element_dofs(self.Q, _numbered_dofs(self.Q, patches, "L2"))
         self.facet_dofs = _facet_dofs(self.S, mesh, patches, self.el_sdofs)   # (facets, w), -1: no DOFs
         self.hats = np.zeros(mesh.nv, dtype=np.int64)                    # the P1 DOF of every vertex
-        self.hats[patches.element_vertices.ravel()] = _element_dofs(self.P1).ravel()
+        self.hats[patches.element_vertices.ravel()] = _element_dofs(self.P1, _numbered_dofs(self.P1, patches,
+                                                                                            "hats")).ravel()
         ne = mesh.ne
         on_element = self.facet_dofs[patches.element_facets].reshape(ne, -1)   # (ne, facets·w) global DOFs
         match = on_element[:, :, None] == self.el_sdofs[:, None, :]         # (ne, facets·w, nS_loc)
