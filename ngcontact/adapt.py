@@ -227,6 +227,16 @@ def _relative(estimate, norm):
     return estimate / norm if norm > 0 else np.inf
 
 
+def _expect(sim, levels):
+    """Before a level's solve: it is expected to take as many Newton iterations as the level
+    below, so Γ3's Jacobian is compiled to machine code first where those iterations pay for
+    the compile (``machine_code.MachineCode.expect``: the large 3D levels; a level is one step,
+    which the simulation's own rule, counting the iterations made, never compiles for)."""
+    rule = sim.steps.machine_code
+    if rule is not None and levels:
+        rule.expect(levels[-1].newton)
+
+
 def _next(scene, level, tol, levels, max_levels, max_ndof, fraction, polygonal, achieved=None, after=None):
     """(the reason to stop after ``level`` or None, the next simulation, the seconds its build
     took): the mesh marked by ``mark``, refined (then ``after(mesh)``, if given), and the scene
@@ -320,6 +330,7 @@ def step(scene, mesh, dt, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5
         t0 = wallclock.perf_counter()
         estimator = EquilibratedEstimator(sim) if marking == "equilibrated" or ratio is None else None
         t1 = wallclock.perf_counter()
+        _expect(sim, levels)
         record = sim.step(dt, guess=start)
         solved = wallclock.perf_counter()
         norm = energy(sim)
@@ -414,6 +425,7 @@ def _goal_step(scene, mesh, dt, goal, tol, fraction, max_levels, max_ndof, guess
             expected = last.indicator * (last.ndof / sim.X.ndof) ** (sim.body.order / sim.body.dim)
             sim.newton.energy_target = stop_newton * expected
         t0 = wallclock.perf_counter()
+        _expect(sim, levels)
         record = sim.step(dt, guess=start)
         solved = wallclock.perf_counter()
         norm = energy(sim)

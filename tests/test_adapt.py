@@ -213,3 +213,27 @@ def test_a_scene_that_has_already_stepped_is_refused_before_the_first_solve(wher
                                          r"t = 0.5 s\).*return the Simulation before it steps.*adapt.history"):
         call(stepped, hertz.mesh(2, h_contact=0.2), 0.1)
     assert len(steps) == 1 and len(steps[0].history) == 2
+
+
+@pytest.mark.parametrize("goal", ["energy", "pressure"])
+def test_a_level_compiles_its_jacobian_by_the_iterations_of_the_level_below(goal, monkeypatch):
+    """Each level after the first expects the Newton iterations of the level below
+    (``MachineCode.expect``) before its solve, so that a large 3D level compiles Γ3's Jacobian
+    when those iterations pay for it (a level is one step: the simulation's own rule, which
+    counts the iterations made, compiles after it); the first level expects nothing. Here every
+    expected iteration pays (the compile made free and interpreted), and each later level's
+    Jacobian is compiled before its solve."""
+    from ngcontact.model import machine_code
+    import ngcontact.gamma3.terms as terms
+    expected = []
+    original = machine_code.MachineCode.expect
+
+    def expect(rule, iterations):
+        original(rule, iterations)
+        expected.append((iterations, rule.system.machine_code))
+    monkeypatch.setattr(machine_code.MachineCode, "expect", expect)
+    monkeypatch.setattr(machine_code, "COMPILE_S", 0.0)
+    monkeypatch.setattr(terms, "compiled", lambda cf, realcompile, maxderiv=2: cf.Compile())   # no C++ compiler
+    result = adapt.solve(_hertz, hertz.mesh(2, h_contact=0.1, curve=1), 1e-6, max_levels=3, goal=goal)
+    newtons = [level.newton for level in result.levels]
+    assert len(result.levels) == 3 and expected == [(n, True) for n in newtons[:-1]], (expected, newtons)
