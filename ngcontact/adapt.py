@@ -390,7 +390,11 @@ def solve(scene, mesh, tol, *, dt=1.0, fraction=0.5, max_levels=30, max_ndof=2e5
     is computed only with ``certify=True``."""
     if tol is None:
         raise ValueError("adapt.solve: tol must be a finite number > 0 (the relative estimate to certify), got None")
-    if isinstance(stop_newton, str) and stop_newton == "default":
+    if isinstance(stop_newton, str):
+        if stop_newton != "default":
+            raise TypeError(f"adapt.solve: stop_newton must be a number in (0, 1], None (Newton's fixed tolerances) "
+                            f"or 'default' ({STOP_NEWTON} for the energy goal, None for the others), got "
+                            f"{stop_newton!r}")
         stop_newton = STOP_NEWTON if goal == "energy" else None
     return step(scene, mesh, dt, tol=tol, fraction=fraction, max_levels=max_levels, max_ndof=max_ndof, guess=guess,
                 on_level=on_level, stop_newton=stop_newton, polygonal=polygonal, marking=marking, goal=goal,

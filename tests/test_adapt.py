@@ -122,6 +122,17 @@ def test_bad_adaptation_input_is_refused_before_any_work(kwargs, error, words):
     assert calls == []
 
 
+@pytest.mark.parametrize("value", ["fast", "Default", "none"])
+def test_a_stop_newton_word_other_than_default_is_refused_by_solve(value):
+    """``adapt.solve``'s ``stop_newton`` takes a number, None or "default"; any other word is
+    refused before the first build, naming the three."""
+    calls = []
+    with pytest.raises(TypeError, match=r"stop_newton must be a number in \(0, 1\], None .* or 'default'"):
+        adapt.solve(lambda mesh: calls.append(mesh) or _hertz(mesh), hertz.mesh(2, h_contact=0.2), 1e-2,
+                    stop_newton=value)
+    assert calls == []
+
+
 def test_a_scene_must_build_on_the_mesh_it_is_given():
     other = hertz.mesh(2, h_contact=0.2)
     with pytest.raises(ValueError, match="scene\\(mesh\\) must build its Simulation on the mesh it is given"):
