@@ -485,6 +485,8 @@ INTERNALS_ALLOWED = {
     ("ngcontact/studies/cluster_case.py", "factorisations"):
         "the step system's Jacobian and Newton's free DOFs factorised by MUMPS and UMFPACK",
     ("ngcontact/studies/stability/electrode_map.py", "_solve"): "the step length's cut of an earlier release set",
+    ("tests/test_adapt.py", "test_a_level_compiles_its_jacobian_by_the_iterations_of_the_level_below"):
+        "the machine-code rule instrumented: whether its system compiled when the rule was told",
     # not a Simulation's
     ("ngcontact/studies/adaptivity.py", "study"): "a level's count of Newton iterations",
 }
