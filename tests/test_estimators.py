@@ -302,3 +302,26 @@ def test_the_element_dof_tables_from_ngsolves_numbering_are_the_spaces_own():
                 assert numbered is not None and np.array_equal(numbered, own), (mesh.dim, order, kind)
                 for wrong in (numbered[:, [1, 0] + list(range(2, numbered.shape[1]))], np.roll(numbered, 1, axis=0)):
                     assert np.array_equal(_element_dofs(space, wrong), own)
+
+
+def test_p1_fluxes_read_at_the_centroids_are_their_element_projections():
+    """At P1 on straight simplices the patch data read each flux's element constant at the element's
+    centroid (``_piecewise``) instead of projecting it with ``Set``: on the reference plate after
+    first contact (2D and 3D) the values equal the L² projection onto constants to round-off."""
+    from ngcontact.model import forms
+    from ngcontact.scenes import reference
+    for dim in (2, 3):
+        sim = reference.simulation(1, 0.01, dim=dim, keep_states=False)
+        for _ in range(4):
+            sim.step(0.01)
+        # the elastic and piezoelectric stress of the state (the step's rate term is another P1 flux alike)
+        sigma = sim.body.kinematics.plane_stress_matrix(forms.stress(sim.body.tensors, sim.u, sim.phi, None))
+        estimator = EquilibratedEstimator(sim)
+        read = estimator._piecewise("check", sigma)
+        gf, shape = estimator._projections["check"]
+        assert gf.space.globalorder == 0 and estimator._centroids is not None      # the centroid path
+        projected = ngs.GridFunction(gf.space)
+        projected.Set(ngs.CF(tuple(sigma[i, j] for i in range(shape[0]) for j in range(shape[1]))))
+        scale = np.abs(projected.vec.FV().NumPy()).max()
+        assert scale > 0 and tuple(read.dims) == tuple(shape)
+        assert np.abs(gf.vec.FV().NumPy() - projected.vec.FV().NumPy()).max() < 1e-12 * scale, dim

@@ -59,6 +59,7 @@ axis) gives a finite value that is not a proven bound; the bound is checked ther
 manufactured solutions): docs/adaptivity.md.
 """
 from dataclasses import dataclass, field
+import functools
 import math
 
 import ngsolve as ngs
@@ -181,7 +182,6 @@ class EquilibratedEstimator:
                                         self.patches)
         self._diameters, self._gamma3 = None, None
         self._projections = {}                     # the fluxes' element-wise projections (``_piecewise``)
-        self._centroid_points, self._centroids_found = None, False    # (``_centroids``)
 
     def _equilibrated(self, sigma, f, t, D, q, j):
         """σ* (dim row GridFunctions of RT_p) and D* (a GridFunction; None for D None) for the
@@ -345,24 +345,23 @@ class EquilibratedEstimator:
             self._projections[key] = (ngs.GridFunction(space), shape)
         gf, shape = self._projections[key]
         components = ngs.CF(tuple(flux[i, j] for i in range(shape[0]) for j in range(shape[1]))).Compile()
-        centroids = self._centroids() if gf.space.globalorder == 0 else None
+        centroids = self._centroids if gf.space.globalorder == 0 else None
         if centroids is not None:                         # constant on each simplex: its value at the centroid
             gf.vec.FV().NumPy()[:] = components(centroids).T.ravel()
         else:
             gf.Set(components)
         return ngs.CF(gf, dims=tuple(shape))
 
+    @functools.cached_property
     def _centroids(self):
-        """The centroid of every element as mapped points (kept), on a mesh of simplices; else None."""
-        if not self._centroids_found:
-            mesh = self.body.mesh
-            self._centroids_found = True                  # (one element type throughout: ``Patches``)
-            first = next(iter(mesh.Elements(ngs.VOL)), None)
-            if first is not None and first.type in (ngs.ET.TRIG, ngs.ET.TET):
-                corners = len(first.vertices)
-                rule = ngs.IntegrationRule([(1.0 / corners,) * (corners - 1)], [1.0])
-                self._centroid_points = mesh.MapToAllElements(rule, ngs.VOL)
-        return self._centroid_points
+        """The centroid of every element as mapped points, on a mesh of simplices (one element
+        type throughout: ``Patches``); else None."""
+        mesh = self.body.mesh
+        first = next(iter(mesh.Elements(ngs.VOL)), None)
+        if first is None or first.type not in (ngs.ET.TRIG, ngs.ET.TET):
+            return None
+        corners = len(first.vertices)
+        return mesh.MapToAllElements(ngs.IntegrationRule([(1.0 / corners,) * (corners - 1)], [1.0]), ngs.VOL)
 
     def _constants(self, key):
         """The rows of the flux ``_piecewise`` projected for ``key``, each as its value on every

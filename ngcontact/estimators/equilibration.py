@@ -135,9 +135,9 @@ def _numbered_dofs(space, patches, kind):
     facets' lowest DOFs, then their higher ones, then its interior, facets in its own order)."""
     mesh = space.mesh
     ne, nf = mesh.ne, mesh.nfacet
-    first = list(space.GetDofNrs(ngs.ElementId(ngs.VOL, 0))) if ne else []
     if kind == "hats":
         return patches.element_vertices if space.ndof == mesh.nv else None
+    first = list(space.GetDofNrs(ngs.ElementId(ngs.VOL, 0))) if ne else []
     if kind == "L2":
         n = len(first)
         return np.arange(ne * n, dtype=np.int64).reshape(ne, n) if space.ndof == ne * n else None

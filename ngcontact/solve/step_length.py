@@ -67,13 +67,18 @@ class StepLength:
         return self.cuts > 0
 
     @property
+    def _most_cuts(self):
+        """The corrections the current solve may shorten (``max_cuts``, or ``max_cuts_touching``)."""
+        return self.max_cuts_touching if self.touching else self.max_cuts
+
+    @property
     def spent(self):
         """Whether the current solve shortened all the corrections it may (later ones are full)."""
-        return self.touching is not None and self.cuts >= (self.max_cuts_touching if self.touching else self.max_cuts)
+        return self.touching is not None and self.cuts >= self._most_cuts
 
     def __call__(self, w):
         """α for the correction w (the step is x − α w)."""
-        if self.cuts >= (self.max_cuts_touching if self.touching else self.max_cuts):
+        if self.cuts >= self._most_cuts:
             return 1.0
         if self._gap is None:
             self.start()
