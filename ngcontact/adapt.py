@@ -35,9 +35,17 @@ resumed): ``step`` and ``solve`` adapt and certify the first step from the initi
 each level's own mesh, so each level would solve another problem and the certificate would not
 be that of the step asked for. A target not reached within the limits stops with every
 level kept and the reason; a zero estimate (an exact discrete solution) stops as "target
-reached" (its relative estimate is 0), or, without a target, as "nothing to refine".
+reached" (its relative estimate is 0), or, without a target, as "nothing to refine"; so does a
+first level whose state is stress-free to round-off (its energy and estimate both at most
+``ROUNDOFF`` of the state's size, ``_stress_free``: a body lifted off the foundation, moved
+rigidly), whose relative estimate would be a ratio of two round-offs. The goals
+"pressure" and "force" stop as "no contact" (not reached, with an ``AccuracyWarning``) on a
+level where Γ3 carries no contact pressure (no force): the relative error of a zero goal is
+undefined, and refining for it would refine for round-off.
 """
+import sys
 import time as wallclock
+import warnings
 from dataclasses import dataclass, field
 from functools import partial
 
@@ -50,6 +58,8 @@ from ngcontact.estimators.averaging import AveragingIndicator
 from ngcontact.estimators.equilibrated import EquilibratedEstimator, check as estimable
 from ngcontact.estimators.goals import GOALS, PressureResidual, edge_points, elements_at_points, force_estimate
 from ngcontact.meshes import refined
+from ngcontact.output.observables import CONTACT_NOISE
+from ngcontact.time.stepping import AccuracyWarning
 
 
 def mark(indicators, fraction=0.5):
@@ -152,8 +162,9 @@ class Level:
 @dataclass
 class Adaptation:
     """The levels of an adaptation and why it stopped (``reason``: "target reached", "DOF
-    limit", "level limit", or "nothing to refine": a zero estimate without a target);
-    ``reached``: whether the target was met."""
+    limit", "level limit", "nothing to refine": a zero estimate without a target, or, for the
+    goals "pressure" and "force", "no contact": Γ3 carries none of the goal on the last level,
+    whose relative error is then undefined); ``reached``: whether the target was met."""
     levels: list
     reason: str
     reached: bool
@@ -225,6 +236,25 @@ def _relative(estimate, norm):
     if estimate == 0:
         return 0.0
     return estimate / norm if norm > 0 else np.inf
+
+
+ROUNDOFF = 10 * np.finfo(float).eps
+"""An estimate and an energy both at most this factor of ‖x_h‖_|K| = (|x_h|ᵀ |K| |x_h|)^½ (the
+energy the state's coefficients would carry if none of their contributions cancelled) are at
+the round-off of the state: a stress-free state, such as a rigid motion (``_stress_free``)."""
+
+
+def _stress_free(sim, estimate, norm):
+    """Whether the solved ``sim`` is stress-free to round-off: its energy |||x_h||| and the
+    ``estimate`` both at most ``ROUNDOFF`` ‖x_h‖_|K| (K the step's bulk matrix and loads,
+    ``StepSystem.magnitude``). Such a state (a body lifted off the foundation, moved rigidly)
+    is exact to round-off; the ratio of its two round-offs is no relative error (it is about 1),
+    and refining for it would refine for noise. Serial meshes only (False on a distributed one)."""
+    if estimate == 0 or parallel.is_distributed(sim.body.mesh):
+        return False
+    x = sim.gfu.vec
+    size = float(np.sqrt(max(np.dot(np.abs(x.FV().NumPy()), sim.system.magnitude(x, 0.0)), 0.0)))
+    return estimate <= ROUNDOFF * size and norm <= ROUNDOFF * size
 
 
 def _expect(sim, levels):
@@ -353,8 +383,13 @@ def step(scene, mesh, dt, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5
                       elapsed_s=wallclock.perf_counter() - began, estimate_stops=sim.newton.estimate_stops,
                       build_s=build_s, certified=estimate is not None, indicator=indicator)
         levels.append(level)
-        reason, following, build_s = _next(scene, level, tol, len(levels), max_levels, max_ndof, fraction,
-                                           polygonal)
+        if len(levels) == 1 and level.certified and _stress_free(sim, level.estimate, norm):
+            # (the first level decides: a step that is stress-free is so on every mesh)
+            level.relative = 0.0                     # exact to round-off, as a zero estimate
+            reason = "target reached" if tol is not None else "nothing to refine"
+        else:
+            reason, following, build_s = _next(scene, level, tol, len(levels), max_levels, max_ndof, fraction,
+                                               polygonal)
         if reason is not None and not level.certified:
             _certify(sim, level, began)              # the last level's certificate
             if tol is not None and level.relative <= tol:
@@ -407,6 +442,28 @@ bisected after the marked ones: as many as bring the edges' share of the pressur
 to that of the rest of Γ3 (there the error is O(h) at the edge, whatever the order)."""
 
 
+def _outside():
+    """The ``stacklevel`` of a warning issued in the caller that names the first frame outside
+    ngcontact (the user's call of ``step`` or ``solve``)."""
+    frame, level = sys._getframe(1), 1
+    while frame is not None and frame.f_globals.get("__name__", "").startswith("ngcontact"):
+        frame, level = frame.f_back, level + 1
+    return level
+
+
+def _untouched(contact, tensors, goal):
+    """Whether Γ3 carries none of the goal at the recorded state ``contact`` (a
+    ``ContactRecord``): for "pressure", λ_h at every Gauss point of Γ3, and for "force" that
+    and every facet's pressure −σ̃_ν too (the glue's pull, the layer's push), at most the
+    round-off of a contact pressure (``observables.CONTACT_NOISE`` times the body's
+    stiffness, Pa), so that a pressure or force of round-off is no goal either."""
+    noise = CONTACT_NOISE * tensors.stiffness()
+    pressed = np.max(np.abs(contact.multiplier_points), initial=0.0) > noise
+    if goal == "force":
+        pressed = pressed or np.max(np.abs(contact.pressure), initial=0.0) > noise
+    return not pressed
+
+
 def _goal(where, goal):
     if not isinstance(goal, str) or goal not in GOALS:
         raise ValueError(f"{where}: goal must be one of {', '.join(map(repr, GOALS))}, got {goal!r}")
@@ -452,15 +509,24 @@ def _goal_step(scene, mesh, dt, goal, tol, fraction, max_levels, max_ndof, guess
             bulk = float(np.hypot(cheap.parts["stress"], cheap.parts["flux"]))
             estimate = force_estimate(np.linalg.norm(record.contact.force), _relative(bulk, norm))
             indicators = cheap.indicators
+        untouched = _untouched(record.contact, sim.body.tensors, goal)
         level = Level(mesh, sim.X.ndof, float("nan"), float("nan"), {}, indicators, solved - t0,
                       wallclock.perf_counter() - solved, record.newton_iterations, sim,
                       krylov=record.krylov_iterations, elapsed_s=wallclock.perf_counter() - began,
                       estimate_stops=sim.newton.estimate_stops, build_s=build_s, certified=False,
-                      indicator=cheap.total, goal=goal, goal_value=estimate.value, goal_estimate=estimate.relative,
-                      edge_bisections=bisections)
+                      indicator=cheap.total, goal=goal, goal_value=estimate.value,
+                      goal_estimate=float("nan") if untouched else estimate.relative, edge_bisections=bisections)
         levels.append(level)
-        reason, following, build_s = _next(scene, level, tol, len(levels), max_levels, max_ndof, fraction,
-                                           polygonal, achieved=estimate.relative, after=after)
+        if untouched:                                # a relative error of nothing: no level can meet tol
+            reason, following = "no contact", None
+            warnings.warn(f"adapt: goal={goal!r}, but Γ3 carries no {'contact pressure' if goal == 'pressure' else 'force'}"
+                          f" on level {len(levels)} ({level.ndof} DOFs) at t = {sim.t:g} s: the relative error of a "
+                          "zero goal is undefined, so the adaptation stops there (reason 'no contact'). If the body "
+                          "should touch the foundation at this step, start from a finer mesh at Γ3; to adapt a step "
+                          "without contact, use goal='energy'", AccuracyWarning, stacklevel=_outside())
+        else:
+            reason, following, build_s = _next(scene, level, tol, len(levels), max_levels, max_ndof, fraction,
+                                               polygonal, achieved=estimate.relative, after=after)
         if reason is not None and certify:
             _certify(sim, level, began)              # the last level's certificate, asked for
         began += _timed(on_level, level)

@@ -415,8 +415,11 @@ def _dispatch(args):
                       f"{result.last.relative if args.goal == 'energy' else result.last.goal_estimate:.3g})"
                       for (name, order), result in results.items() if not result.reached]
             if missed:       # a run that did not certify its tol is not a success
+                advice = ("no contact on Γ3: adapt for --goal energy" if all(
+                    result.reason == "no contact" for result in results.values() if not result.reached)
+                    else "ask for a larger --tol")
                 print(f"ngcontact adapt: --tol {args.tol:g} NOT reached for {', '.join(missed)}; the levels computed "
-                      "are printed above; ask for a larger --tol", file=sys.stderr)
+                      f"are printed above; {advice}", file=sys.stderr)
                 sys.exit(1)
         elif args.goal != "energy":
             raise ValueError(f"--goal {args.goal} is what --tol bounds; add --tol (e.g. --tol 1e-3) or drop --goal")

@@ -308,6 +308,30 @@ def register(h):
            h.Correct(exact("target reached", True)))
     h.case("adapt", "step(no contact)", step(scene=plate(contact=None), mesh=h.plate_mesh, dt=0.05, max_levels=3),
            h.Correct(falls))
+
+    def lifted(mesh):
+        """The Hertz half-disk with its top moved up: it leaves the foundation, a rigid motion."""
+        return hertz(mesh, depth=-0.01)
+    h.case("adapt", "step(a body lifted off: stress-free)", step(scene=lifted, max_levels=3),
+           h.Correct(exact("nothing to refine", False)))
+    h.case("adapt", "step(a body lifted off, tol=1e-3)", step(scene=lifted, tol=1e-3),
+           h.Correct(exact("target reached", True)))
+
+    def goal_of(goal, scene):
+        def call(ctx):
+            from ngcontact import adapt
+            result = adapt.solve(scene, half_disk(), 1e-3, goal=goal)
+            return dict(reason=result.reason, reached=result.reached, levels=len(result.levels),
+                        goal_estimate=" ".join(repr(float(level.goal_estimate)) for level in result.levels))
+        return call
+
+    def no_contact(v, references):
+        if (v["reason"], v["reached"], v["levels"]) != ("no contact", False, 1):
+            return (f"a goal of a step without contact cannot be met: one level, 'no contact', not reached; got "
+                    f"{v['levels']} levels ({v['reason']}, reached {v['reached']}, estimates {v['goal_estimate']})")
+        return None if v["goal_estimate"] == "nan" else f"the relative error of a zero goal is undefined, got {v['goal_estimate']}"
+    for goal in ("pressure", "force"):
+        h.case("adapt", f"solve(goal={goal!r}, a body lifted off)", goal_of(goal, lifted), h.Correct(no_contact))
     h.case("adapt", "step(stop_newton=1)", step(stop_newton=1.0, max_levels=3), h.Correct(level_limit(3)))
     h.case("adapt", "history(every=10**6): the last step only", history(every=10 ** 6, max_levels=2),
            h.Correct(level_limit(2)))

@@ -115,6 +115,22 @@ def test_a_goal_on_a_scene_without_contact_is_refused():
         adapt.solve(scene, mesh, 1e-2, goal="pressure")
 
 
+@pytest.mark.parametrize("goal", ["pressure", "force"])
+def test_a_goal_of_a_step_without_contact_stops_as_no_contact(goal):
+    """The Hertz half-disk lifted off the foundation: Γ3 carries no pressure and no force, so
+    their relative error is undefined (it was a ratio of round-offs, 0.57 for the force, inf for
+    the pressure, and the levels refined for it to the limit). The adaptation stops on that
+    level as "no contact", not reached, the goal's estimate NaN, with an AccuracyWarning that
+    says why and what to do. The pressed half-disk goes on (its first level has contact)."""
+    scene = lambda mesh: hertz.simulation(2, dim=2, depth=-0.01, mesh=mesh, keep_states=False)    # noqa: E731
+    with pytest.warns(ngc.AccuracyWarning, match=f"goal='{goal}', but Γ3 carries no .*goal='energy'"):
+        result = adapt.solve(scene, hertz.mesh(2, h_contact=0.05, curve=2), 1e-3, goal=goal)
+    assert (result.reason, result.reached, len(result.levels)) == ("no contact", False, 1)
+    assert math.isnan(result.last.goal_estimate) and abs(result.last.goal_value) < 1e-30
+    pressed = adapt.solve(_race_scene(2), hertz.mesh(2, h_contact=0.05, curve=2), 1e-9, goal=goal, max_levels=2)
+    assert pressed.reason == "level limit" and all(level.goal_estimate > 0 for level in pressed.levels)
+
+
 def _race_scene(order):
     return lambda mesh: hertz.simulation(order, dim=2, depth=DEPTH, mesh=mesh, keep_states=False)
 

@@ -419,6 +419,9 @@ def to_tolerance(tol, scenes=("hertz",), orders=(2,), fraction=None, progress=Tr
             elif result.reached:
                 print(f"certified: relative estimate {last.relative:.3g} <= {tol:g} at {last.ndof} DOFs in "
                       f"{last.elapsed_s:.2f} s{pressure}")
+            elif result.reason == "no contact":
+                print(f"NOT reached (no contact): Γ3 carries no contact {goal} at {last.ndof} DOFs, so its relative "
+                      f"error is undefined (adapt for goal 'energy' instead)")
             else:
                 achieved = last.relative if goal == "energy" else last.goal_estimate
                 named = "" if goal == "energy" else f"{goal} "
