@@ -47,6 +47,7 @@ import sys
 import time as wallclock
 import warnings
 from dataclasses import dataclass, field
+from contextlib import contextmanager
 from functools import partial
 
 import ngsolve as ngs
@@ -59,6 +60,7 @@ from ngcontact.estimators.equilibrated import EquilibratedEstimator, check as es
 from ngcontact.estimators.goals import GOALS, PressureResidual, edge_points, elements_at_points, force_estimate
 from ngcontact.meshes import refined
 from ngcontact.output.observables import CONTACT_NOISE
+from ngcontact.solve.newton import NewtonError
 from ngcontact.time.stepping import AccuracyWarning
 
 
@@ -361,7 +363,8 @@ def step(scene, mesh, dt, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5
         estimator = EquilibratedEstimator(sim) if marking == "equilibrated" or ratio is None else None
         t1 = wallclock.perf_counter()
         _expect(sim, levels)
-        record = sim.step(dt, guess=start)
+        with _levels_kept(levels, sim):
+            record = sim.step(dt, guess=start)
         solved = wallclock.perf_counter()
         norm = energy(sim)
         if marking == "equilibrated":
@@ -451,6 +454,20 @@ def _outside():
     return level
 
 
+@contextmanager
+def _levels_kept(levels, sim):
+    """A NewtonError of the level being solved (``sim``) names the level and keeps the levels
+    solved before it (``error.levels``, a list of ``Level``): an adaptation that fails on its
+    fifth mesh still gives its four certified ones."""
+    try:
+        yield
+    except NewtonError as error:
+        error.levels = list(levels)
+        error.add_note(f"adapt: on level {len(levels) + 1} ({sim.X.ndof} DOFs); the {len(levels)} level(s) solved "
+                       "before it are in the error's .levels")
+        raise
+
+
 def _untouched(contact, tensors, goal):
     """Whether Γ3 carries none of the goal at the recorded state ``contact`` (a
     ``ContactRecord``): for "pressure", λ_h at every Gauss point of Γ3, and for "force" that
@@ -487,7 +504,8 @@ def _goal_step(scene, mesh, dt, goal, tol, fraction, max_levels, max_ndof, guess
             sim.newton.energy_target = stop_newton * expected
         t0 = wallclock.perf_counter()
         _expect(sim, levels)
-        record = sim.step(dt, guess=start)
+        with _levels_kept(levels, sim):
+            record = sim.step(dt, guess=start)
         solved = wallclock.perf_counter()
         norm = energy(sim)
         cheap = AveragingIndicator(sim)()
@@ -597,7 +615,8 @@ def history(scene, mesh, dt, T, *, tol=None, fraction=0.5, max_levels=10, max_nd
             spent[0] += wallclock.perf_counter() - t0
         t0 = wallclock.perf_counter()
         user = run_options.pop("on_step", None)
-        sim.run(dt, T, on_step=(lambda r: (on_step(r), user(r))) if user else on_step, **run_options)
+        with _levels_kept(levels, sim):
+            sim.run(dt, T, on_step=(lambda r: (on_step(r), user(r))) if user else on_step, **run_options)
         wall = wallclock.perf_counter() - t0
         norm = state["norm"]
         level = Level(mesh, sim.X.ndof, state["estimate"], _relative(state["estimate"], norm),

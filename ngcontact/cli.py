@@ -372,6 +372,8 @@ def _refuse_before_work(args):
 def _newton_line(err, args):
     """A NewtonError in one line: where, the last residuals, what is kept, what to try."""
     where = f"step {err.step} (t = {err.time:.6g} s), " if err.step is not None else ""
+    if getattr(err, "levels", None) is not None:                   # (an adaptation's level: ``adapt``)
+        where = f"adapt level {len(err.levels) + 1}, " + where
     last = ", ".join(f"{r:.3e}" for r in err.residuals[-3:])
     kept = KEPT[args.command].format(out=getattr(args, "out", None))       # (bench-estimate, imports: no --out)
     tried = ", ".join(f"{dt:.3g}" for dt in err.tried)

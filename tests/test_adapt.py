@@ -123,6 +123,25 @@ def test_a_stress_free_step_is_exact_to_roundoff_on_its_first_level():
     assert pressed.reason == "level limit" and 0.05 < pressed.last.relative < 0.2, pressed.last.relative
 
 
+@pytest.mark.parametrize("goal", ["energy", "pressure"])
+def test_a_newton_failure_on_a_level_names_it_and_keeps_the_levels_before(goal):
+    """Newton limited to one iteration from the second mesh on: the NewtonError of the level
+    that fails says which level (its DOFs) and carries the levels solved before it in
+    ``.levels`` (before, they were lost with the exception)."""
+    first = hertz.mesh(2, h_contact=0.05, curve=2)
+
+    def scene(mesh):
+        return hertz.simulation(2, dim=2, depth=0.0171, mesh=mesh, keep_states=False,
+                                maxit=1 if mesh.ne > first.ne else 50)
+    with pytest.raises(ngc.NewtonError) as caught:
+        adapt.solve(scene, first, 1e-4, goal=goal)
+    levels = caught.value.levels
+    assert len(levels) >= 1 and levels[0].ndof == _hertz_moved(0.0171)(first).X.ndof
+    assert all(isinstance(level, adapt.Level) and level.sim is not None for level in levels)
+    note = " ".join(caught.value.__notes__)
+    assert f"on level {len(levels) + 1} (" in note and f"the {len(levels)} level(s) solved before it" in note
+
+
 @pytest.mark.parametrize("kwargs, error, words", [
     (dict(tol=-1.0), ValueError, "tol must be a finite number > 0"),
     (dict(tol="small"), TypeError, "tol must be a number"),
