@@ -319,7 +319,7 @@ def _certify(sim, level, began):
 
 
 def step(scene, mesh, dt, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5, guess=None, on_level=None,
-         stop_newton=None, polygonal=False, marking="equilibrated", goal="energy", certify=None):
+         stop_newton=None, polygonal=False, marking=None, goal="energy", certify=None):
     """Adapt the mesh to one step of length dt (s) from the initial state (``Simulation.step``):
     solve, estimate, mark (``mark``), refine (``meshes.refined``), until the relative estimate is
     at most ``tol`` (None: until a limit) or ``max_levels`` meshes or ``max_ndof`` DOFs;
@@ -329,20 +329,26 @@ def step(scene, mesh, dt, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5
     stops once its last correction's energy is below that fraction of the estimate expected
     on the new mesh (the last one scaled by the DOFs, η (N_ℓ−1/N_ℓ)^(p/d)). ``polygonal``:
     the mesh has no geometry and its boundary is polygonal (``meshes.refined``). ``marking``:
-    "equilibrated" (the bound on every level) or "averaging" (``MARKINGS``: the cheap
-    indicator marks, the bound certifies the first level, the levels the scaled indicator
-    says meet ``tol``, and the last). ``goal`` (``GOALS``): what ``tol`` bounds and the marking
+    "equilibrated" (the bound on every level; the energy goal's default) or "averaging"
+    (``MARKINGS``: the cheap indicator marks, the bound certifies the first level, the levels
+    the scaled indicator says meet ``tol``, and the last; the only marking of the other
+    goals). ``goal`` (``GOALS``): what ``tol`` bounds and the marking
     serves — "energy" (the relative energy estimate), "pressure" (the relative L² error of the
     contact pressure λ_h on Γ3) or "force" (the relative error of the contact resultant);
     ``estimators.goals`` says what each estimate rests on. For "pressure" and "force" the
     averaging indicator marks (with the pressure residual for "pressure", and in 2D the elements
     at the contact edges bisected again up to ``EDGE_BISECTIONS`` times), and the equilibrated
-    bound is computed on the last level only if ``certify`` (default: only for "energy")."""
+    bound is computed on the last level only if ``certify`` (default: only for "energy"; the
+    energy goal is certified on its levels whatever ``certify`` says, so False is refused)."""
     tol, fraction, max_levels, max_ndof = _limits(tol, fraction, max_levels, max_ndof)
     stop_newton = _inputs("adapt.step", scene, mesh, max_levels, polygonal, on_level, stop_newton)
-    marking = _marking("adapt.step", marking)
     goal = _goal("adapt.step", goal)
+    marking = _marking("adapt.step", marking, goal)
     certify = checks.flag("certify", goal == "energy" if certify is None else certify)
+    if goal == "energy" and not certify:
+        raise ValueError("adapt.step: certify=False with goal='energy': the energy goal's tol bounds the equilibrated "
+                         "bound, which certifies its levels; certify= says whether the goals 'pressure' and 'force' "
+                         "compute that bound on their last level")
     arguments.time_step(dt, 0.0)                     # dt > 0, finite, before any work
     if goal != "energy":
         return _goal_step(scene, mesh, dt, goal, tol, fraction, max_levels, max_ndof, guess, on_level, stop_newton,
@@ -564,9 +570,17 @@ def _bisect_at(mesh, names, points, times, polygonal):
     return mesh
 
 
-def _marking(where, marking):
+def _marking(where, marking, goal="energy"):
+    """``marking`` checked (None: "equilibrated" for the energy goal, "averaging" for the others,
+    which mark by the averaging indicator only)."""
+    if marking is None:
+        return "equilibrated" if goal == "energy" else "averaging"
     if not isinstance(marking, str) or marking not in MARKINGS:
         raise ValueError(f"{where}: marking must be one of {', '.join(map(repr, MARKINGS))}, got {marking!r}")
+    if goal != "energy" and marking != "averaging":
+        raise ValueError(f"{where}: marking={marking!r} with goal={goal!r}: the equilibrated marking marks by the "
+                         "energy bound; the goal marks by its own estimate and the averaging indicator (marking="
+                         "'averaging', its default): drop marking= or use goal='energy'")
     return marking
 
 

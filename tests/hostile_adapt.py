@@ -360,6 +360,7 @@ def register(h):
         command(f"--stop-newton {value}", "stop[-_]newton")
     command("--out /proc/hostile", "/proc/hostile")
     command("--bogus", "bogus")
+    command("--tol 1e-2 --goal pressure --marking equilibrated", "marking", "goal")
 
     # ------------------------------------------------------------------ under mpiexec (slow: two ranks start)
 

@@ -98,6 +98,9 @@ def test_the_force_estimate_is_the_squared_relative_energy_estimate():
     (dict(goal="stress"), "goal must be one of 'energy', 'pressure', 'force', got 'stress'"),
     (dict(goal=None), "goal must be one of"),
     (dict(goal="pressure", certify="yes"), "certify"),
+    (dict(goal="pressure", marking="equilibrated"), "marking='equilibrated' with goal='pressure'.*drop marking="),
+    (dict(goal="force", marking="equilibrated"), "marking='equilibrated' with goal='force'"),
+    (dict(goal="energy", certify=False), "certify=False with goal='energy'"),
 ])
 def test_bad_goals_are_refused_before_any_work(kwargs, words):
     def scene(mesh):

@@ -391,6 +391,9 @@ def to_tolerance(tol, scenes=("hertz",), orders=(2,), fraction=None, progress=Tr
             raise ValueError(f"--marking must be one of {', '.join(adapt.MARKINGS)}, got {marking!r}")
         options["marking"] = marking
     options["goal"] = checks.choice("--goal", goal, adapt.GOALS)
+    if goal != "energy" and marking == "equilibrated":
+        raise ValueError(f"--marking equilibrated with --goal {goal}: the goal marks by its own estimate and the "
+                         "averaging indicator; drop --marking or use --goal energy")
     if out is not None:
         out = checks.writable_directory(out)
     results, written = {}, []
