@@ -531,7 +531,8 @@ def _goal_step(scene, mesh, dt, goal, tol, fraction, max_levels, max_ndof, guess
         else:
             # the bulk's energy (the averaging indicator's Γ3 residual is the pressure's matter)
             bulk = float(np.hypot(cheap.parts["stress"], cheap.parts["flux"]))
-            estimate = force_estimate(np.linalg.norm(record.contact.force), _relative(bulk, norm))
+            held = sum(record.boundary_reaction.values(), np.zeros(sim.body.dim))
+            estimate = force_estimate(record.contact.force, _relative(bulk, norm), held)
             indicators = cheap.indicators
         untouched = _untouched(record.contact, sim.body.tensors, goal)
         level = Level(mesh, sim.X.ndof, float("nan"), float("nan"), {}, indicators, solved - t0,
