@@ -251,8 +251,8 @@ def _stress_free(sim, estimate, norm):
     ``estimate`` both at most ``ROUNDOFF`` ‖x_h‖_|K| (K the step's bulk matrix and loads,
     ``StepSystem.magnitude``). Such a state (a body lifted off the foundation, moved rigidly)
     is exact to round-off; the ratio of its two round-offs is no relative error (it is about 1),
-    and refining for it would refine for noise. Serial meshes only (False on a distributed one)."""
-    if estimate == 0 or parallel.is_distributed(sim.body.mesh):
+    and refining for it would refine for noise."""
+    if estimate == 0:
         return False
     x = sim.gfu.vec
     size = float(np.sqrt(max(np.dot(np.abs(x.FV().NumPy()), sim.system.magnitude(x, 0.0)), 0.0)))
