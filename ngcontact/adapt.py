@@ -38,7 +38,8 @@ level kept and the reason; a zero estimate (an exact discrete solution) stops as
 reached" (its relative estimate is 0), or, without a target, as "nothing to refine"; so does a
 first level whose state is stress-free to round-off (its energy and estimate both at most
 ``ROUNDOFF`` of the state's size, ``_stress_free``: a body lifted off the foundation, moved
-rigidly), whose relative estimate would be a ratio of two round-offs. The goals
+rigidly; for ``history``, every estimated step of the first level), whose relative estimate would
+be a ratio of two round-offs. The goals
 "pressure" and "force" stop as "no contact" (not reached, with an ``AccuracyWarning``) on a
 level where Γ3 carries no contact pressure (no force): the relative error of a zero goal is
 undefined, and refining for it would refine for round-off.
@@ -612,7 +613,7 @@ def history(scene, mesh, dt, T, *, tol=None, fraction=0.5, max_levels=10, max_nd
     while True:
         mesh = sim.body.mesh
         estimator, spent = None, [0.0]
-        state = dict(estimate=0.0, norm=0.0, parts={}, indicators=np.zeros(mesh.ne))
+        state = dict(estimate=0.0, norm=0.0, parts={}, indicators=np.zeros(mesh.ne), stress_free=not levels)
 
         def on_step(record, sim=sim):
             nonlocal estimator
@@ -624,7 +625,10 @@ def history(scene, mesh, dt, T, *, tol=None, fraction=0.5, max_levels=10, max_nd
             state["indicators"] = np.maximum(state["indicators"], estimate.indicators)
             if estimate.total > state["estimate"]:
                 state["estimate"], state["parts"] = estimate.total, estimate.parts
-            state["norm"] = max(state["norm"], energy(sim))
+            norm = energy(sim)
+            state["norm"] = max(state["norm"], norm)
+            if state["stress_free"]:                  # (the first level's steps: see ``step``)
+                state["stress_free"] = _stress_free(sim, estimate.total, norm) or estimate.total == 0
             if stop_newton is not None:
                 sim.newton.energy_target = stop_newton * estimate.total
             spent[0] += wallclock.perf_counter() - t0
@@ -643,7 +647,11 @@ def history(scene, mesh, dt, T, *, tol=None, fraction=0.5, max_levels=10, max_nd
         levels.append(level)
         if user:
             run_options["on_step"] = user
-        reason, sim, build_s = _next(scene, level, tol, len(levels), max_levels, max_ndof, fraction, polygonal)
+        if state["stress_free"] and state["estimate"] > 0:       # every estimated step exact to round-off
+            level.relative = 0.0
+            reason, sim = ("target reached" if tol is not None else "nothing to refine"), None
+        else:
+            reason, sim, build_s = _next(scene, level, tol, len(levels), max_levels, max_ndof, fraction, polygonal)
         began += _timed(on_level, level)
         if reason is not None:
             return Adaptation(levels, reason, reason == "target reached")

@@ -113,7 +113,8 @@ def test_a_stress_free_step_is_exact_to_roundoff_on_its_first_level():
     its energy and bound are round-off (about 1e-16 of (|x|ᵀ|K||x|)^½), whose ratio (0.86 here) is
     no relative error. It stops on the first level as exact (relative 0): "target reached" with
     a tol, "nothing to refine" without; before, it refined for noise to the level limit. The
-    pressed half-disk (the race's step) is no round-off: relative 0.098 there."""
+    pressed half-disk (the race's step) is no round-off: relative 0.098 there. ``history`` the
+    same, over its estimated steps."""
     lifted = adapt.solve(_hertz_moved(-0.01), hertz.mesh(2, h_contact=0.05, curve=2), 1e-3)
     assert (lifted.reason, lifted.reached, len(lifted.levels), lifted.last.relative) == ("target reached", True, 1, 0.0)
     assert 0 < lifted.last.estimate < 1e-15 and adapt.energy(lifted.last.sim) < 1e-15
@@ -121,6 +122,8 @@ def test_a_stress_free_step_is_exact_to_roundoff_on_its_first_level():
     assert (bare.reason, len(bare.levels)) == ("nothing to refine", 1)
     pressed = adapt.solve(_hertz_moved(0.0171), hertz.mesh(2, h_contact=0.05, curve=2), 1e-3, max_levels=1)
     assert pressed.reason == "level limit" and 0.05 < pressed.last.relative < 0.2, pressed.last.relative
+    history = adapt.history(_hertz_moved(-0.01), hertz.mesh(2, h_contact=0.05, curve=2), 0.5, 1.0, tol=1e-3)
+    assert (history.reason, len(history.levels), history.last.relative) == ("target reached", 1, 0.0)
 
 
 @pytest.mark.parametrize("goal", ["energy", "pressure"])
