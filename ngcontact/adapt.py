@@ -545,11 +545,12 @@ def _goal_step(scene, mesh, dt, goal, tol, fraction, max_levels, max_ndof, guess
         levels.append(level)
         if untouched:                                # a relative error of nothing: no level can meet tol
             reason, following = "no contact", None
-            warnings.warn(f"adapt: goal={goal!r}, but Γ3 carries no {'contact pressure' if goal == 'pressure' else 'force'}"
-                          f" on level {len(levels)} ({level.ndof} DOFs) at t = {sim.t:g} s: the relative error of a "
-                          "zero goal is undefined, so the adaptation stops there (reason 'no contact'). If the body "
-                          "should touch the foundation at this step, start from a finer mesh at Γ3; to adapt a step "
-                          "without contact, use goal='energy'", AccuracyWarning, stacklevel=_outside())
+            what = "contact pressure" if goal == "pressure" else "force"
+            warnings.warn(f"adapt: goal={goal!r}, but Γ3 carries no {what} on level {len(levels)} ({level.ndof} DOFs) "
+                          f"at t = {sim.t:g} s: the relative error of a zero goal is undefined, so the adaptation "
+                          "stops there (reason 'no contact'). If the body should touch the foundation at this step, "
+                          "start from a finer mesh at Γ3; to adapt a step without contact, use goal='energy'",
+                          AccuracyWarning, stacklevel=_outside())
         else:
             reason, following, build_s = _next(scene, level, tol, len(levels), max_levels, max_ndof, fraction,
                                                polygonal, achieved=estimate.relative, after=after)

@@ -329,7 +329,9 @@ def register(h):
         if (v["reason"], v["reached"], v["levels"]) != ("no contact", False, 1):
             return (f"a goal of a step without contact cannot be met: one level, 'no contact', not reached; got "
                     f"{v['levels']} levels ({v['reason']}, reached {v['reached']}, estimates {v['goal_estimate']})")
-        return None if v["goal_estimate"] == "nan" else f"the relative error of a zero goal is undefined, got {v['goal_estimate']}"
+        if v["goal_estimate"] != "nan":
+            return f"the relative error of a zero goal is undefined, got {v['goal_estimate']}"
+        return None
     for goal in ("pressure", "force"):
         h.case("adapt", f"solve(goal={goal!r}, a body lifted off)", goal_of(goal, lifted), h.Correct(no_contact))
     h.case("adapt", "step(stop_newton=1)", step(stop_newton=1.0, max_levels=3), h.Correct(level_limit(3)))
