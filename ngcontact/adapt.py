@@ -37,7 +37,7 @@ be that of the step asked for. A target not reached within the limits stops with
 level kept and the reason; a zero estimate (an exact discrete solution) stops as "target
 reached" (its relative estimate is 0), or, without a target, as "nothing to refine"; so does a
 first level whose state is stress-free to round-off (its energy and estimate both at most
-``ROUNDOFF`` of the state's size, ``_stress_free``: a body lifted off the foundation, moved
+``ROUNDOFF`` of the state's size, ``_exact_to_roundoff``: a body lifted off the foundation, moved
 rigidly; for ``history``, every estimated step of the first level), whose relative estimate would
 be a ratio of two round-offs. The goals
 "pressure" and "force" stop as "no contact" (not reached, with an ``AccuracyWarning``) on a
@@ -244,17 +244,17 @@ def _relative(estimate, norm):
 ROUNDOFF = 10 * np.finfo(float).eps
 """An estimate and an energy both at most this factor of ‖x_h‖_|K| = (|x_h|ᵀ |K| |x_h|)^½ (the
 energy the state's coefficients would carry if none of their contributions cancelled) are at
-the round-off of the state: a stress-free state, such as a rigid motion (``_stress_free``)."""
+the round-off of the state: a stress-free state, such as a rigid motion (``_exact_to_roundoff``)."""
 
 
-def _stress_free(sim, estimate, norm):
-    """Whether the solved ``sim`` is stress-free to round-off: its energy |||x_h||| and the
-    ``estimate`` both at most ``ROUNDOFF`` ‖x_h‖_|K| (K the step's bulk matrix and loads,
-    ``StepSystem.magnitude``). Such a state (a body lifted off the foundation, moved rigidly)
-    is exact to round-off; the ratio of its two round-offs is no relative error (it is about 1),
-    and refining for it would refine for noise."""
+def _exact_to_roundoff(sim, estimate, norm):
+    """Whether the solved ``sim`` is exact to round-off: a zero ``estimate``, or a stress-free
+    state, its energy |||x_h||| and the estimate both at most ``ROUNDOFF`` ‖x_h‖_|K| (K the step's
+    bulk matrix and loads, ``StepSystem.magnitude``), such as a body lifted off the foundation or
+    moved rigidly: the ratio of its two round-offs is no relative error (it is about 1), and
+    refining for it would refine for noise."""
     if estimate == 0:
-        return False
+        return True
     x = sim.gfu.vec
     size = float(np.sqrt(max(np.dot(np.abs(x.FV().NumPy()), sim.system.magnitude(x, 0.0)), 0.0)))
     return estimate <= ROUNDOFF * size and norm <= ROUNDOFF * size
@@ -393,7 +393,7 @@ def step(scene, mesh, dt, *, tol=None, fraction=0.5, max_levels=10, max_ndof=2e5
                       elapsed_s=wallclock.perf_counter() - began, estimate_stops=sim.newton.estimate_stops,
                       build_s=build_s, certified=estimate is not None, indicator=indicator)
         levels.append(level)
-        if len(levels) == 1 and level.certified and _stress_free(sim, level.estimate, norm):
+        if len(levels) == 1 and level.certified and _exact_to_roundoff(sim, level.estimate, norm):
             # (the first level decides: a step that is stress-free is so on every mesh)
             level.relative = 0.0                     # exact to round-off, as a zero estimate
             reason = "target reached" if tol is not None else "nothing to refine"
@@ -614,7 +614,7 @@ def history(scene, mesh, dt, T, *, tol=None, fraction=0.5, max_levels=10, max_nd
     while True:
         mesh = sim.body.mesh
         estimator, spent = None, [0.0]
-        state = dict(estimate=0.0, norm=0.0, parts={}, indicators=np.zeros(mesh.ne), stress_free=not levels)
+        state = dict(estimate=0.0, norm=0.0, parts={}, indicators=np.zeros(mesh.ne), exact=not levels)
 
         def on_step(record, sim=sim):
             nonlocal estimator
@@ -628,8 +628,8 @@ def history(scene, mesh, dt, T, *, tol=None, fraction=0.5, max_levels=10, max_nd
                 state["estimate"], state["parts"] = estimate.total, estimate.parts
             norm = energy(sim)
             state["norm"] = max(state["norm"], norm)
-            if state["stress_free"]:                  # (the first level's steps: see ``step``)
-                state["stress_free"] = _stress_free(sim, estimate.total, norm) or estimate.total == 0
+            if state["exact"]:                        # (the first level's steps: see ``step``)
+                state["exact"] = _exact_to_roundoff(sim, estimate.total, norm)
             if stop_newton is not None:
                 sim.newton.energy_target = stop_newton * estimate.total
             spent[0] += wallclock.perf_counter() - t0
@@ -648,7 +648,7 @@ def history(scene, mesh, dt, T, *, tol=None, fraction=0.5, max_levels=10, max_nd
         levels.append(level)
         if user:
             run_options["on_step"] = user
-        if state["stress_free"] and state["estimate"] > 0:       # every estimated step exact to round-off
+        if state["exact"]:                            # every estimated step exact to round-off
             level.relative = 0.0
             reason, sim = ("target reached" if tol is not None else "nothing to refine"), None
         else:
